@@ -1,0 +1,64 @@
+//! Compiles `kernels/` to SPIR-V twice: once tracing with `VK_KHR_ray_query`, once walking the BVH in
+//! software. The host picks one at run time (see `kernels::KernelVariant`).
+
+use spirv_builder::{Capability, ModuleResult, SpirvBuilder, SpirvMetadata};
+use std::path::PathBuf;
+use std::str::FromStr;
+
+struct Variant {
+    env: &'static str,
+    target_dir: &'static str,
+    features: &'static [&'static str],
+    capabilities: &'static [Capability],
+    extensions: &'static [&'static str],
+}
+
+const VARIANTS: &[Variant] = &[
+    Variant {
+        env: "GI_KERNELS_SOFTWARE_SPV",
+        target_dir: "spirv-software",
+        features: &[],
+        capabilities: &[],
+        extensions: &[],
+    },
+    Variant {
+        env: "GI_KERNELS_RAY_QUERY_SPV",
+        target_dir: "spirv-ray-query",
+        features: &["ray-query"],
+        capabilities: &[Capability::RayQueryKHR],
+        extensions: &["SPV_KHR_ray_query"],
+    },
+];
+
+fn main() {
+    let kernels = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../kernels");
+    for v in VARIANTS {
+        let mut b = SpirvBuilder::new(&kernels, "spirv-unknown-vulkan1.2")
+            .target_dir_path(v.target_dir)
+            .spirv_metadata(SpirvMetadata::NameVariables)
+            .scalar_block_layout(true)
+            .shader_crate_features(v.features.iter().map(|s| s.to_string()));
+        b.build_script.defaults = true;
+        // The host enables a device feature for each of these (gi_shared::abi).
+        for name in gi_shared::abi::KERNEL_CAPABILITIES {
+            let c = Capability::from_str(name)
+                .unwrap_or_else(|()| panic!("unknown SPIR-V capability {name}"));
+            b = b.capability(c);
+        }
+        for c in v.capabilities {
+            b = b.capability(*c);
+        }
+        for e in v.extensions {
+            b = b.extension(*e);
+        }
+        let result = b
+            .build()
+            .unwrap_or_else(|e| panic!("kernels ({}): {e}", v.env));
+        match result.module {
+            ModuleResult::SingleModule(path) => {
+                println!("cargo::rustc-env={}={}", v.env, path.display());
+            }
+            ModuleResult::MultiModule(_) => panic!("kernels ({}): expected one module", v.env),
+        }
+    }
+}

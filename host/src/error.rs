@@ -1,0 +1,96 @@
+//! The one error type of the host. Every variant names the thing at fault and, where the user can
+//! fix it, how.
+
+use ash::vk;
+use std::path::PathBuf;
+
+/// Everything that can go wrong between the program and the Vulkan device.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The Vulkan loader library could not be opened.
+    #[error(
+        "no Vulkan loader (libvulkan.so.1): {0}; install it with scripts/setup.sh (Debian package libvulkan1)"
+    )]
+    NoLoader(String),
+    /// The loader works but lists no usable device.
+    #[error(
+        "no Vulkan device found{0}; install lavapipe (Mesa >= 25, ray queries) with scripts/setup.sh"
+    )]
+    NoDevice(String),
+    /// The device the user asked for does not exist.
+    #[error("no Vulkan device matches --device {wanted:?}; available: {available}")]
+    DeviceNotFound {
+        /// What the user asked for.
+        wanted: String,
+        /// The devices there are, with their indices.
+        available: String,
+    },
+    /// The device lacks something the chosen kernels need.
+    #[error("device {device:?} lacks {feature}, needed for {needed_for}")]
+    MissingFeature {
+        /// Device name.
+        device: String,
+        /// The Vulkan feature, extension or limit.
+        feature: String,
+        /// What needs it.
+        needed_for: String,
+    },
+    /// Validation layers were requested but are not installed.
+    #[error(
+        "Vulkan validation layer VK_LAYER_KHRONOS_validation is not installed; run scripts/setup.sh (Debian package vulkan-validationlayers) or turn validation off"
+    )]
+    NoValidationLayer,
+    /// A Vulkan call failed.
+    #[error("Vulkan call {call} failed: {result}")]
+    Vulkan {
+        /// The call that failed.
+        call: &'static str,
+        /// Its result code.
+        result: vk::Result,
+    },
+    /// The memory allocator failed.
+    #[error("GPU memory allocation of {what:?} failed: {source}")]
+    Allocation {
+        /// The resource being allocated.
+        what: String,
+        /// The allocator's error.
+        source: gpu_allocator::AllocationError,
+    },
+    /// A kernel entry point does not exist in the compiled SPIR-V module.
+    #[error("kernel entry point {0:?} is not in the {1} kernel module")]
+    NoSuchKernel(String, &'static str),
+    /// Arguments that make no sense.
+    #[error("invalid argument {name}: {why}")]
+    InvalidArgument {
+        /// The argument at fault.
+        name: &'static str,
+        /// Why it is rejected.
+        why: String,
+    },
+    /// A scene file that cannot be loaded: the file, the element at fault (a glTF path such as
+    /// `meshes[2].primitives[0].indices`, or a file it references) and why.
+    #[error("{}: {element}: {why}", file.display())]
+    Scene {
+        /// The scene file.
+        file: PathBuf,
+        /// The element at fault.
+        element: String,
+        /// What is wrong with it.
+        why: String,
+    },
+}
+
+/// Result with the host's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Attaches the name of the Vulkan call to a raw `vk::Result`.
+pub(crate) trait VkContext<T> {
+    /// Maps the error to [`Error::Vulkan`] naming `call`.
+    fn vk(self, call: &'static str) -> Result<T>;
+}
+
+impl<T> VkContext<T> for std::result::Result<T, vk::Result> {
+    fn vk(self, call: &'static str) -> Result<T> {
+        self.map_err(|result| Error::Vulkan { call, result })
+    }
+}

@@ -1,0 +1,15 @@
+//! The Vulkan host of the GI-1.0 port.
+//!
+//! [`vulkan::Context`] opens a device and picks the kernel variant: ray queries where the device
+//! has them, software BVH traversal where it does not. Kernels come from `kernels/`, compiled to
+//! SPIR-V by rust-gpu at build time, and share every buffer layout with this crate through
+//! `gi-shared`.
+
+pub mod error;
+pub mod kernels;
+pub mod scene;
+pub mod smoke;
+pub mod vulkan;
+
+pub use error::{Error, Result};
+pub use kernels::{KernelVariant, TraceMode};

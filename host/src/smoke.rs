@@ -1,0 +1,78 @@
+//! The smoke dispatch: proves the whole chain (SPIR-V from rust-gpu, pipeline, binding, dispatch,
+//! read-back) on a device by hashing indices on the GPU and comparing with the CPU.
+
+use crate::error::{Error, Result};
+use crate::vulkan::{BindingKind, Buffer, Context, GpuTimer, Kernel, KernelModule, Resource};
+use gi_shared::abi::WORKGROUP_SIZE;
+
+/// What a smoke dispatch did.
+#[derive(Clone, Debug)]
+pub struct SmokeReport {
+    /// Invocations run.
+    pub invocations: u32,
+    /// Invocations whose output differed from the CPU.
+    pub mismatches: u32,
+    /// GPU time of the dispatch, when the device has timestamps.
+    pub gpu_ms: Option<f64>,
+}
+
+/// Runs the `smoke` kernel over `invocations` indices and checks every result against the CPU.
+pub fn run(ctx: &Context, invocations: u32) -> Result<SmokeReport> {
+    if invocations == 0 {
+        return Err(Error::InvalidArgument {
+            name: "invocations",
+            why: "must be at least 1".into(),
+        });
+    }
+    let module = KernelModule::new(ctx)?;
+    let kernel = Kernel::new(
+        ctx,
+        &module,
+        "smoke::smoke",
+        &[BindingKind::StorageBuffer],
+        0,
+    );
+    module.destroy(ctx);
+    let kernel = kernel?;
+    let mut out = Buffer::zeroed::<u32>(ctx, "smoke output", invocations as usize)?;
+    let mut timer = GpuTimer::new(ctx, 1).ok();
+    let recorded = ctx.submit(|cmd| -> Result<()> {
+        if let Some(t) = timer.as_mut() {
+            t.reset(ctx, cmd);
+            t.begin(ctx, cmd, "smoke")?;
+        }
+        kernel.dispatch(
+            ctx,
+            cmd,
+            &[Resource::Buffer(&out)],
+            &[],
+            [invocations.div_ceil(WORKGROUP_SIZE), 1, 1],
+        )?;
+        if let Some(t) = timer.as_ref() {
+            t.end(ctx, cmd);
+        }
+        crate::vulkan::compute_barrier(ctx, cmd);
+        Ok(())
+    });
+    let result = recorded.and_then(|r| r).and_then(|()| out.read::<u32>());
+    let gpu_ms = timer
+        .as_ref()
+        .and_then(|t| t.results(ctx).ok())
+        .and_then(|r| r.first().map(|(_, ms)| *ms));
+    if let Some(t) = timer {
+        t.destroy(ctx);
+    }
+    out.destroy(ctx);
+    kernel.destroy(ctx);
+    let values = result?;
+    let mismatches = values
+        .iter()
+        .enumerate()
+        .filter(|(i, v)| **v != gi_shared::hash::pcg(*i as u32))
+        .count() as u32;
+    Ok(SmokeReport {
+        invocations,
+        mismatches,
+        gpu_ms,
+    })
+}

@@ -1,0 +1,266 @@
+//! What a device can do, probed once, reported to the user, and used to decide which kernel variant
+//! runs and which features get enabled.
+
+use ash::vk;
+use std::ffi::CStr;
+use std::fmt;
+
+/// Capabilities of one physical device that matter to the GI kernels.
+#[derive(Clone, Debug)]
+pub struct Capabilities {
+    /// Device name as the driver reports it (e.g. `llvmpipe (LLVM 15.0.6, 256 bits)`).
+    pub name: String,
+    /// Discrete, integrated, virtual or CPU.
+    pub device_type: vk::PhysicalDeviceType,
+    /// Vulkan API version the device supports.
+    pub api_version: u32,
+    /// Driver name and version string (e.g. `llvmpipe`, `Mesa 25.0.7`).
+    pub driver: String,
+    /// `VK_KHR_ray_query` with the `rayQuery` feature, and everything it depends on.
+    pub ray_query: bool,
+    /// `VK_KHR_acceleration_structure` with the `accelerationStructure` feature.
+    pub acceleration_structure: bool,
+    /// `bufferDeviceAddress` (needed to build acceleration structures).
+    pub buffer_device_address: bool,
+    /// Subgroup size of compute shaders (lavapipe: 8, NVIDIA: 32, AMD: 32 or 64).
+    pub subgroup_size: u32,
+    /// `shaderFloat16` arithmetic.
+    pub shader_float16: bool,
+    /// `shaderInt8` arithmetic.
+    pub shader_int8: bool,
+    /// `shaderInt16` arithmetic.
+    pub shader_int16: bool,
+    /// `shaderInt64` arithmetic.
+    pub shader_int64: bool,
+    /// `shaderBufferInt64Atomics`.
+    pub int64_atomics: bool,
+    /// `shaderBufferFloat32AtomicAdd` (`VK_EXT_shader_atomic_float`).
+    pub float32_atomic_add: bool,
+    /// `vulkanMemoryModel` (rust-gpu's Vulkan targets always use it).
+    pub vulkan_memory_model: bool,
+    /// `vulkanMemoryModelDeviceScope` (device-scope atomics and barriers).
+    pub vulkan_memory_model_device_scope: bool,
+    /// `scalarBlockLayout`.
+    pub scalar_block_layout: bool,
+    /// Timestamp queries work on the compute queue.
+    pub compute_timestamps: bool,
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period_ns: f32,
+    /// `maxStorageBufferRange` in bytes (lavapipe: 128 MiB).
+    pub max_storage_buffer_range: u64,
+    /// `maxComputeSharedMemorySize` in bytes.
+    pub max_shared_memory: u32,
+    /// `maxComputeWorkGroupCount`.
+    pub max_workgroup_count: [u32; 3],
+    /// `VK_KHR_push_descriptor` (how the host binds resources).
+    pub push_descriptor: bool,
+    /// `minAccelerationStructureScratchOffsetAlignment` (0 without acceleration structures).
+    pub accel_scratch_alignment: u32,
+    /// `maxComputeWorkGroupInvocations`.
+    pub max_workgroup_invocations: u32,
+    /// Largest device-local heap in bytes.
+    pub device_local_bytes: u64,
+}
+
+/// The raw feature structs a probe fills; the same structs, trimmed, are passed to device creation.
+#[derive(Default)]
+pub(crate) struct FeatureChain {
+    pub core: vk::PhysicalDeviceFeatures,
+    pub v11: vk::PhysicalDeviceVulkan11Features<'static>,
+    pub v12: vk::PhysicalDeviceVulkan12Features<'static>,
+    pub accel: vk::PhysicalDeviceAccelerationStructureFeaturesKHR<'static>,
+    pub ray_query: vk::PhysicalDeviceRayQueryFeaturesKHR<'static>,
+    pub atomic_float: vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT<'static>,
+}
+
+pub(crate) fn has_extension(extensions: &[vk::ExtensionProperties], name: &CStr) -> bool {
+    extensions
+        .iter()
+        .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name))
+}
+
+impl Capabilities {
+    /// Probes `pd`. Unsafe because `pd` must belong to `instance`.
+    pub(crate) unsafe fn probe(
+        instance: &ash::Instance,
+        pd: vk::PhysicalDevice,
+    ) -> (Self, FeatureChain, Vec<vk::ExtensionProperties>) {
+        let extensions =
+            unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+        let has = |n: &CStr| has_extension(&extensions, n);
+        let has_accel = has(ash::khr::acceleration_structure::NAME)
+            && has(ash::khr::deferred_host_operations::NAME);
+        let has_rq = has(ash::khr::ray_query::NAME);
+        let has_atomic_float = has(ash::ext::shader_atomic_float::NAME);
+
+        let mut chain = FeatureChain::default();
+        {
+            let mut f2 = vk::PhysicalDeviceFeatures2::default()
+                .push_next(&mut chain.v11)
+                .push_next(&mut chain.v12);
+            if has_accel {
+                f2 = f2.push_next(&mut chain.accel);
+            }
+            if has_rq {
+                f2 = f2.push_next(&mut chain.ray_query);
+            }
+            if has_atomic_float {
+                f2 = f2.push_next(&mut chain.atomic_float);
+            }
+            unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+            chain.core = f2.features;
+        }
+        chain.v11.p_next = std::ptr::null_mut();
+        chain.v12.p_next = std::ptr::null_mut();
+        chain.accel.p_next = std::ptr::null_mut();
+        chain.ray_query.p_next = std::ptr::null_mut();
+        chain.atomic_float.p_next = std::ptr::null_mut();
+
+        let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+        let mut driver = vk::PhysicalDeviceDriverProperties::default();
+        let mut accel_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+        let props = {
+            let mut p2 = vk::PhysicalDeviceProperties2::default()
+                .push_next(&mut subgroup)
+                .push_next(&mut driver);
+            if has_accel {
+                p2 = p2.push_next(&mut accel_props);
+            }
+            unsafe { instance.get_physical_device_properties2(pd, &mut p2) };
+            p2.properties
+        };
+        let memory = unsafe { instance.get_physical_device_memory_properties(pd) };
+        let device_local_bytes = memory.memory_heaps[..memory.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(0);
+        let queues = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        let compute_timestamps = queues
+            .iter()
+            .any(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE) && q.timestamp_valid_bits > 0);
+
+        let cstr = |s: Result<&CStr, _>| {
+            s.map(|c: &CStr| c.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        };
+        let caps = Self {
+            name: cstr(props.device_name_as_c_str()),
+            device_type: props.device_type,
+            api_version: props.api_version,
+            driver: format!(
+                "{} ({})",
+                cstr(driver.driver_name_as_c_str()),
+                cstr(driver.driver_info_as_c_str())
+            ),
+            acceleration_structure: has_accel && chain.accel.acceleration_structure == vk::TRUE,
+            ray_query: has_accel
+                && has_rq
+                && chain.ray_query.ray_query == vk::TRUE
+                && chain.accel.acceleration_structure == vk::TRUE
+                && chain.v12.buffer_device_address == vk::TRUE,
+            buffer_device_address: chain.v12.buffer_device_address == vk::TRUE,
+            subgroup_size: subgroup.subgroup_size,
+            shader_float16: chain.v12.shader_float16 == vk::TRUE,
+            shader_int8: chain.v12.shader_int8 == vk::TRUE,
+            shader_int16: chain.core.shader_int16 == vk::TRUE,
+            shader_int64: chain.core.shader_int64 == vk::TRUE,
+            int64_atomics: chain.v12.shader_buffer_int64_atomics == vk::TRUE,
+            float32_atomic_add: has_atomic_float
+                && chain.atomic_float.shader_buffer_float32_atomic_add == vk::TRUE,
+            vulkan_memory_model: chain.v12.vulkan_memory_model == vk::TRUE,
+            vulkan_memory_model_device_scope: chain.v12.vulkan_memory_model_device_scope
+                == vk::TRUE,
+            scalar_block_layout: chain.v12.scalar_block_layout == vk::TRUE,
+            compute_timestamps,
+            timestamp_period_ns: props.limits.timestamp_period,
+            max_storage_buffer_range: u64::from(props.limits.max_storage_buffer_range),
+            max_shared_memory: props.limits.max_compute_shared_memory_size,
+            max_workgroup_invocations: props.limits.max_compute_work_group_invocations,
+            max_workgroup_count: props.limits.max_compute_work_group_count,
+            push_descriptor: has(ash::khr::push_descriptor::NAME),
+            accel_scratch_alignment: accel_props
+                .min_acceleration_structure_scratch_offset_alignment,
+            device_local_bytes,
+        };
+        (caps, chain, extensions)
+    }
+
+    /// `cpu`, `discrete GPU`, ... for reports.
+    pub fn device_type_name(&self) -> &'static str {
+        match self.device_type {
+            vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
+            vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
+            vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
+            vk::PhysicalDeviceType::CPU => "CPU",
+            _ => "other",
+        }
+    }
+}
+
+impl fmt::Display for Capabilities {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let yn = |b: bool| if b { "yes" } else { "no" };
+        let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+        writeln!(
+            f,
+            "device:              {} ({})",
+            self.name,
+            self.device_type_name()
+        )?;
+        writeln!(
+            f,
+            "driver:              {}, Vulkan {}.{}.{}",
+            self.driver,
+            vk::api_version_major(self.api_version),
+            vk::api_version_minor(self.api_version),
+            vk::api_version_patch(self.api_version)
+        )?;
+        writeln!(f, "ray queries:         {}", yn(self.ray_query))?;
+        writeln!(
+            f,
+            "accel. structures:   {}",
+            yn(self.acceleration_structure)
+        )?;
+        writeln!(f, "subgroup size:       {}", self.subgroup_size)?;
+        writeln!(
+            f,
+            "f16 / i8 / i16 / i64: {} / {} / {} / {}",
+            yn(self.shader_float16),
+            yn(self.shader_int8),
+            yn(self.shader_int16),
+            yn(self.shader_int64)
+        )?;
+        writeln!(
+            f,
+            "atomics:             int64 {}, float32 add {}",
+            yn(self.int64_atomics),
+            yn(self.float32_atomic_add)
+        )?;
+        writeln!(
+            f,
+            "memory model:        {} (device scope {})",
+            yn(self.vulkan_memory_model),
+            yn(self.vulkan_memory_model_device_scope)
+        )?;
+        writeln!(
+            f,
+            "timestamps:          {} ({} ns/tick)",
+            yn(self.compute_timestamps),
+            self.timestamp_period_ns
+        )?;
+        writeln!(
+            f,
+            "limits:              storage buffer {:.0} MiB, shared memory {} KiB, workgroup {} invocations",
+            mib(self.max_storage_buffer_range),
+            self.max_shared_memory / 1024,
+            self.max_workgroup_invocations
+        )?;
+        write!(
+            f,
+            "device-local memory: {:.0} MiB",
+            mib(self.device_local_bytes)
+        )
+    }
+}

@@ -1,0 +1,480 @@
+//! The Vulkan context: instance, validation, device selection, feature enabling, the compute queue,
+//! the memory allocator and one-shot submissions.
+
+use super::capabilities::{Capabilities, FeatureChain};
+use super::validation::ValidationLog;
+use crate::error::{Error, Result, VkContext};
+use crate::kernels::{KernelVariant, TraceMode};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use std::ffi::{CStr, c_char};
+use std::mem::ManuallyDrop;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// How long one submission may run before it is reported as a hang instead of waited on forever.
+/// Lavapipe on two cores is the slowest device we support; its longest dispatch is far below this.
+pub const SUBMIT_TIMEOUT: Duration = Duration::from_secs(600);
+
+/// Environment variable that selects the device like `--device` (index or part of the name).
+pub const DEVICE_ENV: &str = "GI_DEVICE";
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// How to create a [`Context`].
+#[derive(Clone, Debug, Default)]
+pub struct ContextOptions {
+    /// Enable the Khronos validation layer and count its messages (always on in tests).
+    pub validation: bool,
+    /// Device index or a case-insensitive part of its name; `None` uses [`DEVICE_ENV`], then the
+    /// best device (discrete > integrated > virtual > CPU).
+    pub device: Option<String>,
+    /// Which kernel variant traces rays.
+    pub trace: TraceMode,
+}
+
+/// One Vulkan device ready to run the kernels.
+pub struct Context {
+    // Kept alive: the instance's function pointers come from the loader it holds.
+    _entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    validation: Option<Arc<ValidationLog>>,
+    pub(crate) device: ash::Device,
+    pub(crate) queue: vk::Queue,
+    pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
+    pub(crate) accel: Option<ash::khr::acceleration_structure::Device>,
+    pub(crate) push_descriptor: ash::khr::push_descriptor::Device,
+    command_pool: vk::CommandPool,
+    capabilities: Capabilities,
+    variant: KernelVariant,
+}
+
+fn device_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 4,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 3,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 1,
+        _ => 0,
+    }
+}
+
+impl Context {
+    /// Opens the loader, picks a device and enables exactly what the chosen kernel variant needs.
+    pub fn new(options: &ContextOptions) -> Result<Self> {
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::NoLoader(e.to_string()))?;
+
+        let validation = if options.validation {
+            let layers = unsafe { entry.enumerate_instance_layer_properties() }
+                .vk("vkEnumerateInstanceLayerProperties")?;
+            let found = layers
+                .iter()
+                .any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER));
+            if !found {
+                return Err(Error::NoValidationLayer);
+            }
+            Some(Arc::new(ValidationLog::default()))
+        } else {
+            None
+        };
+
+        let app = vk::ApplicationInfo::default()
+            .application_name(c"gi")
+            .engine_name(c"gi")
+            .api_version(vk::API_VERSION_1_2);
+        let layer_ptrs: Vec<*const c_char> = if validation.is_some() {
+            vec![VALIDATION_LAYER.as_ptr()]
+        } else {
+            vec![]
+        };
+        let ext_ptrs: Vec<*const c_char> = if validation.is_some() {
+            vec![ash::ext::debug_utils::NAME.as_ptr()]
+        } else {
+            vec![]
+        };
+        let instance_info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layer_ptrs)
+            .enabled_extension_names(&ext_ptrs);
+        let instance = match unsafe { entry.create_instance(&instance_info, None) } {
+            Ok(i) => i,
+            Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
+                return Err(Error::NoDevice(icd_hint()));
+            }
+            Err(result) => {
+                return Err(Error::Vulkan {
+                    call: "vkCreateInstance",
+                    result,
+                });
+            }
+        };
+        // From here on, `partial` destroys what exists if a later step fails.
+        let mut partial = Partial {
+            instance: Some(instance.clone()),
+            debug: None,
+        };
+
+        if let Some(log) = &validation {
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(super::validation::callback))
+                .user_data(Arc::as_ptr(log).cast_mut().cast());
+            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }
+                .vk("vkCreateDebugUtilsMessengerEXT")?;
+            partial.debug = Some((loader, messenger));
+        }
+
+        let physical_devices =
+            unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+        if physical_devices.is_empty() {
+            return Err(Error::NoDevice(icd_hint()));
+        }
+        let probed: Vec<_> = physical_devices
+            .iter()
+            .map(|&pd| (pd, unsafe { Capabilities::probe(&instance, pd) }))
+            .collect();
+
+        let wanted = options
+            .device
+            .clone()
+            .or_else(|| std::env::var(DEVICE_ENV).ok().filter(|s| !s.is_empty()));
+        let index = match &wanted {
+            Some(w) => select_device(w, probed.iter().map(|(_, (c, _, _))| c.name.as_str()))?,
+            None => probed
+                .iter()
+                .enumerate()
+                .max_by_key(|(i, (_, (c, _, _)))| (device_rank(c.device_type), usize::MAX - i))
+                .map(|(i, _)| i)
+                .unwrap_or(0),
+        };
+        let (physical_device, (capabilities, available, extensions)) = probed
+            .into_iter()
+            .nth(index)
+            .ok_or_else(|| Error::NoDevice(icd_hint()))?;
+
+        let variant = KernelVariant::resolve(options.trace, &capabilities)?;
+        let mut enabled = required_features(&capabilities, &available, variant)?;
+
+        let queue_family =
+            unsafe { instance.get_physical_device_queue_family_properties(physical_device) }
+                .iter()
+                .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
+                .ok_or_else(|| Error::MissingFeature {
+                    device: capabilities.name.clone(),
+                    feature: "a compute queue".into(),
+                    needed_for: "every kernel".into(),
+                })? as u32;
+
+        let mut device_exts: Vec<*const c_char> = vec![ash::khr::push_descriptor::NAME.as_ptr()];
+        if variant == KernelVariant::RayQuery {
+            for name in [
+                ash::khr::acceleration_structure::NAME,
+                ash::khr::ray_query::NAME,
+                ash::khr::deferred_host_operations::NAME,
+            ] {
+                debug_assert!(super::capabilities::has_extension(&extensions, name));
+                device_exts.push(name.as_ptr());
+            }
+        }
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let mut f2 = vk::PhysicalDeviceFeatures2::default()
+            .features(enabled.core)
+            .push_next(&mut enabled.v11)
+            .push_next(&mut enabled.v12);
+        if variant == KernelVariant::RayQuery {
+            f2 = f2
+                .push_next(&mut enabled.accel)
+                .push_next(&mut enabled.ray_query);
+        }
+        let device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(&device_exts)
+            .push_next(&mut f2);
+        let device = unsafe { instance.create_device(physical_device, &device_info, None) }
+            .vk("vkCreateDevice")?;
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device,
+            debug_settings: Default::default(),
+            buffer_device_address: variant == KernelVariant::RayQuery,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|source| Error::Allocation {
+            what: "allocator".into(),
+            source,
+        });
+        let allocator = match allocator {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { device.destroy_device(None) };
+                return Err(e);
+            }
+        };
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let command_pool = match unsafe { device.create_command_pool(&pool_info, None) } {
+            Ok(p) => p,
+            Err(result) => {
+                drop(allocator);
+                unsafe { device.destroy_device(None) };
+                return Err(Error::Vulkan {
+                    call: "vkCreateCommandPool",
+                    result,
+                });
+            }
+        };
+        let accel = (variant == KernelVariant::RayQuery)
+            .then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
+
+        let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);
+
+        partial.instance = None;
+        Ok(Self {
+            _entry: entry,
+            instance,
+            debug: partial.debug.take(),
+            validation,
+            device,
+            queue,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            accel,
+            push_descriptor,
+            command_pool,
+            capabilities,
+            variant,
+        })
+    }
+
+    /// What the chosen device can do.
+    pub fn capabilities(&self) -> &Capabilities {
+        &self.capabilities
+    }
+
+    /// The kernel variant this context runs (ray queries or software BVH traversal).
+    pub fn variant(&self) -> KernelVariant {
+        self.variant
+    }
+
+    /// The raw `ash` device, for engine teams that record their own commands around ours.
+    pub fn device(&self) -> &ash::Device {
+        &self.device
+    }
+
+    /// Validation messages (warnings and errors) seen so far; `None` when validation is off.
+    pub fn validation_messages(&self) -> Option<Vec<String>> {
+        self.validation.as_ref().map(|v| v.messages())
+    }
+
+    /// Tears the context down and returns every validation message, including those the layer
+    /// prints while objects are destroyed (leaks); `None` when validation is off.
+    pub fn finish(self) -> Option<Vec<String>> {
+        let log = self.validation.clone();
+        drop(self);
+        log.map(|l| l.messages())
+    }
+
+    /// Records commands with `record`, submits them, and waits (at most [`SUBMIT_TIMEOUT`]).
+    pub fn submit<R>(&self, record: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R> {
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(self.command_pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }
+            .vk("vkAllocateCommandBuffers")?[0];
+        let result = self.record_and_wait(cmd, record);
+        unsafe { self.device.free_command_buffers(self.command_pool, &[cmd]) };
+        result
+    }
+
+    fn record_and_wait<R>(
+        &self,
+        cmd: vk::CommandBuffer,
+        record: impl FnOnce(vk::CommandBuffer) -> R,
+    ) -> Result<R> {
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        unsafe { self.device.begin_command_buffer(cmd, &begin) }.vk("vkBeginCommandBuffer")?;
+        let out = record(cmd);
+        unsafe { self.device.end_command_buffer(cmd) }.vk("vkEndCommandBuffer")?;
+        let fence = unsafe {
+            self.device
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+        }
+        .vk("vkCreateFence")?;
+        let cmds = [cmd];
+        let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+        let waited = unsafe { self.device.queue_submit(self.queue, &submit, fence) }
+            .vk("vkQueueSubmit")
+            .and_then(|()| {
+                unsafe {
+                    self.device
+                        .wait_for_fences(&[fence], true, SUBMIT_TIMEOUT.as_nanos() as u64)
+                }
+                .vk("vkWaitForFences")
+            });
+        if waited.is_err() {
+            // The fence may still be in use by a hung submission: let the device drain first.
+            unsafe { self.device.device_wait_idle() }.ok();
+        }
+        unsafe { self.device.destroy_fence(fence, None) };
+        waited.map(|()| out)
+    }
+}
+
+impl Drop for Context {
+    fn drop(&mut self) {
+        unsafe {
+            self.device.device_wait_idle().ok();
+            self.device.destroy_command_pool(self.command_pool, None);
+            ManuallyDrop::drop(&mut self.allocator);
+            self.device.destroy_device(None);
+            if let Some((loader, messenger)) = self.debug.take() {
+                loader.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+/// Destroys the instance (and messenger) when `Context::new` fails half-way.
+struct Partial {
+    instance: Option<ash::Instance>,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+}
+
+impl Drop for Partial {
+    fn drop(&mut self) {
+        if let Some(instance) = self.instance.take() {
+            unsafe {
+                if let Some((loader, messenger)) = self.debug.take() {
+                    loader.destroy_debug_utils_messenger(messenger, None);
+                }
+                instance.destroy_instance(None);
+            }
+        }
+    }
+}
+
+fn icd_hint() -> String {
+    match std::env::var("VK_ICD_FILENAMES").or_else(|_| std::env::var("VK_DRIVER_FILES")) {
+        Ok(v) => format!(" (the driver list is overridden: VK_ICD_FILENAMES/VK_DRIVER_FILES={v})"),
+        Err(_) => String::new(),
+    }
+}
+
+/// Picks a device by index or by a case-insensitive part of its name.
+pub fn select_device<'a>(wanted: &str, names: impl Iterator<Item = &'a str>) -> Result<usize> {
+    let names: Vec<&str> = names.collect();
+    let found = match wanted.trim().parse::<usize>() {
+        Ok(i) => (i < names.len()).then_some(i),
+        Err(_) => {
+            let w = wanted.to_lowercase();
+            names.iter().position(|n| n.to_lowercase().contains(&w))
+        }
+    };
+    found.ok_or_else(|| Error::DeviceNotFound {
+        wanted: wanted.to_string(),
+        available: names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| format!("{i}: {n}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+    })
+}
+
+/// The device features the kernels use, and nothing else; an error names the first one missing.
+fn required_features(
+    caps: &Capabilities,
+    available: &FeatureChain,
+    variant: KernelVariant,
+) -> Result<FeatureChain> {
+    let missing = |feature: &str, needed_for: &str| Error::MissingFeature {
+        device: caps.name.clone(),
+        feature: feature.into(),
+        needed_for: needed_for.into(),
+    };
+    if caps.api_version < vk::API_VERSION_1_2 {
+        return Err(missing("Vulkan 1.2", "SPIR-V 1.5 kernels"));
+    }
+    if !caps.push_descriptor {
+        return Err(missing(
+            "VK_KHR_push_descriptor",
+            "binding kernel resources",
+        ));
+    }
+    let mut f = FeatureChain::default();
+    if !caps.vulkan_memory_model {
+        return Err(missing(
+            "vulkanMemoryModel",
+            "rust-gpu kernels (Vulkan memory model)",
+        ));
+    }
+    f.v12.vulkan_memory_model = vk::TRUE;
+    f.v12.vulkan_memory_model_device_scope = available.v12.vulkan_memory_model_device_scope;
+    for cap in gi_shared::abi::KERNEL_CAPABILITIES {
+        let (have, name) = match *cap {
+            "Int8" => (caps.shader_int8, "shaderInt8"),
+            "Int16" => (caps.shader_int16, "shaderInt16"),
+            "Int64" => (caps.shader_int64, "shaderInt64"),
+            other => (false, other),
+        };
+        if !have {
+            return Err(missing(name, "the kernels' SPIR-V capabilities"));
+        }
+        match *cap {
+            "Int8" => f.v12.shader_int8 = vk::TRUE,
+            "Int16" => f.core.shader_int16 = vk::TRUE,
+            _ => f.core.shader_int64 = vk::TRUE,
+        }
+    }
+    if variant == KernelVariant::RayQuery {
+        f.v12.buffer_device_address = vk::TRUE;
+        f.accel.acceleration_structure = vk::TRUE;
+        f.ray_query.ray_query = vk::TRUE;
+    }
+    Ok(f)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn device_selection_by_index_and_name() {
+        let names = ["llvmpipe (LLVM 15)", "NVIDIA H100"];
+        assert_eq!(select_device("1", names.iter().copied()).unwrap(), 1);
+        assert_eq!(select_device("nvidia", names.iter().copied()).unwrap(), 1);
+        assert_eq!(select_device("LLVMpipe", names.iter().copied()).unwrap(), 0);
+        let err = select_device("7", names.iter().copied()).unwrap_err();
+        assert!(err.to_string().contains("0: llvmpipe"), "{err}");
+        assert!(select_device("radeon", names.iter().copied()).is_err());
+    }
+
+    #[test]
+    fn every_kernel_capability_maps_to_a_device_feature() {
+        for cap in gi_shared::abi::KERNEL_CAPABILITIES {
+            assert!(
+                ["Int8", "Int16", "Int64"].contains(cap),
+                "capability {cap} has no device feature mapping"
+            );
+        }
+    }
+}

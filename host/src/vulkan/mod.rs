@@ -1,0 +1,16 @@
+//! The Vulkan layer: context, memory, pipelines, acceleration structures and timing.
+
+mod accel;
+mod capabilities;
+mod context;
+mod memory;
+mod pipeline;
+mod timing;
+mod validation;
+
+pub use accel::{AccelerationStructure, Instance};
+pub use capabilities::Capabilities;
+pub use context::{Context, ContextOptions, DEVICE_ENV, SUBMIT_TIMEOUT, select_device};
+pub use memory::Buffer;
+pub use pipeline::{BindingKind, Kernel, KernelModule, Resource, compute_barrier};
+pub use timing::GpuTimer;

@@ -1,0 +1,412 @@
+//! GPU buffer layouts shared by the host and the kernels, with the capacities that must respect the
+//! device limits.
+//!
+//! Rules: `#[repr(C)]` + `Pod`; only `u32`/`i32`/`f32` and arrays of them (no `bool`, no `Vec3`,
+//! whose 12-byte layout breaks std430 without scalar block layout); explicit padding; every struct's
+//! size and field offsets are asserted by a test.
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec2, Vec3, Vec4};
+
+use crate::hash_cells::{
+    CELLS_PER_TILE, MAX_NUM_TILES_LOG2, MIN_CELL_SIZE, NUM_BUCKETS_LOG2, TILES_PER_BUCKET_LOG2,
+};
+use crate::packing::{
+    HASH_RADIANCE_SCALE, dequantize, f16_to_f32, pack_half2, pack_radiance_half,
+    pack_radiance_half4, unpack_half2, unpack_half4,
+};
+use crate::reservoir::Reservoir;
+
+/// Largest storage buffer binding we rely on: lavapipe's (and wgpu's default)
+/// `maxStorageBufferRange` of 128 MiB.
+pub const MAX_STORAGE_BUFFER_BYTES: usize = 128 << 20;
+/// Push-constant bytes every Vulkan device guarantees (`maxPushConstantsSize` minimum).
+pub const MAX_PUSH_CONSTANT_BYTES: usize = 128;
+
+/// Largest frame width the buffers are sized for (seed packing allows up to 65534).
+pub const MAX_FRAME_WIDTH: u32 = 3840;
+/// Largest frame height the buffers are sized for.
+pub const MAX_FRAME_HEIGHT: u32 = 2160;
+/// Screen-probe resolution: 8 × 8 cells per probe, one probe tile of 8 × 8 pixels.
+pub const PROBE_SIZE: u32 = 8;
+/// Spawn tile of the quarter-spp sampling mode: one new probe per 16 × 16 pixels.
+pub const PROBE_SPAWN_TILE_SIZE: u32 = 16;
+
+/// Probes spawned per frame at most: `⌈W/16⌉ · ⌈H/16⌉`.
+pub const fn max_probe_spawn_count(width: u32, height: u32) -> u32 {
+    width.div_ceil(PROBE_SPAWN_TILE_SIZE) * height.div_ceil(PROBE_SPAWN_TILE_SIZE)
+}
+
+/// Probe rays per frame at most: one per cell of every spawned probe.
+pub const fn max_ray_count(width: u32, height: u32) -> u32 {
+    max_probe_spawn_count(width, height) * PROBE_SIZE * PROBE_SIZE
+}
+
+/// Rays per frame at [`MAX_FRAME_WIDTH`] × [`MAX_FRAME_HEIGHT`] (2 073 600).
+pub const MAX_RAY_COUNT: u32 = max_ray_count(MAX_FRAME_WIDTH, MAX_FRAME_HEIGHT);
+
+/// Largest hash-grid tile count the buffers allow (2^16 = 4096 buckets × 16 tiles by default).
+pub const MAX_HASH_GRID_TILES: usize = 1 << MAX_NUM_TILES_LOG2;
+/// Largest hash-grid cell count: tiles × 85.
+pub const MAX_HASH_GRID_CELLS: usize = MAX_HASH_GRID_TILES * CELLS_PER_TILE as usize;
+
+/// One hash-grid cell value (`uint2`): half4 `(rgb · n, n)`, the running mean premultiplied by its
+/// sample count so that coarser mips are plain sums.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct HashCellValue {
+    /// Halves `r · n` (low) and `g · n` (high).
+    pub rg: u32,
+    /// Halves `b · n` (low) and `n` (high).
+    pub ba: u32,
+}
+
+impl HashCellValue {
+    /// Packs a radiance sum and its sample count (saturating halves).
+    #[inline]
+    pub fn new(radiance_sum: Vec3, count: f32) -> Self {
+        let [rg, ba] = pack_radiance_half4(radiance_sum.extend(count));
+        Self { rg, ba }
+    }
+
+    /// `(rgb · n, n)`: the form the mip pass adds up.
+    #[inline]
+    pub fn sum_and_count(&self) -> Vec4 {
+        unpack_half4([self.rg, self.ba])
+    }
+
+    /// Radiance sum `rgb · n`.
+    #[inline]
+    pub fn radiance_sum(&self) -> Vec3 {
+        self.sum_and_count().truncate()
+    }
+
+    /// Sample count `n`.
+    #[inline]
+    pub fn count(&self) -> f32 {
+        f16_to_f32(self.ba >> 16)
+    }
+
+    /// Mean radiance, zero for an empty cell.
+    #[inline]
+    pub fn mean(&self) -> Vec3 {
+        let n = self.count();
+        if n > 0.0 {
+            self.radiance_sum() / n
+        } else {
+            Vec3::ZERO
+        }
+    }
+}
+
+/// Per-frame accumulator of one hash cell: fixed-point `rgb` sums (× [`HASH_RADIANCE_SCALE`]) and a
+/// sample count, added with `u32` atomics and cleared every frame.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct HashCellAccumulator {
+    /// Quantised red sum.
+    pub r: u32,
+    /// Quantised green sum.
+    pub g: u32,
+    /// Quantised blue sum.
+    pub b: u32,
+    /// Number of samples added.
+    pub count: u32,
+}
+
+impl HashCellAccumulator {
+    /// Mean radiance of the accumulated samples, zero when there are none.
+    #[inline]
+    pub fn mean(&self) -> Vec3 {
+        if self.count == 0 {
+            return Vec3::ZERO;
+        }
+        Vec3::new(
+            dequantize(self.r, HASH_RADIANCE_SCALE),
+            dequantize(self.g, HASH_RADIANCE_SCALE),
+            dequantize(self.b, HASH_RADIANCE_SCALE),
+        ) / self.count as f32
+    }
+}
+
+/// A reservoir in a buffer (`uint4`): light index; half2 sample parameters; `W` as `f32`;
+/// half `M` (low) | half visibility (high).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PackedReservoir {
+    /// Selected light.
+    pub light_index: u32,
+    /// Half2 sample parameters (e.g. the point on the light).
+    pub sample_params: u32,
+    /// Unbiased contribution weight `W`.
+    pub ucw: f32,
+    /// Half `M` in the low 16 bits, half visibility in the high 16 bits.
+    pub m_visibility: u32,
+}
+
+impl PackedReservoir {
+    /// Packs a finalised reservoir with its sample parameters and visibility. `M` up to 2048 is
+    /// exact in a half.
+    #[inline]
+    pub fn new(reservoir: &Reservoir, sample_params: Vec2, visibility: f32) -> Self {
+        Self {
+            light_index: reservoir.sample,
+            sample_params: pack_half2(sample_params),
+            ucw: reservoir.ucw,
+            m_visibility: pack_radiance_half(reservoir.m) | (pack_radiance_half(visibility) << 16),
+        }
+    }
+
+    /// The reservoir (`w_sum` is not stored and comes back 0; merging only needs `W` and `M`).
+    #[inline]
+    pub fn reservoir(&self) -> Reservoir {
+        Reservoir {
+            sample: self.light_index,
+            w_sum: 0.0,
+            m: f16_to_f32(self.m_visibility & 0xffff),
+            ucw: self.ucw,
+        }
+    }
+
+    /// Sample parameters.
+    #[inline]
+    pub fn sample_params(&self) -> Vec2 {
+        unpack_half2(self.sample_params)
+    }
+
+    /// Visibility.
+    #[inline]
+    pub fn visibility(&self) -> f32 {
+        f16_to_f32(self.m_visibility >> 16)
+    }
+}
+
+/// Bit 31 of [`PackedProbeHit::instance_backface`]: the ray hit a back face.
+pub const BACKFACE_BIT: u32 = 1 << 31;
+/// Largest instance index that fits beside [`BACKFACE_BIT`].
+pub const MAX_INSTANCE_INDEX: u32 = BACKFACE_BIT - 1;
+
+/// A probe ray's hit (`float4` bits): instance | back-face bit, geometry, primitive, half2
+/// barycentrics.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct PackedProbeHit {
+    /// Instance index (bits 0–30) and [`BACKFACE_BIT`].
+    pub instance_backface: u32,
+    /// Geometry index within the instance.
+    pub geometry: u32,
+    /// Primitive (triangle) index within the geometry.
+    pub primitive: u32,
+    /// Half2 barycentrics `(b1, b2)`.
+    pub barycentrics: u32,
+}
+
+impl PackedProbeHit {
+    /// Packs a hit; instance indices are masked to 31 bits.
+    #[inline]
+    pub fn new(instance: u32, backface: bool, geometry: u32, primitive: u32, bary: Vec2) -> Self {
+        Self {
+            instance_backface: (instance & MAX_INSTANCE_INDEX)
+                | if backface { BACKFACE_BIT } else { 0 },
+            geometry,
+            primitive,
+            barycentrics: pack_half2(bary),
+        }
+    }
+
+    /// Instance index.
+    #[inline]
+    pub fn instance(&self) -> u32 {
+        self.instance_backface & MAX_INSTANCE_INDEX
+    }
+
+    /// Whether the ray hit a back face.
+    #[inline]
+    pub fn is_backface(&self) -> bool {
+        self.instance_backface & BACKFACE_BIT != 0
+    }
+
+    /// Barycentrics `(b1, b2)`; `b0 = 1 − b1 − b2`.
+    #[inline]
+    pub fn barycentrics(&self) -> Vec2 {
+        unpack_half2(self.barycentrics)
+    }
+}
+
+/// Push constants of the hash-grid passes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct HashGridParams {
+    /// Camera position (world space).
+    pub eye: [f32; 3],
+    /// `tan(fov_y · pixels · max(1/H, H/W²))`, see [`crate::hash_cells::cell_size_const`].
+    pub cell_size_const: f32,
+    /// Lower clamp of the world-space cell size.
+    pub min_cell_size: f32,
+    /// `log2` of the bucket count.
+    pub num_buckets_log2: u32,
+    /// `log2` of the tiles per bucket.
+    pub tiles_per_bucket_log2: u32,
+    /// Frame counter, for tile decay.
+    pub frame_index: u32,
+}
+
+impl HashGridParams {
+    /// Parameters with the GI-1.0 defaults (4096 buckets × 16 tiles, 0.1 minimum cell size).
+    #[inline]
+    pub fn new(eye: Vec3, cell_size_const: f32, frame_index: u32) -> Self {
+        Self {
+            eye: eye.to_array(),
+            cell_size_const,
+            min_cell_size: MIN_CELL_SIZE,
+            num_buckets_log2: NUM_BUCKETS_LOG2,
+            tiles_per_bucket_log2: TILES_PER_BUCKET_LOG2,
+            frame_index,
+        }
+    }
+
+    /// Camera position.
+    #[inline]
+    pub fn eye(&self) -> Vec3 {
+        Vec3::from_array(self.eye)
+    }
+
+    /// Whether the tile count `2^(buckets + tiles per bucket)` fits the buffers
+    /// (≤ [`MAX_HASH_GRID_TILES`]); the host must check this before uploading.
+    #[inline]
+    pub fn fits_buffers(&self) -> bool {
+        self.num_buckets_log2 <= MAX_NUM_TILES_LOG2
+            && self.tiles_per_bucket_log2 <= MAX_NUM_TILES_LOG2 - self.num_buckets_log2
+    }
+}
+
+// Every buffer below must fit one storage binding.
+const _: () = assert!(
+    MAX_HASH_GRID_CELLS * core::mem::size_of::<HashCellValue>() <= MAX_STORAGE_BUFFER_BYTES
+);
+const _: () = assert!(
+    MAX_HASH_GRID_CELLS * core::mem::size_of::<HashCellAccumulator>() <= MAX_STORAGE_BUFFER_BYTES
+);
+// Hash (checksum) and decay buffers: one u32 per tile.
+const _: () = assert!(MAX_HASH_GRID_TILES * 4 <= MAX_STORAGE_BUFFER_BYTES);
+// Two reservoirs per shadow ray.
+const _: () = assert!(
+    2 * MAX_RAY_COUNT as usize * core::mem::size_of::<PackedReservoir>()
+        <= MAX_STORAGE_BUFFER_BYTES
+);
+const _: () = assert!(
+    MAX_RAY_COUNT as usize * core::mem::size_of::<PackedProbeHit>() <= MAX_STORAGE_BUFFER_BYTES
+);
+const _: () = assert!(core::mem::size_of::<HashGridParams>() <= MAX_PUSH_CONSTANT_BYTES);
+// Seed pixels keep 16 bits per coordinate.
+const _: () = assert!(
+    MAX_FRAME_WIDTH <= crate::packing::SEED_MAX_COORD
+        && MAX_FRAME_HEIGHT <= crate::packing::SEED_MAX_COORD
+);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::mem::{offset_of, size_of};
+
+    #[test]
+    fn sizes_and_offsets() {
+        assert_eq!(size_of::<HashCellValue>(), 8);
+        assert_eq!(offset_of!(HashCellValue, rg), 0);
+        assert_eq!(offset_of!(HashCellValue, ba), 4);
+
+        assert_eq!(size_of::<HashCellAccumulator>(), 16);
+        assert_eq!(offset_of!(HashCellAccumulator, r), 0);
+        assert_eq!(offset_of!(HashCellAccumulator, g), 4);
+        assert_eq!(offset_of!(HashCellAccumulator, b), 8);
+        assert_eq!(offset_of!(HashCellAccumulator, count), 12);
+
+        assert_eq!(size_of::<PackedReservoir>(), 16);
+        assert_eq!(offset_of!(PackedReservoir, light_index), 0);
+        assert_eq!(offset_of!(PackedReservoir, sample_params), 4);
+        assert_eq!(offset_of!(PackedReservoir, ucw), 8);
+        assert_eq!(offset_of!(PackedReservoir, m_visibility), 12);
+
+        assert_eq!(size_of::<PackedProbeHit>(), 16);
+        assert_eq!(offset_of!(PackedProbeHit, instance_backface), 0);
+        assert_eq!(offset_of!(PackedProbeHit, geometry), 4);
+        assert_eq!(offset_of!(PackedProbeHit, primitive), 8);
+        assert_eq!(offset_of!(PackedProbeHit, barycentrics), 12);
+
+        assert_eq!(size_of::<HashGridParams>(), 32);
+        assert_eq!(offset_of!(HashGridParams, eye), 0);
+        assert_eq!(offset_of!(HashGridParams, cell_size_const), 12);
+        assert_eq!(offset_of!(HashGridParams, min_cell_size), 16);
+        assert_eq!(offset_of!(HashGridParams, num_buckets_log2), 20);
+        assert_eq!(offset_of!(HashGridParams, tiles_per_bucket_log2), 24);
+        assert_eq!(offset_of!(HashGridParams, frame_index), 28);
+        // All alignments are 4: no implicit padding anywhere.
+        assert_eq!(core::mem::align_of::<HashGridParams>(), 4);
+    }
+
+    #[test]
+    fn capacities() {
+        assert_eq!(max_probe_spawn_count(1920, 1080), 120 * 68);
+        assert_eq!(max_ray_count(1920, 1080), 120 * 68 * 64);
+        assert_eq!(MAX_RAY_COUNT, 2_073_600);
+        assert_eq!(MAX_HASH_GRID_CELLS, 5_570_560);
+        assert!(HashGridParams::new(Vec3::ZERO, 0.03, 0).fits_buffers());
+        let mut p = HashGridParams::new(Vec3::ZERO, 0.03, 0);
+        p.num_buckets_log2 = 16;
+        p.tiles_per_bucket_log2 = 1;
+        assert!(!p.fits_buffers());
+        p.num_buckets_log2 = 40;
+        assert!(!p.fits_buffers());
+    }
+
+    #[test]
+    fn hash_cell_value_round_trip() {
+        let v = HashCellValue::new(Vec3::new(8.0, 4.0, 2.0), 16.0);
+        assert_eq!(v.count(), 16.0);
+        assert_eq!(v.radiance_sum(), Vec3::new(8.0, 4.0, 2.0));
+        assert_eq!(v.mean(), Vec3::new(0.5, 0.25, 0.125));
+        assert_eq!(v.sum_and_count(), Vec4::new(8.0, 4.0, 2.0, 16.0));
+        assert_eq!(HashCellValue::default().mean(), Vec3::ZERO);
+        assert_eq!(
+            HashCellValue::new(Vec3::splat(1e9), 1.0).radiance_sum(),
+            Vec3::splat(65504.0)
+        );
+    }
+
+    #[test]
+    fn accumulator_mean() {
+        let a = HashCellAccumulator {
+            r: 3000,
+            g: 1500,
+            b: 0,
+            count: 2,
+        };
+        assert_eq!(a.mean(), Vec3::new(1.5, 0.75, 0.0));
+        assert_eq!(HashCellAccumulator::default().mean(), Vec3::ZERO);
+    }
+
+    #[test]
+    fn reservoir_and_hit_round_trip() {
+        let r = Reservoir {
+            sample: 42,
+            w_sum: 3.0,
+            m: 20.0,
+            ucw: 0.125,
+        };
+        let p = PackedReservoir::new(&r, Vec2::new(0.25, 0.75), 1.0);
+        assert_eq!(p.reservoir(), Reservoir { w_sum: 0.0, ..r });
+        assert_eq!(p.sample_params(), Vec2::new(0.25, 0.75));
+        assert_eq!(p.visibility(), 1.0);
+
+        let h = PackedProbeHit::new(0xffff_ffff, true, 3, 77, Vec2::new(0.5, 0.25));
+        assert_eq!(h.instance(), MAX_INSTANCE_INDEX);
+        assert!(h.is_backface());
+        assert_eq!((h.geometry, h.primitive), (3, 77));
+        assert_eq!(h.barycentrics(), Vec2::new(0.5, 0.25));
+        let f = PackedProbeHit::new(12, false, 0, 0, Vec2::ZERO);
+        assert_eq!((f.instance(), f.is_backface()), (12, false));
+        // The struct is a float4 on the GPU side: 16 bytes that cast both ways.
+        let bytes: [u8; 16] = bytemuck::cast(h);
+        assert_eq!(bytemuck::cast::<_, PackedProbeHit>(bytes), h);
+    }
+}

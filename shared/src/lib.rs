@@ -1,0 +1,23 @@
+//! The contract between the CPU and the GPU of the GI-1.0 port: buffer layouts, constants and the
+//! math both sides run.
+//!
+//! Everything here also compiles for `spirv-unknown-vulkan1.2` with rust-gpu: `no_std` without the
+//! `std` feature, no allocation, no recursion, no 64-bit integers in GPU paths, and every
+//! float→int conversion explicit (see [`math`]).
+#![cfg_attr(not(any(feature = "std", test)), no_std)]
+
+pub mod abi;
+pub mod bvh;
+pub mod color;
+pub mod difftest;
+pub mod hash;
+pub mod hash_cells;
+pub mod layout;
+pub mod math;
+pub mod octahedral;
+pub mod packing;
+pub mod random;
+pub mod ray;
+pub mod reservoir;
+pub mod sampling;
+pub mod sh;

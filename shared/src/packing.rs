@@ -1,0 +1,445 @@
+//! Bit packings of the GI-1.0 buffers: IEEE half floats written out by hand (rust-gpu's own f16
+//! helpers are GPU-only), 10:10:10 normals, seed pixels, reprojection scores and the fixed-point
+//! radiance that integer atomics accumulate.
+//!
+//! Halves travel in the low 16 bits of a `u32`: 16-bit integers would need the SPIR-V `Int16`
+//! capability.
+
+use glam::{UVec2, Vec2, Vec3, Vec4};
+
+use crate::math::{clamp, floor, min_u32, to_u32_clamped};
+
+/// Largest finite half float.
+pub const HALF_MAX: f32 = 65504.0;
+/// Bits of [`HALF_MAX`].
+pub const HALF_MAX_BITS: u32 = 0x7bff;
+/// Bits of +∞ as a half.
+pub const HALF_INFINITY_BITS: u32 = 0x7c00;
+
+/// `f32` → IEEE binary16 bits, rounding to nearest even.
+///
+/// By input class:
+/// - normal results: correctly rounded; ties go to the even mantissa;
+/// - `|x| ≥ 65520` (the midpoint between 65504 and 2^16) and ±∞: ±∞ (`0x7c00`/`0xfc00`);
+/// - `2^-25 < |x| < 2^-14`: half subnormals, correctly rounded (a carry yields the smallest normal);
+/// - `|x| ≤ 2^-25` and `f32` subnormals: ±0 with the sign kept (2^-25 itself ties to even, i.e. 0);
+/// - NaN: a quiet NaN with the sign and the top 9 payload bits kept (`0x7e00 | payload`).
+#[inline]
+pub fn f32_to_f16(x: f32) -> u32 {
+    let bits = x.to_bits();
+    let sign = (bits >> 16) & 0x8000;
+    let exp = (bits >> 23) & 0xff;
+    let man = bits & 0x007f_ffff;
+    if exp == 0xff {
+        return if man == 0 {
+            sign | HALF_INFINITY_BITS
+        } else {
+            sign | 0x7e00 | (man >> 13)
+        };
+    }
+    // Biased half exponent, kept unsigned: `exp + 15 - 127`.
+    if exp >= 143 {
+        return sign | HALF_INFINITY_BITS;
+    }
+    if exp >= 113 {
+        let h = sign | ((exp - 112) << 10) | (man >> 13);
+        let rest = man & 0x1fff;
+        // Round to nearest even; a mantissa carry correctly bumps the exponent (up to ∞).
+        let round_up = rest > 0x1000 || (rest == 0x1000 && (h & 1) != 0);
+        return if round_up { h + 1 } else { h };
+    }
+    // Subnormal half: value = mantissa · 2^-24 with the implicit bit made explicit.
+    let shift = 126 - exp;
+    if shift > 24 {
+        return sign;
+    }
+    let full = man | 0x0080_0000;
+    let h = full >> shift;
+    let rest = full & ((1 << shift) - 1);
+    let half_way = 1 << (shift - 1);
+    let round_up = rest > half_way || (rest == half_way && (h & 1) != 0);
+    sign | if round_up { h + 1 } else { h }
+}
+
+/// IEEE binary16 bits (low 16 bits of `h`) → `f32`, exact. NaNs come back quiet (top mantissa bit
+/// set) with their payload, like the hardware and the `half` crate.
+#[inline]
+pub fn f16_to_f32(h: u32) -> f32 {
+    let sign = (h & 0x8000) << 16;
+    let exp = (h >> 10) & 0x1f;
+    let man = h & 0x03ff;
+    if exp == 0 {
+        // Zero or subnormal: man · 2^-24 is exact in f32.
+        let magnitude = man as f32 * (1.0 / 16_777_216.0);
+        return f32::from_bits(magnitude.to_bits() | sign);
+    }
+    if exp == 0x1f {
+        let quiet = if man == 0 { 0 } else { 0x0040_0000 };
+        return f32::from_bits(sign | 0x7f80_0000 | quiet | (man << 13));
+    }
+    f32::from_bits(sign | ((exp + 112) << 23) | (man << 13))
+}
+
+/// `f32` → half for radiance: like [`f32_to_f16`] but values beyond the half range (including ±∞)
+/// saturate to ±65504 instead of becoming ∞, so one bright sample cannot poison a sum. NaN stays NaN.
+#[inline]
+pub fn pack_radiance_half(x: f32) -> u32 {
+    if x.is_nan() {
+        return f32_to_f16(x);
+    }
+    f32_to_f16(clamp(x, -HALF_MAX, HALF_MAX))
+}
+
+/// Two halves in a `u32`: `a` in the low 16 bits, `b` in the high (HLSL `f32tof16(a) | f32tof16(b) << 16`).
+#[inline]
+pub fn pack_half2(v: Vec2) -> u32 {
+    f32_to_f16(v.x) | (f32_to_f16(v.y) << 16)
+}
+
+/// Inverse of [`pack_half2`].
+#[inline]
+pub fn unpack_half2(packed: u32) -> Vec2 {
+    Vec2::new(f16_to_f32(packed & 0xffff), f16_to_f32(packed >> 16))
+}
+
+/// Four radiance halves (saturating, see [`pack_radiance_half`]) in a `uint2`: `(x | y<<16, z | w<<16)`.
+#[inline]
+pub fn pack_radiance_half4(v: Vec4) -> [u32; 2] {
+    [
+        pack_radiance_half(v.x) | (pack_radiance_half(v.y) << 16),
+        pack_radiance_half(v.z) | (pack_radiance_half(v.w) << 16),
+    ]
+}
+
+/// Inverse of [`pack_radiance_half4`].
+#[inline]
+pub fn unpack_half4(packed: [u32; 2]) -> Vec4 {
+    let lo = unpack_half2(packed[0]);
+    let hi = unpack_half2(packed[1]);
+    Vec4::new(lo.x, lo.y, hi.x, hi.y)
+}
+
+/// Largest magnitude of a 10-bit snorm component.
+const SNORM10_MAX: f32 = 511.0;
+
+/// Packs a normal as 10:10:10 snorm (x in bits 0–9, y 10–19, z 20–29; bits 30–31 zero).
+/// Components are clamped to `[-1, 1]` (NaN → 0) and rounded to the nearest of 1023 levels, so each
+/// is off by at most `0.5 / 511`.
+#[inline]
+pub fn pack_snorm10x3(n: Vec3) -> u32 {
+    snorm10(n.x) | (snorm10(n.y) << 10) | (snorm10(n.z) << 20)
+}
+
+#[inline]
+fn snorm10(x: f32) -> u32 {
+    let x = if x.is_nan() { 0.0 } else { x };
+    // Offset by 511 so the rounding works on non-negative values, then back to two's complement.
+    let level = to_u32_clamped(floor(clamp(x, -1.0, 1.0) * SNORM10_MAX + SNORM10_MAX + 0.5));
+    level.wrapping_sub(511) & 0x3ff
+}
+
+/// Inverse of [`pack_snorm10x3`] (not renormalised).
+#[inline]
+pub fn unpack_snorm10x3(packed: u32) -> Vec3 {
+    Vec3::new(
+        unsnorm10(packed),
+        unsnorm10(packed >> 10),
+        unsnorm10(packed >> 20),
+    )
+}
+
+#[inline]
+fn unsnorm10(bits: u32) -> f32 {
+    // Sign-extend the 10-bit field.
+    let v = ((bits << 22) as i32) >> 22;
+    clamp(v as f32 / SNORM10_MAX, -1.0, 1.0)
+}
+
+/// "No probe / no seed" marker of the probe mask and spawn buffers.
+pub const SEED_NONE: u32 = 0xffff_ffff;
+/// Largest seed coordinate; `0xffff` is left out so that no seed can equal [`SEED_NONE`].
+pub const SEED_MAX_COORD: u32 = 0xfffe;
+
+/// Seed pixel `(x << 16) | y`; coordinates are clamped to [`SEED_MAX_COORD`].
+#[inline]
+pub fn pack_seed(pixel: UVec2) -> u32 {
+    (min_u32(pixel.x, SEED_MAX_COORD) << 16) | min_u32(pixel.y, SEED_MAX_COORD)
+}
+
+/// Inverse of [`pack_seed`]; [`SEED_NONE`] unpacks to `(0xffff, 0xffff)`, which callers test first.
+#[inline]
+pub fn unpack_seed(packed: u32) -> UVec2 {
+    UVec2::new(packed >> 16, packed & 0xffff)
+}
+
+/// Reprojection winner key: half-float score in the high 16 bits, lane in the low 16.
+///
+/// Non-negative halves order like their bit patterns, so an atomic `min` on the key selects the
+/// lowest score and, among equal scores, the lowest lane. Negative scores count as 0; NaN and
+/// scores beyond the half range count as +∞ (the worst); lanes are masked to 16 bits.
+#[inline]
+pub fn pack_score_lane(score: f32, lane: u32) -> u32 {
+    let key = if score.is_nan() {
+        HALF_INFINITY_BITS
+    } else if score > 0.0 {
+        f32_to_f16(score)
+    } else {
+        0
+    };
+    (key << 16) | (lane & 0xffff)
+}
+
+/// Inverse of [`pack_score_lane`]: `(score, lane)`.
+#[inline]
+pub fn unpack_score_lane(packed: u32) -> (f32, u32) {
+    (f16_to_f32(packed >> 16), packed & 0xffff)
+}
+
+/// Fixed-point scale of the hash-grid cell accumulators (`rgb × 1e3`, global `u32` atomics).
+pub const HASH_RADIANCE_SCALE: f32 = 1e3;
+/// Fixed-point scale of the screen-probe accumulators (`rgb` and hit distance `× 1e4`, shared memory).
+pub const PROBE_RADIANCE_SCALE: f32 = 1e4;
+/// Samples one hash cell may receive in one frame without its `u32` sums wrapping (see
+/// [`HASH_MAX_QUANTIZED`]). Kernels must not add more than this many per cell per frame.
+pub const HASH_ACCUM_SAMPLE_BUDGET: u32 = 1024;
+/// Samples one probe cell may receive per frame: 64 traced rays plus 9 × 64 reprojected cells = 640,
+/// rounded up.
+pub const PROBE_ACCUM_SAMPLE_BUDGET: u32 = 1024;
+/// Per-sample clamp of quantised hash radiance: `budget` samples of it still fit in a `u32`.
+/// That is 4194.303 in radiance units per channel.
+pub const HASH_MAX_QUANTIZED: u32 = max_quantized_per_sample(HASH_ACCUM_SAMPLE_BUDGET);
+/// Per-sample clamp of quantised probe radiance/hit distance: 419.4303 units (so probe hit distances
+/// saturate at ~419 m; misses use 1e9 and saturate too).
+pub const PROBE_MAX_QUANTIZED: u32 = max_quantized_per_sample(PROBE_ACCUM_SAMPLE_BUDGET);
+
+/// Largest per-sample quantised value such that `budget` samples sum to at most `u32::MAX`.
+pub const fn max_quantized_per_sample(budget: u32) -> u32 {
+    // A budget of 0 behaves like 1.
+    u32::MAX / if budget > 1 { budget } else { 1 }
+}
+
+/// How many samples of quantised value `q` a `u32` sum holds before it wraps (`u32::MAX` for 0).
+pub const fn samples_before_wrap(q: u32) -> u32 {
+    // q = 0 never wraps; dividing by 1 yields the same u32::MAX.
+    u32::MAX / if q > 1 { q } else { 1 }
+}
+
+const _: () = assert!(samples_before_wrap(HASH_MAX_QUANTIZED) >= HASH_ACCUM_SAMPLE_BUDGET);
+const _: () = assert!(samples_before_wrap(PROBE_MAX_QUANTIZED) >= PROBE_ACCUM_SAMPLE_BUDGET);
+
+/// Quantises `x` to fixed point: `round(x · scale)` clamped to `[0, max_q]`; negatives and NaN give 0.
+#[inline]
+pub fn quantize(x: f32, scale: f32, max_q: u32) -> u32 {
+    let q = to_u32_clamped(floor(x * scale + 0.5));
+    if q < max_q { q } else { max_q }
+}
+
+/// Quantised hash-cell radiance channel ([`HASH_RADIANCE_SCALE`], clamped to [`HASH_MAX_QUANTIZED`]).
+#[inline]
+pub fn quantize_hash_radiance(x: f32) -> u32 {
+    quantize(x, HASH_RADIANCE_SCALE, HASH_MAX_QUANTIZED)
+}
+
+/// Quantised probe radiance/hit-distance channel ([`PROBE_RADIANCE_SCALE`], clamped to
+/// [`PROBE_MAX_QUANTIZED`]).
+#[inline]
+pub fn quantize_probe_radiance(x: f32) -> u32 {
+    quantize(x, PROBE_RADIANCE_SCALE, PROBE_MAX_QUANTIZED)
+}
+
+/// Fixed point back to float.
+#[inline]
+pub fn dequantize(q: u32, scale: f32) -> f32 {
+    q as f32 / scale
+}
+
+/// CPU model of one atomic add: `None` when the sum would wrap, which the GPU cannot detect.
+#[inline]
+pub fn accumulate_checked(sum: u32, q: u32) -> Option<u32> {
+    sum.checked_add(q)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use half::f16;
+
+    fn reference(x: f32) -> u32 {
+        u32::from(f16::from_f32(x).to_bits())
+    }
+
+    fn check(x: f32) {
+        let ours = f32_to_f16(x);
+        let theirs = reference(x);
+        assert_eq!(
+            ours,
+            theirs,
+            "{x:e} ({:#010x}): {ours:#06x} vs {theirs:#06x}",
+            x.to_bits()
+        );
+    }
+
+    #[test]
+    fn half_to_float_matches_half_crate_on_all_values() {
+        for h in 0..=0xffffu32 {
+            let ours = f16_to_f32(h);
+            let theirs = f16::from_bits(h as u16).to_f32();
+            assert_eq!(ours.to_bits(), theirs.to_bits(), "{h:#06x}");
+        }
+    }
+
+    #[test]
+    fn float_to_half_matches_half_crate_on_rounding_boundaries() {
+        for h in 0..0x7c00u32 {
+            let lo = f16_to_f32(h);
+            let hi = f16_to_f32(h + 1);
+            // Exact midpoint (ties to even), its neighbours, and the endpoints, both signs.
+            let mid = ((lo as f64 + hi as f64) / 2.0) as f32;
+            assert_eq!(
+                mid as f64,
+                (lo as f64 + hi as f64) / 2.0,
+                "midpoint must be exact"
+            );
+            for x in [lo, hi, mid, mid.next_down(), mid.next_up()] {
+                check(x);
+                check(-x);
+            }
+        }
+    }
+
+    #[test]
+    fn float_to_half_matches_half_crate_on_a_sweep() {
+        // ~10⁶ bit patterns spread over all of f32, including NaNs and subnormals.
+        let mut bits = 0u32;
+        loop {
+            check(f32::from_bits(bits));
+            match bits.checked_add(4099) {
+                Some(b) => bits = b,
+                None => break,
+            }
+        }
+    }
+
+    #[test]
+    fn extreme_classes() {
+        // Overflow threshold: 65520 is the midpoint to 2^16 and ties away to ∞ (odd mantissa).
+        assert_eq!(f32_to_f16(65504.0), 0x7bff);
+        assert_eq!(f32_to_f16(65519.996), 0x7bff);
+        assert_eq!(f32_to_f16(65520.0), 0x7c00);
+        assert_eq!(f32_to_f16(1e10), 0x7c00);
+        assert_eq!(f32_to_f16(f32::MAX), 0x7c00);
+        assert_eq!(f32_to_f16(-f32::MAX), 0xfc00);
+        assert_eq!(f32_to_f16(f32::INFINITY), 0x7c00);
+        assert_eq!(f32_to_f16(f32::NEG_INFINITY), 0xfc00);
+        // Tiny: smallest subnormal 2^-24, half of it ties to 0, just above rounds up.
+        assert_eq!(f32_to_f16(2f32.powi(-24)), 0x0001);
+        assert_eq!(f32_to_f16(2f32.powi(-25)), 0x0000);
+        assert_eq!(f32_to_f16(2f32.powi(-25).next_up()), 0x0001);
+        assert_eq!(f32_to_f16(-1e-30), 0x8000);
+        assert_eq!(f32_to_f16(f32::from_bits(1)), 0x0000);
+        // Largest subnormal rounding up into the smallest normal.
+        assert_eq!(f32_to_f16(2f32.powi(-14).next_down()), 0x0400);
+        assert_eq!(f32_to_f16(-0.0), 0x8000);
+        // NaN stays NaN (quiet), sign kept.
+        let nan = f32_to_f16(f32::NAN);
+        assert!(nan & 0x7c00 == 0x7c00 && nan & 0x03ff != 0);
+        assert!(f16_to_f32(nan).is_nan());
+        assert!(f16_to_f32(f32_to_f16(-f32::NAN)).is_sign_negative());
+        // Radiance saturates instead.
+        assert_eq!(pack_radiance_half(1e10), HALF_MAX_BITS);
+        assert_eq!(pack_radiance_half(f32::INFINITY), HALF_MAX_BITS);
+        assert_eq!(pack_radiance_half(65520.0), HALF_MAX_BITS);
+        assert_eq!(pack_radiance_half(-1e10), 0x8000 | HALF_MAX_BITS);
+        assert!(f16_to_f32(pack_radiance_half(f32::NAN)).is_nan());
+        assert_eq!(pack_radiance_half(1.5), 0x3e00);
+    }
+
+    #[test]
+    fn half_pairs() {
+        let p = pack_half2(Vec2::new(1.0, -2.0));
+        assert_eq!(p, 0x3c00 | (0xc000 << 16));
+        assert_eq!(unpack_half2(p), Vec2::new(1.0, -2.0));
+        let v = Vec4::new(0.5, 3.0, 1e6, 16.0);
+        assert_eq!(
+            unpack_half4(pack_radiance_half4(v)),
+            Vec4::new(0.5, 3.0, HALF_MAX, 16.0)
+        );
+    }
+
+    #[test]
+    fn snorm_normals() {
+        assert_eq!(
+            pack_snorm10x3(Vec3::new(1.0, -1.0, 0.0)),
+            0x1ff | (0x201 << 10)
+        );
+        let mut rng = crate::random::Random::new(5, 0);
+        for _ in 0..100_000 {
+            let n = crate::sampling::sample_uniform_sphere(rng.next_vec2());
+            let r = unpack_snorm10x3(pack_snorm10x3(n));
+            assert!(
+                (r - n).abs().max_element() <= 0.5 / 511.0 + 1e-6,
+                "{n} -> {r}"
+            );
+        }
+        assert_eq!(
+            unpack_snorm10x3(pack_snorm10x3(Vec3::new(5.0, -7.0, f32::NAN))),
+            Vec3::new(1.0, -1.0, 0.0)
+        );
+        assert_eq!(pack_snorm10x3(Vec3::ONE) >> 30, 0);
+    }
+
+    #[test]
+    fn seeds() {
+        let s = pack_seed(UVec2::new(1919, 1079));
+        assert_eq!(s, (1919 << 16) | 1079);
+        assert_eq!(unpack_seed(s), UVec2::new(1919, 1079));
+        assert_ne!(pack_seed(UVec2::splat(u32::MAX)), SEED_NONE);
+        assert_eq!(unpack_seed(SEED_NONE), UVec2::splat(0xffff));
+    }
+
+    #[test]
+    fn score_lane_keys_order_by_score_then_lane() {
+        let scores = [0.0, 1e-6, 0.25, 0.5, 1.0, 3.0, 1000.0, 1e9];
+        for w in scores.windows(2) {
+            assert!(
+                pack_score_lane(w[0], 63) < pack_score_lane(w[1], 0),
+                "{w:?}"
+            );
+        }
+        assert!(pack_score_lane(0.5, 3) < pack_score_lane(0.5, 4));
+        assert_eq!(pack_score_lane(-1.0, 7), 7);
+        assert_eq!(pack_score_lane(f32::NAN, 7), (HALF_INFINITY_BITS << 16) | 7);
+        assert_eq!(unpack_score_lane(pack_score_lane(0.75, 42)), (0.75, 42));
+    }
+
+    #[test]
+    fn fixed_point_budget_holds_and_overflow_is_detected() {
+        assert_eq!(HASH_MAX_QUANTIZED, 4_194_303);
+        assert_eq!(quantize_hash_radiance(1e9), HASH_MAX_QUANTIZED);
+        assert_eq!(quantize_hash_radiance(-1.0), 0);
+        assert_eq!(quantize_hash_radiance(f32::NAN), 0);
+        assert_eq!(quantize_hash_radiance(f32::INFINITY), HASH_MAX_QUANTIZED);
+        assert_eq!(quantize_hash_radiance(1.2344), 1234);
+        assert_eq!(quantize_hash_radiance(0.0015), 2);
+        assert!((dequantize(quantize_hash_radiance(2.5), HASH_RADIANCE_SCALE) - 2.5).abs() < 1e-6);
+
+        for (q, budget) in [
+            (quantize_hash_radiance(f32::MAX), HASH_ACCUM_SAMPLE_BUDGET),
+            (quantize_probe_radiance(1e9), PROBE_ACCUM_SAMPLE_BUDGET),
+        ] {
+            let mut sum = 0u32;
+            for _ in 0..budget {
+                sum = accumulate_checked(sum, q).expect("within budget");
+            }
+            // The documented limit itself: samples_before_wrap more samples are still fine...
+            let more = samples_before_wrap(q) - budget;
+            for _ in 0..more {
+                sum = accumulate_checked(sum, q).expect("within samples_before_wrap");
+            }
+            // ...and one step beyond wraps, which the checked add reports.
+            assert_eq!(accumulate_checked(sum, q), None);
+        }
+        assert_eq!(samples_before_wrap(0), u32::MAX);
+        assert_eq!(samples_before_wrap(1000), 4_294_967);
+    }
+}

@@ -1,0 +1,192 @@
+//! The whole chain on a real Vulkan device (lavapipe in CI): rust-gpu SPIR-V, pipelines, push
+//! descriptors, dispatch, read-back, acceleration structures and ray queries.
+
+use gi_host::KernelVariant;
+use gi_host::vulkan::{
+    AccelerationStructure, BindingKind, Buffer, Instance, Kernel, KernelModule, Resource,
+};
+use gi_shared::abi::WORKGROUP_SIZE;
+use gi_shared::ray::{HitRecord, Ray};
+use gi_tests::{context, finish_without_validation_messages};
+
+#[test]
+fn smoke_dispatch_matches_cpu_in_both_variants() {
+    for variant in KernelVariant::ALL {
+        let ctx = context(variant);
+        let report = gi_host::smoke::run(&ctx, 1000).unwrap();
+        assert_eq!(report.invocations, 1000);
+        assert_eq!(report.mismatches, 0, "{variant}");
+        finish_without_validation_messages(ctx);
+    }
+}
+
+#[test]
+fn both_variants_declare_their_entry_points() {
+    let sw = KernelVariant::Software.entry_points();
+    let rq = KernelVariant::RayQuery.entry_points();
+    assert!(sw.iter().any(|e| e == "smoke::smoke"), "{sw:?}");
+    assert!(
+        !sw.iter().any(|e| e == "ray_query_probe::ray_query_probe"),
+        "{sw:?}"
+    );
+    assert!(
+        rq.iter().any(|e| e == "ray_query_probe::ray_query_probe"),
+        "{rq:?}"
+    );
+}
+
+#[test]
+fn missing_entry_point_is_a_clear_error() {
+    let ctx = context(KernelVariant::Software);
+    let module = KernelModule::new(&ctx).unwrap();
+    let err = Kernel::new(&ctx, &module, "ray_query_probe::ray_query_probe", &[], 0)
+        .err()
+        .expect("the software module has no ray-query kernel");
+    assert!(
+        err.to_string().contains("ray_query_probe::ray_query_probe"),
+        "{err}"
+    );
+    module.destroy(&ctx);
+    finish_without_validation_messages(ctx);
+}
+
+/// Two instances of a two-triangle mesh: a unit quad in z = 0 (instance 7) and the same quad
+/// moved to z = -2 (instance 9).
+#[test]
+fn ray_queries_hit_the_expected_triangles() {
+    let ctx = context(KernelVariant::RayQuery);
+    let vertices = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+    let indices = [0, 1, 2, 0, 2, 3];
+    let blas = AccelerationStructure::triangles(&ctx, &vertices, &indices).unwrap();
+    let identity = |z: f32| {
+        [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, z],
+        ]
+    };
+    let tlas = AccelerationStructure::instances(
+        &ctx,
+        &[
+            Instance {
+                blas: &blas,
+                transform: identity(0.0),
+                custom_index: 7,
+            },
+            Instance {
+                blas: &blas,
+                transform: identity(-2.0),
+                custom_index: 9,
+            },
+        ],
+    )
+    .unwrap();
+
+    let down = |x: f32, y: f32, t_max: f32| Ray {
+        origin: [x, y, 1.0],
+        t_min: 0.0,
+        direction: [0.0, 0.0, -1.0],
+        t_max,
+    };
+    let rays = [
+        down(0.75, 0.25, 100.0), // first triangle of the top quad, from above
+        down(0.25, 0.75, 100.0), // second triangle
+        down(0.25, 0.75, 0.5),   // stops short of everything
+        down(2.0, 2.0, 100.0),   // misses beside the quads
+        Ray {
+            origin: [0.25, 0.75, -1.0],
+            t_min: 0.0,
+            direction: [0.0, 0.0, -2.0],
+            t_max: 100.0,
+        }, // lower quad, t in units of |d|
+        Ray {
+            origin: [0.75, 0.25, -1.0],
+            t_min: 0.0,
+            direction: [0.0, 0.0, 1.0],
+            t_max: 100.0,
+        }, // top quad from below
+    ];
+    let expected = [
+        (7, 0, 1.0, 1),
+        (7, 1, 1.0, 1),
+        (u32::MAX, u32::MAX, f32::INFINITY, 0),
+        (u32::MAX, u32::MAX, f32::INFINITY, 0),
+        (9, 1, 0.5, 1),
+        (7, 0, 1.0, 0),
+    ];
+    let ray_buf = Buffer::from_slice(&ctx, "rays", &rays, Default::default()).unwrap();
+    let mut hit_buf = Buffer::zeroed::<HitRecord>(&ctx, "hits", rays.len()).unwrap();
+    let module = KernelModule::new(&ctx).unwrap();
+    let kernel = Kernel::new(
+        &ctx,
+        &module,
+        "ray_query_probe::ray_query_probe",
+        &[
+            BindingKind::AccelerationStructure,
+            BindingKind::StorageBuffer,
+            BindingKind::StorageBuffer,
+        ],
+        0,
+    )
+    .unwrap();
+    module.destroy(&ctx);
+    ctx.submit(|cmd| {
+        kernel
+            .dispatch(
+                &ctx,
+                cmd,
+                &[
+                    Resource::AccelerationStructure(tlas.handle),
+                    Resource::Buffer(&ray_buf),
+                    Resource::Buffer(&hit_buf),
+                ],
+                &[],
+                [(rays.len() as u32).div_ceil(WORKGROUP_SIZE), 1, 1],
+            )
+            .unwrap();
+        gi_host::vulkan::compute_barrier(&ctx, cmd);
+    })
+    .unwrap();
+    let hits = hit_buf.read::<HitRecord>().unwrap();
+    for (i, (hit, (instance, primitive, t, front))) in hits.iter().zip(expected).enumerate() {
+        assert_eq!(
+            (hit.instance, hit.primitive),
+            (instance, primitive),
+            "ray {i}: {hit:?}"
+        );
+        if hit.is_hit() {
+            assert!(
+                (hit.t - t).abs() < 1e-5,
+                "ray {i}: t = {} expected {t}",
+                hit.t
+            );
+            assert_eq!(hit.front_face, front, "ray {i}: {hit:?}");
+            // Rebuild the hit point from barycentrics and check it lies under the ray.
+            let tri = &indices[primitive as usize * 3..primitive as usize * 3 + 3];
+            let [u, v] = hit.barycentrics;
+            let p = |k: usize| {
+                (1.0 - u - v) * vertices[tri[0] as usize][k]
+                    + u * vertices[tri[1] as usize][k]
+                    + v * vertices[tri[2] as usize][k]
+            };
+            let ray = rays[i];
+            assert!(
+                (p(0) - ray.origin[0]).abs() < 1e-5 && (p(1) - ray.origin[1]).abs() < 1e-5,
+                "ray {i}: barycentrics {u},{v}"
+            );
+        } else {
+            assert_eq!(hit.t, f32::INFINITY, "ray {i}");
+        }
+    }
+    kernel.destroy(&ctx);
+    ray_buf.destroy(&ctx);
+    hit_buf.destroy(&ctx);
+    tlas.destroy(&ctx);
+    blas.destroy(&ctx);
+    finish_without_validation_messages(ctx);
+}

@@ -1,0 +1,216 @@
+//! The shared crate's guarantee: every function the kernels use gives the same answer on the GPU
+//! as on the CPU. The `difftest::difftest` kernel runs `gi_shared::difftest::evaluate` over a
+//! buffer of inputs (random values and every extreme: zeros of both signs, denormals, huge and
+//! tiny magnitudes, infinities, NaN); the CPU runs the same function on the same inputs.
+//! Integer outputs must be bit-identical (cell indices snapped from floats may differ by one, and
+//! only at a cell boundary); float outputs must be within the function's stated bound (NaN
+//! matches NaN). The test prints, per function, the worst error seen.
+
+use gi_host::KernelVariant;
+use gi_host::vulkan::{BindingKind, Buffer, Context, Kernel, KernelModule, Resource};
+use gi_shared::abi::WORKGROUP_SIZE;
+use gi_shared::difftest::{
+    DiffCase, DiffOutput, DiffPush, FUNCTIONS, FunctionInfo, OUTPUT_WORDS, SNAP_SOURCE_OFFSET, evaluate,
+};
+use gi_shared::random::Random;
+use gi_tests::{context, finish_without_validation_messages};
+
+/// Random cases per function, on top of the extremes.
+const RANDOM_CASES: usize = 2048;
+
+/// Floats every input word takes in turn, alone and combined.
+const EXTREMES: [f32; 18] = [
+    0.0,
+    -0.0,
+    1.0,
+    -1.0,
+    0.5,
+    1e-6,
+    -1e-6,
+    1e6,
+    -1e6,
+    1e-30,
+    1e30,
+    f32::MIN_POSITIVE,
+    1e-40, // denormal
+    f32::MAX,
+    f32::MIN,
+    f32::INFINITY,
+    f32::NEG_INFINITY,
+    f32::NAN,
+];
+
+fn cases() -> Vec<DiffCase> {
+    let mut out = vec![];
+    for (i, &a) in EXTREMES.iter().enumerate() {
+        for (j, &b) in EXTREMES.iter().enumerate() {
+            let c = EXTREMES[(i + j) % EXTREMES.len()];
+            out.push(DiffCase {
+                input: [a.to_bits(), b.to_bits(), c.to_bits(), (i * 31 + j) as u32],
+            });
+        }
+    }
+    let mut rng = Random::new(0x5eed, 1);
+    for k in 0..RANDOM_CASES {
+        let mut input = [0u32; 4];
+        for w in &mut input {
+            *w = match k % 4 {
+                // Raw bits: every float class, every integer.
+                0 => rng.next_u32(),
+                // Unit range, where directions and colours live.
+                1 => (rng.next_f32() * 2.0 - 1.0).to_bits(),
+                // Log-uniform magnitudes from 1e-6 to 1e6, both signs.
+                2 => {
+                    let m = 10f32.powf(rng.next_f32() * 12.0 - 6.0);
+                    (if rng.next_u32() & 1 == 0 { m } else { -m }).to_bits()
+                }
+                // Small integers (indices, counts, cell coordinates).
+                _ => rng.next_u32() % 64,
+            };
+        }
+        out.push(DiffCase { input });
+    }
+    out
+}
+
+fn ulp_distance(a: f32, b: f32) -> u32 {
+    if a.is_nan() && b.is_nan() {
+        return 0;
+    }
+    if a.is_nan() || b.is_nan() {
+        return u32::MAX;
+    }
+    if a == b {
+        return 0; // also +0 == -0
+    }
+    // Map the floats onto a line of integers where adjacent floats are adjacent.
+    let key = |x: f32| {
+        let bits = x.to_bits() as i64;
+        if bits < 0x8000_0000 { bits } else { 0x8000_0000 - bits }
+    };
+    (key(a) - key(b)).unsigned_abs().min(u64::from(u32::MAX)) as u32
+}
+
+fn run_on_gpu(ctx: &Context, cases: &[DiffCase]) -> Vec<Vec<DiffOutput>> {
+    let module = KernelModule::new(ctx).unwrap();
+    let kernel = Kernel::new(
+        ctx,
+        &module,
+        "difftest::difftest",
+        &[BindingKind::StorageBuffer, BindingKind::StorageBuffer],
+        std::mem::size_of::<DiffPush>() as u32,
+    )
+    .unwrap();
+    module.destroy(ctx);
+    let input = Buffer::from_slice(ctx, "difftest cases", cases, Default::default()).unwrap();
+    let mut results = vec![];
+    for function in 0..FUNCTIONS.len() as u32 {
+        let mut output = Buffer::zeroed::<DiffOutput>(ctx, "difftest outputs", cases.len()).unwrap();
+        let push = DiffPush {
+            function,
+            count: cases.len() as u32,
+            _pad: [0; 2],
+        };
+        ctx.submit(|cmd| {
+            kernel
+                .dispatch(
+                    ctx,
+                    cmd,
+                    &[Resource::Buffer(&input), Resource::Buffer(&output)],
+                    bytemuck::bytes_of(&push),
+                    [(cases.len() as u32).div_ceil(WORKGROUP_SIZE), 1, 1],
+                )
+                .unwrap();
+            gi_host::vulkan::compute_barrier(ctx, cmd);
+        })
+        .unwrap();
+        results.push(output.read::<DiffOutput>().unwrap());
+        output.destroy(ctx);
+    }
+    input.destroy(ctx);
+    kernel.destroy(ctx);
+    results
+}
+
+/// Whether `gpu` is within the tolerance of `cpu`, and by how much: the error divided by the
+/// allowed error (at most 1 when it passes).
+fn float_error(cpu: f32, gpu: f32, info: &FunctionInfo) -> f32 {
+    if cpu.is_nan() && gpu.is_nan() || cpu == gpu {
+        return 0.0;
+    }
+    let allowed = info.absolute + info.relative * cpu.abs();
+    let err = (cpu - gpu).abs();
+    if allowed == 0.0 || !err.is_finite() {
+        return f32::INFINITY;
+    }
+    err / allowed
+}
+
+/// Whether a snapped integer may differ: the CPU's continuous coordinate lies within the
+/// tolerance of a cell boundary, and the two cells are neighbours.
+fn snap_ok(cpu: u32, gpu: u32, source: f32, info: &FunctionInfo) -> bool {
+    let boundary = source.round();
+    cpu.abs_diff(gpu) == 1
+        && (source - boundary).abs() <= info.absolute + info.relative * source.abs()
+}
+
+#[test]
+fn shared_functions_agree_between_cpu_and_gpu() {
+    let cases = cases();
+    for variant in KernelVariant::ALL {
+        let ctx = context(variant);
+        let gpu = run_on_gpu(&ctx, &cases);
+        let mut failures = vec![];
+        println!("{variant}: {} cases per function", cases.len());
+        for (f, info) in FUNCTIONS.iter().enumerate() {
+            let (mut worst_ulps, mut worst_error, mut int_mismatches, mut snapped) = (0, 0f32, 0, 0);
+            let mut first_failure = None;
+            for (case, got) in cases.iter().zip(&gpu[f]) {
+                let want = evaluate(f as u32, case.input);
+                for w in 0..OUTPUT_WORDS {
+                    let (cpu, gpu) = (want[w], got.words[w]);
+                    let ok = if info.float_outputs & (1 << w) != 0 {
+                        let (c, g) = (f32::from_bits(cpu), f32::from_bits(gpu));
+                        worst_ulps = worst_ulps.max(ulp_distance(c, g));
+                        let e = float_error(c, g, info);
+                        worst_error = worst_error.max(e);
+                        e <= 1.0
+                    } else if cpu == gpu {
+                        true
+                    } else if info.snapped_outputs & (1 << w) != 0
+                        && snap_ok(cpu, gpu, f32::from_bits(want[w + SNAP_SOURCE_OFFSET]), info)
+                    {
+                        snapped += 1;
+                        true
+                    } else {
+                        int_mismatches += 1;
+                        false
+                    };
+                    if !ok && first_failure.is_none() {
+                        first_failure = Some(format!(
+                            "{}: input {:08x?} word {w}: cpu {cpu:08x} gpu {gpu:08x}",
+                            info.name, case.input
+                        ));
+                    }
+                }
+            }
+            println!(
+                "  {:<28} worst {worst_ulps:>10} ulp = {worst_error:.3} of the bound, integer mismatches {int_mismatches}, snapped at cell boundaries {snapped}",
+                info.name
+            );
+            failures.extend(first_failure);
+        }
+        finish_without_validation_messages(ctx);
+        assert!(failures.is_empty(), "{variant}: CPU and GPU disagree:\n{}", failures.join("\n"));
+    }
+}
+
+#[test]
+fn ulp_distance_is_symmetric_and_counts_steps() {
+    assert_eq!(ulp_distance(1.0, f32::from_bits(1.0f32.to_bits() + 3)), 3);
+    assert_eq!(ulp_distance(0.0, -0.0), 0);
+    assert_eq!(ulp_distance(f32::from_bits(1), -f32::from_bits(1)), 2);
+    assert_eq!(ulp_distance(f32::NAN, f32::NAN), 0);
+    assert_eq!(ulp_distance(f32::NAN, 1.0), u32::MAX);
+    assert_eq!(ulp_distance(-1.0, -f32::from_bits(1.0f32.to_bits() + 1)), 1);
+}
