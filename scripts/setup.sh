@@ -16,7 +16,7 @@ as_root() {
 if ! rustup toolchain list | grep -q "^${NIGHTLY}"; then
   log "installing Rust ${NIGHTLY} (rust-gpu 0.11 needs exactly this one)"
   rustup toolchain install "${NIGHTLY}" --profile minimal \
-    -c rust-src -c rustc-dev -c llvm-tools -c rustfmt -c clippy
+    -c rust-src -c rustc-dev -c llvm-tools -c rustfmt -c clippy -t x86_64-unknown-none
 else
   have=$(rustup component list --installed --toolchain "${NIGHTLY}" 2>/dev/null || true)
   for c in rust-src rustc-dev llvm-tools rustfmt clippy; do
@@ -25,6 +25,11 @@ else
       rustup component add --toolchain "${NIGHTLY}" "${c}"
     fi
   done
+  # A bare-metal target proves the shared crate builds without std (CI checks it).
+  if ! rustup target list --installed --toolchain "${NIGHTLY}" | grep -q '^x86_64-unknown-none$'; then
+    log "adding target x86_64-unknown-none to ${NIGHTLY}"
+    rustup target add --toolchain "${NIGHTLY}" x86_64-unknown-none
+  fi
 fi
 
 # 2. Vulkan: loader, tools, validation layers, and lavapipe from Mesa >= 25 (ray queries).

@@ -97,3 +97,77 @@ pub fn entry_points(words: &[u32]) -> Vec<String> {
     }
     names
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ash::vk;
+
+    fn caps(ray_query: bool) -> Capabilities {
+        Capabilities {
+            name: "test device".into(),
+            device_type: vk::PhysicalDeviceType::DISCRETE_GPU,
+            api_version: vk::API_VERSION_1_3,
+            driver: String::new(),
+            ray_query,
+            acceleration_structure: ray_query,
+            buffer_device_address: true,
+            subgroup_size: 32,
+            shader_float16: true,
+            shader_int8: true,
+            shader_int16: true,
+            shader_int64: true,
+            int64_atomics: true,
+            float32_atomic_add: true,
+            vulkan_memory_model: true,
+            vulkan_memory_model_device_scope: true,
+            scalar_block_layout: true,
+            compute_timestamps: true,
+            timestamp_period_ns: 1.0,
+            max_storage_buffer_range: 1 << 27,
+            max_shared_memory: 1 << 15,
+            max_workgroup_count: [65535; 3],
+            push_descriptor: true,
+            accel_scratch_alignment: 128,
+            max_workgroup_invocations: 1024,
+            device_local_bytes: 1 << 30,
+        }
+    }
+
+    #[test]
+    fn auto_prefers_ray_queries_and_falls_back_to_software() {
+        assert_eq!(
+            KernelVariant::resolve(TraceMode::Auto, &caps(true)).unwrap(),
+            KernelVariant::RayQuery
+        );
+        assert_eq!(
+            KernelVariant::resolve(TraceMode::Auto, &caps(false)).unwrap(),
+            KernelVariant::Software
+        );
+        assert_eq!(
+            KernelVariant::resolve(TraceMode::Software, &caps(true)).unwrap(),
+            KernelVariant::Software
+        );
+    }
+
+    #[test]
+    fn forced_ray_queries_without_them_name_the_missing_feature() {
+        let err = KernelVariant::resolve(TraceMode::RayQuery, &caps(false)).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains("VK_KHR_ray_query"), "{text}");
+        assert!(text.contains("test device"), "{text}");
+    }
+
+    #[test]
+    fn entry_points_are_read_from_the_modules() {
+        assert!(
+            KernelVariant::Software
+                .entry_points()
+                .contains(&"smoke::smoke".to_string())
+        );
+        assert!(entry_points(&[]).is_empty());
+        // A truncated module yields what was complete, without panicking.
+        let words = KernelVariant::RayQuery.spirv_words();
+        let _ = entry_points(&words[..words.len() / 2]);
+    }
+}

@@ -19,6 +19,9 @@ pub const SUBMIT_TIMEOUT: Duration = Duration::from_secs(600);
 /// Environment variable that selects the device like `--device` (index or part of the name).
 pub const DEVICE_ENV: &str = "GI_DEVICE";
 
+/// Environment variable naming the Vulkan loader library to open instead of `libvulkan.so.1`.
+pub const LOADER_ENV: &str = "GI_VULKAN_LOADER";
+
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
 /// How to create a [`Context`].
@@ -63,7 +66,12 @@ fn device_rank(t: vk::PhysicalDeviceType) -> u32 {
 impl Context {
     /// Opens the loader, picks a device and enables exactly what the chosen kernel variant needs.
     pub fn new(options: &ContextOptions) -> Result<Self> {
-        let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::NoLoader(e.to_string()))?;
+        let entry = match std::env::var_os(LOADER_ENV) {
+            Some(path) => unsafe { ash::Entry::load_from(&path) }.map_err(|e| {
+                Error::NoLoader(format!("{} ({LOADER_ENV}={})", e, path.to_string_lossy()))
+            })?,
+            None => unsafe { ash::Entry::load() }.map_err(|e| Error::NoLoader(e.to_string()))?,
+        };
 
         let validation = if options.validation {
             let layers = unsafe { entry.enumerate_instance_layer_properties() }

@@ -10,7 +10,7 @@ mod validation;
 
 pub use accel::{AccelerationStructure, Instance};
 pub use capabilities::Capabilities;
-pub use context::{Context, ContextOptions, DEVICE_ENV, SUBMIT_TIMEOUT, select_device};
+pub use context::{Context, ContextOptions, DEVICE_ENV, LOADER_ENV, SUBMIT_TIMEOUT, select_device};
 pub use memory::Buffer;
 pub use pipeline::{BindingKind, Kernel, KernelModule, Resource, compute_barrier};
 pub use timing::GpuTimer;
