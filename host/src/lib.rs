@@ -9,6 +9,7 @@ pub mod error;
 pub mod kernels;
 pub mod scene;
 pub mod smoke;
+pub mod trace_rays;
 pub mod vulkan;
 
 pub use error::{Error, Result};

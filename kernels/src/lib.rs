@@ -10,11 +10,10 @@
 )]
 
 mod difftest;
-#[cfg(feature = "ray-query")]
-mod ray_query_probe;
 mod smoke;
+pub mod trace;
+mod trace_rays;
 
-#[cfg(feature = "ray-query")]
-pub use ray_query_probe::ray_query_probe;
 pub use difftest::difftest;
 pub use smoke::smoke;
+pub use trace_rays::trace_rays;

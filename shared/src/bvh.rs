@@ -48,7 +48,8 @@ const MIN_DIRECTION: f32 = 1e-30;
 
 /// Widens the far distance of a box test by the worst rounding of the slab computation
 /// (`1 + 2·γ(3)`, Ize 2013), so that a triangle lying on its node's bounds is never culled.
-const BOX_FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+const BOX_FAR_SCALE: f32 =
+    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 /// One BVH node (32 bytes): bounds, and either two children or a run of triangles.
 ///
@@ -138,6 +139,10 @@ struct TriangleHit {
 /// from the origin: `dot(cross(e1, e2), dir) < 0`, which is `det > 0` here. Every comparison is
 /// written so that NaN fails it, so NaN rays and triangles miss.
 #[inline]
+#[allow(
+    clippy::manual_range_contains,
+    reason = "`RangeInclusive` holds a `bool`, which rust-gpu keeps in memory only with `Int8`"
+)]
 fn intersect(tri: &BvhTriangle, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> TriangleHit {
     let e1 = Vec3::from_array(tri.e1);
     let e2 = Vec3::from_array(tri.e2);
@@ -187,7 +192,11 @@ impl BoxRay {
     fn new(origin: Vec3, dir: Vec3) -> Self {
         Self {
             origin,
-            inv_dir: Vec3::new(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z)),
+            inv_dir: Vec3::new(
+                safe_inverse(dir.x),
+                safe_inverse(dir.y),
+                safe_inverse(dir.z),
+            ),
         }
     }
 
@@ -197,9 +206,30 @@ impl BoxRay {
     fn enter(&self, node: &BvhNode, t_min: f32, t_max: f32) -> f32 {
         let mut t_enter = t_min;
         let mut t_exit = t_max;
-        slab(node.min[0], node.max[0], self.origin.x, self.inv_dir.x, &mut t_enter, &mut t_exit);
-        slab(node.min[1], node.max[1], self.origin.y, self.inv_dir.y, &mut t_enter, &mut t_exit);
-        slab(node.min[2], node.max[2], self.origin.z, self.inv_dir.z, &mut t_enter, &mut t_exit);
+        slab(
+            node.min[0],
+            node.max[0],
+            self.origin.x,
+            self.inv_dir.x,
+            &mut t_enter,
+            &mut t_exit,
+        );
+        slab(
+            node.min[1],
+            node.max[1],
+            self.origin.y,
+            self.inv_dir.y,
+            &mut t_enter,
+            &mut t_exit,
+        );
+        slab(
+            node.min[2],
+            node.max[2],
+            self.origin.z,
+            self.inv_dir.z,
+            &mut t_enter,
+            &mut t_exit,
+        );
         if t_enter <= t_exit * BOX_FAR_SCALE {
             t_enter
         } else {
@@ -223,7 +253,11 @@ fn slab(lo: f32, hi: f32, o: f32, inv: f32, t_enter: &mut f32, t_exit: &mut f32)
     }
     let t_lo = (lo - o) * inv;
     let t_hi = (hi - o) * inv;
-    let (near, far) = if inv < 0.0 { (t_hi, t_lo) } else { (t_lo, t_hi) };
+    let (near, far) = if inv < 0.0 {
+        (t_hi, t_lo)
+    } else {
+        (t_lo, t_hi)
+    };
     // Written so that a NaN distance (from NaN bounds) leaves the interval unchanged.
     if near > *t_enter {
         *t_enter = near;
@@ -235,7 +269,11 @@ fn slab(lo: f32, hi: f32, o: f32, inv: f32, t_enter: &mut f32, t_exit: &mut f32)
 
 #[inline]
 fn safe_inverse(d: f32) -> f32 {
-    if Float::abs(d) >= MIN_DIRECTION { 1.0 / d } else { 0.0 }
+    if Float::abs(d) >= MIN_DIRECTION {
+        1.0 / d
+    } else {
+        0.0
+    }
 }
 
 /// Whether the ray has no NaN or infinite input and a non-empty interval.
@@ -300,7 +338,11 @@ fn traverse(nodes: &[BvhNode], tris: &[BvhTriangle], ray: &Ray, any: bool) -> Hi
                 let hit_l = tl < f32::INFINITY;
                 let hit_r = tr < f32::INFINITY;
                 if hit_l && hit_r {
-                    let (near, far) = if tr < tl { (right, left) } else { (left, right) };
+                    let (near, far) = if tr < tl {
+                        (right, left)
+                    } else {
+                        (left, right)
+                    };
                     next = near;
                     // A full stack (malformed BVH, too deep) drops the far child.
                     if sp < BVH_STACK_SIZE {
@@ -497,7 +539,14 @@ mod tests {
     fn bvh_agrees_with_brute_force_on_random_soups() {
         let mut rng = Rng(1);
         let mut hits = 0;
-        for (n, size) in [(1, 1.0), (3, 1.0), (17, 0.5), (200, 0.3), (1000, 0.2), (1000, 3.0)] {
+        for (n, size) in [
+            (1, 1.0),
+            (3, 1.0),
+            (17, 0.5),
+            (200, 0.3),
+            (1000, 0.2),
+            (1000, 3.0),
+        ] {
             let soup = random_soup(&mut rng, n, 2.0, size);
             let (nodes, tris) = median_bvh(&soup);
             for _ in 0..4000 {
@@ -669,15 +718,34 @@ mod tests {
         assert!(closest_hit(&nodes, &tris, &good).is_hit());
         let nan = f32::NAN;
         for ray in [
-            Ray { origin: [nan, 0.25, 1.0], ..good },
-            Ray { origin: [0.5, 0.25, f32::INFINITY], ..good },
-            Ray { direction: [0.0, nan, -1.0], ..good },
-            Ray { direction: [0.0, 0.0, f32::NEG_INFINITY], ..good },
-            Ray { direction: [0.0; 3], ..good },
+            Ray {
+                origin: [nan, 0.25, 1.0],
+                ..good
+            },
+            Ray {
+                origin: [0.5, 0.25, f32::INFINITY],
+                ..good
+            },
+            Ray {
+                direction: [0.0, nan, -1.0],
+                ..good
+            },
+            Ray {
+                direction: [0.0, 0.0, f32::NEG_INFINITY],
+                ..good
+            },
+            Ray {
+                direction: [0.0; 3],
+                ..good
+            },
             Ray { t_min: nan, ..good },
             Ray { t_max: nan, ..good },
         ] {
-            assert_eq!(closest_hit(&nodes, &tris, &ray), HitRecord::miss(), "{ray:?}");
+            assert_eq!(
+                closest_hit(&nodes, &tris, &ray),
+                HitRecord::miss(),
+                "{ray:?}"
+            );
             assert_eq!(closest_hit_brute_force(&tris, &ray), HitRecord::miss());
             assert!(!any_hit(&nodes, &tris, &ray), "{ray:?}");
         }
@@ -724,10 +792,27 @@ mod tests {
         // triangles, and an overflowing leaf: all terminate and miss.
         for nodes in [
             vec![everything],
-            vec![BvhNode { index: 1, ..everything }, everything],
-            vec![BvhNode { index: 5, ..everything }],
-            vec![BvhNode { index: 600, count: 1, ..everything }],
-            vec![BvhNode { index: 1, count: u32::MAX, ..everything }],
+            vec![
+                BvhNode {
+                    index: 1,
+                    ..everything
+                },
+                everything,
+            ],
+            vec![BvhNode {
+                index: 5,
+                ..everything
+            }],
+            vec![BvhNode {
+                index: 600,
+                count: 1,
+                ..everything
+            }],
+            vec![BvhNode {
+                index: 1,
+                count: u32::MAX,
+                ..everything
+            }],
         ] {
             assert!(!closest_hit(&nodes, &tris, &ray).is_hit(), "{nodes:?}");
             assert!(!any_hit(&nodes, &tris, &ray));
@@ -735,12 +820,26 @@ mod tests {
         // A chain deeper than the stack: every level's first child is the next level and its
         // second a leaf whose triangle misses, so each level pushes one entry. The overflow drops
         // entries without a panic, and the hit at the chain's end is still found.
-        let miss_leaf = BvhNode { index: 511, count: 1, ..everything };
-        let hit_leaf = BvhNode { index: 0, count: 1, ..everything };
+        let miss_leaf = BvhNode {
+            index: 511,
+            count: 1,
+            ..everything
+        };
+        let hit_leaf = BvhNode {
+            index: 0,
+            count: 1,
+            ..everything
+        };
         let depth = 3 * BVH_STACK_SIZE;
-        let mut chain = vec![BvhNode { index: 1, ..everything }];
+        let mut chain = vec![BvhNode {
+            index: 1,
+            ..everything
+        }];
         for level in 0..depth {
-            let next = BvhNode { index: chain.len() as u32 + 2, ..everything };
+            let next = BvhNode {
+                index: chain.len() as u32 + 2,
+                ..everything
+            };
             chain.push(if level + 1 == depth { hit_leaf } else { next });
             chain.push(miss_leaf);
         }

@@ -10,9 +10,8 @@ use crate::hash_cells::{CellDescriptor, cell_descriptor, cell_index};
 use crate::layout::HashGridParams;
 use crate::math::unorm24;
 use crate::octahedral::{
-    equal_area_hemi_decode, equal_area_hemi_encode, hemi_octahedral_decode,
-    hemi_octahedral_encode, octahedral_decode, octahedral_encode, probe_cell_direction,
-    probe_direction_cell,
+    equal_area_hemi_decode, equal_area_hemi_encode, hemi_octahedral_decode, hemi_octahedral_encode,
+    octahedral_decode, octahedral_encode, probe_cell_direction, probe_direction_cell,
 };
 use crate::packing::{
     f16_to_f32, f32_to_f16, pack_radiance_half, pack_score_lane, pack_seed, pack_snorm10x3,
@@ -87,7 +86,12 @@ const fn exact(name: &'static str) -> FunctionInfo {
     floats(name, 0, 0.0, 0.0)
 }
 
-const fn floats(name: &'static str, float_outputs: u32, relative: f32, absolute: f32) -> FunctionInfo {
+const fn floats(
+    name: &'static str,
+    float_outputs: u32,
+    relative: f32,
+    absolute: f32,
+) -> FunctionInfo {
     FunctionInfo {
         name,
         float_outputs,
@@ -116,9 +120,19 @@ pub const FUNCTIONS: [FunctionInfo; 22] = [
         snapped_outputs: 0b11,
         ..floats("octahedral::probe_cells", 0b111_1100, 1e-5, 1e-5)
     },
-    floats("sampling::orthonormal_basis", 0b11_1111, 1.0 / 65536.0, 4.0 * ULP),
+    floats(
+        "sampling::orthonormal_basis",
+        0b11_1111,
+        1.0 / 65536.0,
+        4.0 * ULP,
+    ),
     floats("sampling::directions", 0b11_1111, 1e-5, 1e-5),
-    floats("sampling::triangle_and_pdf", 0b1111, 1.0 / 65536.0, 4.0 * ULP),
+    floats(
+        "sampling::triangle_and_pdf",
+        0b1111,
+        1.0 / 65536.0,
+        4.0 * ULP,
+    ),
     exact("hash_cells::cell_descriptor"),
     floats("reservoir::Reservoir", 0b1110, 4.0 * ULP, 0.0),
     floats("packing::half", 0b0100, 0.0, 0.0),
@@ -308,7 +322,12 @@ mod tests {
                 info.name
             );
             assert!(info.float_outputs < 1 << OUTPUT_WORDS, "{}", info.name);
-            assert_eq!(info.float_outputs & info.snapped_outputs, 0, "{}", info.name);
+            assert_eq!(
+                info.float_outputs & info.snapped_outputs,
+                0,
+                "{}",
+                info.name
+            );
         }
         assert_eq!(evaluate(FUNCTIONS.len() as u32, input), [0; OUTPUT_WORDS]);
     }

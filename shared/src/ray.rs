@@ -16,6 +16,19 @@ pub struct Ray {
     pub t_max: f32,
 }
 
+impl Ray {
+    /// Whether both tracing variants define a result for this ray: finite origin and direction,
+    /// `0 <= t_min <= t_max` (`t_max` may be infinite). Ray queries leave anything else undefined,
+    /// so every tracer reports a miss for it instead.
+    pub fn is_traceable(&self) -> bool {
+        let finite = |v: [f32; 3]| v[0].is_finite() && v[1].is_finite() && v[2].is_finite();
+        finite(self.origin)
+            && finite(self.direction)
+            && self.t_min >= 0.0
+            && self.t_min <= self.t_max
+    }
+}
+
 /// The closest hit of a ray, as both traversal variants report it (32 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -77,6 +90,47 @@ mod tests {
         assert_eq!(offset_of!(HitRecord, front_face), 12);
         assert_eq!(offset_of!(HitRecord, barycentrics), 16);
         assert_eq!(offset_of!(HitRecord, _pad), 24);
+    }
+
+    #[test]
+    fn traceable_rays() {
+        let ray = Ray {
+            origin: [0.0; 3],
+            t_min: 0.0,
+            direction: [0.0, 0.0, 1.0],
+            t_max: f32::INFINITY,
+        };
+        assert!(ray.is_traceable());
+        assert!(!Ray { t_min: -1.0, ..ray }.is_traceable());
+        assert!(
+            !Ray {
+                t_min: 2.0,
+                t_max: 1.0,
+                ..ray
+            }
+            .is_traceable()
+        );
+        assert!(
+            !Ray {
+                t_max: f32::NAN,
+                ..ray
+            }
+            .is_traceable()
+        );
+        assert!(
+            !Ray {
+                origin: [f32::NAN, 0.0, 0.0],
+                ..ray
+            }
+            .is_traceable()
+        );
+        assert!(
+            !Ray {
+                direction: [f32::INFINITY, 0.0, 0.0],
+                ..ray
+            }
+            .is_traceable()
+        );
     }
 
     #[test]

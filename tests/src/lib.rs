@@ -30,3 +30,10 @@ pub fn finish_without_validation_messages(ctx: Context) {
         messages.join("\n")
     );
 }
+
+/// Path of a file under the repository's `scenes/`.
+pub fn scene_path(file: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes")
+        .join(file)
+}

@@ -10,7 +10,8 @@ use gi_host::KernelVariant;
 use gi_host::vulkan::{BindingKind, Buffer, Context, Kernel, KernelModule, Resource};
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::difftest::{
-    DiffCase, DiffOutput, DiffPush, FUNCTIONS, FunctionInfo, OUTPUT_WORDS, SNAP_SOURCE_OFFSET, evaluate,
+    DiffCase, DiffOutput, DiffPush, FUNCTIONS, FunctionInfo, OUTPUT_WORDS, SNAP_SOURCE_OFFSET,
+    evaluate,
 };
 use gi_shared::random::Random;
 use gi_tests::{context, finish_without_validation_messages};
@@ -86,7 +87,11 @@ fn ulp_distance(a: f32, b: f32) -> u32 {
     // Map the floats onto a line of integers where adjacent floats are adjacent.
     let key = |x: f32| {
         let bits = x.to_bits() as i64;
-        if bits < 0x8000_0000 { bits } else { 0x8000_0000 - bits }
+        if bits < 0x8000_0000 {
+            bits
+        } else {
+            0x8000_0000 - bits
+        }
     };
     (key(a) - key(b)).unsigned_abs().min(u64::from(u32::MAX)) as u32
 }
@@ -105,7 +110,8 @@ fn run_on_gpu(ctx: &Context, cases: &[DiffCase]) -> Vec<Vec<DiffOutput>> {
     let input = Buffer::from_slice(ctx, "difftest cases", cases, Default::default()).unwrap();
     let mut results = vec![];
     for function in 0..FUNCTIONS.len() as u32 {
-        let mut output = Buffer::zeroed::<DiffOutput>(ctx, "difftest outputs", cases.len()).unwrap();
+        let mut output =
+            Buffer::zeroed::<DiffOutput>(ctx, "difftest outputs", cases.len()).unwrap();
         let push = DiffPush {
             function,
             count: cases.len() as u32,
@@ -163,7 +169,8 @@ fn shared_functions_agree_between_cpu_and_gpu() {
         let mut failures = vec![];
         println!("{variant}: {} cases per function", cases.len());
         for (f, info) in FUNCTIONS.iter().enumerate() {
-            let (mut worst_ulps, mut worst_error, mut int_mismatches, mut snapped) = (0, 0f32, 0, 0);
+            let (mut worst_ulps, mut worst_error, mut int_mismatches, mut snapped) =
+                (0, 0f32, 0, 0);
             let mut first_failure = None;
             for (case, got) in cases.iter().zip(&gpu[f]) {
                 let want = evaluate(f as u32, case.input);
@@ -201,7 +208,11 @@ fn shared_functions_agree_between_cpu_and_gpu() {
             failures.extend(first_failure);
         }
         finish_without_validation_messages(ctx);
-        assert!(failures.is_empty(), "{variant}: CPU and GPU disagree:\n{}", failures.join("\n"));
+        assert!(
+            failures.is_empty(),
+            "{variant}: CPU and GPU disagree:\n{}",
+            failures.join("\n")
+        );
     }
 }
 

@@ -189,7 +189,12 @@ impl Bvh {
         }
         let triangle_bytes = triangles.len() * size_of::<BvhTriangle>();
         if triangle_bytes > max_buffer_bytes {
-            return Err(too_big("triangles", triangles.len(), triangle_bytes, max_buffer_bytes));
+            return Err(too_big(
+                "triangles",
+                triangles.len(),
+                triangle_bytes,
+                max_buffer_bytes,
+            ));
         }
         if triangles.is_empty() {
             return Ok(Self::default());
@@ -248,9 +253,7 @@ impl Bvh {
             let sah = sah_split(&items, range, &centroids, area);
             let split = match sah {
                 // The depth invariant: each child can still finish with median splits.
-                Some(s)
-                    if depth + 1 + median_levels((s.mid).max(n - s.mid)) <= max_depth =>
-                {
+                Some(s) if depth + 1 + median_levels((s.mid).max(n - s.mid)) <= max_depth => {
                     (n > MAX_LEAF_TRIANGLES || s.cost < leaf_cost).then_some(s.mid)
                 }
                 _ => (n > MAX_LEAF_TRIANGLES).then(|| {
@@ -579,12 +582,18 @@ mod tests {
                 assert!(left > i && left + 1 < bvh.nodes.len());
                 for child in [left, left + 1] {
                     let c = &bvh.nodes[child];
-                    assert!(contains(node, c.min, c.max), "{node:?} does not contain {c:?}");
+                    assert!(
+                        contains(node, c.min, c.max),
+                        "{node:?} does not contain {c:?}"
+                    );
                     stack.push((child, depth + 1));
                 }
             }
         }
-        assert!(seen.iter().all(|&n| n == 1), "a triangle is not in exactly one leaf");
+        assert!(
+            seen.iter().all(|&n| n == 1),
+            "a triangle is not in exactly one leaf"
+        );
         let mut prims: Vec<u32> = bvh.triangles.iter().map(|t| t.primitive).collect();
         prims.sort_unstable();
         assert!(prims.iter().copied().eq(0..input.len() as u32));
@@ -598,7 +607,14 @@ mod tests {
     #[test]
     fn bvh_agrees_with_brute_force_on_random_scenes() {
         let mut rng = Rng(7);
-        for (n, size) in [(1, 1.0), (2, 1.0), (5, 1.0), (37, 2.0), (500, 0.5), (3000, 0.3)] {
+        for (n, size) in [
+            (1, 1.0),
+            (2, 1.0),
+            (5, 1.0),
+            (37, 2.0),
+            (500, 0.5),
+            (3000, 0.3),
+        ] {
             let input = random_scene(&mut rng, n, size);
             let ids = ids(n);
             let bvh = Bvh::build(&input, &ids).unwrap();
@@ -678,7 +694,10 @@ mod tests {
         input[20] = [[1.0, 2.0, 3.0]; 3];
         input[21] = [[0.0; 3], [1.0, 1.0, 1.0], [2.0, 2.0, 2.0]];
         // 300 copies of one triangle: coincident centroids force median splits.
-        input.extend(std::iter::repeat_n([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], 300));
+        input.extend(std::iter::repeat_n(
+            [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            300,
+        ));
         let ids = ids(input.len());
         let bvh = Bvh::build(&input, &ids).unwrap();
         assert_well_formed(&bvh, &input, &ids);
@@ -709,12 +728,27 @@ mod tests {
     fn bad_arguments_are_errors() {
         let input = random_scene(&mut Rng(11), 100, 1.0);
         let err = Bvh::build(&input, &ids(99)).unwrap_err();
-        assert!(matches!(err, Error::InvalidArgument { name: "ids", .. }), "{err}");
+        assert!(
+            matches!(err, Error::InvalidArgument { name: "ids", .. }),
+            "{err}"
+        );
         // 100 triangles are 4800 bytes; their ≥ 51 nodes 1632 or more.
         let err = Bvh::build_with_limits(&input, &ids(100), BVH_MAX_DEPTH, 4799).unwrap_err();
-        assert!(matches!(err, Error::InvalidArgument { name: "triangles", .. }), "{err}");
+        assert!(
+            matches!(
+                err,
+                Error::InvalidArgument {
+                    name: "triangles",
+                    ..
+                }
+            ),
+            "{err}"
+        );
         let err = Bvh::build_with_limits(&input, &ids(100), BVH_MAX_DEPTH, 4800).unwrap_err();
-        assert!(matches!(err, Error::InvalidArgument { name: "nodes", .. }), "{err}");
+        assert!(
+            matches!(err, Error::InvalidArgument { name: "nodes", .. }),
+            "{err}"
+        );
         assert!(err.to_string().contains("storage-buffer limit"), "{err}");
     }
 
@@ -738,7 +772,11 @@ mod tests {
         let start = Instant::now();
         let bvh = Bvh::build(&input, &ids).unwrap();
         let seconds = start.elapsed().as_secs_f64();
-        println!("BVH build of 100k triangles: {:.1} ms, {:?}", seconds * 1e3, bvh.stats);
+        println!(
+            "BVH build of 100k triangles: {:.1} ms, {:?}",
+            seconds * 1e3,
+            bvh.stats
+        );
         assert!(bvh.stats.max_depth <= BVH_MAX_DEPTH);
         assert_eq!(bvh.triangles.len(), input.len());
         assert_agrees_with_brute_force(&bvh, &input, &mut rng, 200);

@@ -2,12 +2,12 @@
 //! before use so that no input panics (the `gltf` crate's own readers and GLB parser can).
 
 use base64::Engine;
+use glam::{Vec2, Vec3};
 use gltf::json::{
     self,
     accessor::{ComponentType, Type},
     validation::{Checked, Error as ValidationError, Validate},
 };
-use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -57,7 +57,13 @@ impl Ctx {
 
     /// Records `count` occurrences of warning `kind`; the first occurrence names the element and
     /// gives the message.
-    pub fn warn(&mut self, kind: &str, element: impl Into<String>, message: impl Into<String>, count: usize) {
+    pub fn warn(
+        &mut self,
+        kind: &str,
+        element: impl Into<String>,
+        message: impl Into<String>,
+        count: usize,
+    ) {
         match self.kinds.get(kind) {
             Some(&i) => self.warnings[i].count += count,
             None => {
@@ -187,10 +193,9 @@ impl Document {
             .get(index)
             .ok_or_else(|| ctx.error(&element, "does not exist"))?;
         let buffer_index = view.buffer.value();
-        let buffer = self
-            .buffers
-            .get(buffer_index)
-            .ok_or_else(|| ctx.error(&element, format!("buffers[{buffer_index}] does not exist")))?;
+        let buffer = self.buffers.get(buffer_index).ok_or_else(|| {
+            ctx.error(&element, format!("buffers[{buffer_index}] does not exist"))
+        })?;
         let start = view.byte_offset.map_or(0, |o| o.0);
         let end = start.checked_add(view.byte_length.0);
         end.and_then(|end| buffer.get(usize::try_from(start).ok()?..usize::try_from(end).ok()?))
@@ -270,7 +275,8 @@ impl Document {
             }
             Checked::Invalid => return Err(ctx.error(&element, "has an invalid type")),
         }
-        let Checked::Valid(json::accessor::GenericComponentType(component)) = accessor.component_type
+        let Checked::Valid(json::accessor::GenericComponentType(component)) =
+            accessor.component_type
         else {
             return Err(ctx.error(&element, "has an invalid componentType"));
         };
@@ -317,7 +323,10 @@ impl Document {
                     }
                 }
             }
-            None => out.resize(count * components, convert(component, normalized, &zero[..size])),
+            None => out.resize(
+                count * components,
+                convert(component, normalized, &zero[..size]),
+            ),
         }
         if let Some(sparse) = &accessor.sparse {
             let n = sparse.count.0 as usize;
@@ -341,16 +350,20 @@ impl Document {
             )
             .ok_or_else(|| ctx.error(&sparse_element, "values lie outside their buffer view"))?;
             for k in 0..n {
-                let target = read_uint(index_type, &indices[k * index_size..(k + 1) * index_size]) as usize;
+                let target =
+                    read_uint(index_type, &indices[k * index_size..(k + 1) * index_size]) as usize;
                 if target >= count {
                     return Err(ctx.error(
                         &sparse_element,
-                        format!("index {target} is out of range: the accessor has {count} elements"),
+                        format!(
+                            "index {target} is out of range: the accessor has {count} elements"
+                        ),
                     ));
                 }
                 for c in 0..components {
                     let at = k * elem + c * size;
-                    out[target * components + c] = convert(component, normalized, &values[at..at + size]);
+                    out[target * components + c] =
+                        convert(component, normalized, &values[at..at + size]);
                 }
             }
         }
@@ -372,7 +385,9 @@ fn tail(bytes: &[u8], offset: u64, len: usize) -> Option<&[u8]> {
 fn read_uint(ty: ComponentType, bytes: &[u8]) -> u32 {
     match (ty, bytes) {
         (ComponentType::U8 | ComponentType::I8, [b]) => u32::from(*b),
-        (ComponentType::U16 | ComponentType::I16, [a, b]) => u32::from(u16::from_le_bytes([*a, *b])),
+        (ComponentType::U16 | ComponentType::I16, [a, b]) => {
+            u32::from(u16::from_le_bytes([*a, *b]))
+        }
         (_, [a, b, c, d]) => u32::from_le_bytes([*a, *b, *c, *d]),
         _ => 0,
     }
@@ -386,7 +401,9 @@ fn component_f32(ty: ComponentType, normalized: bool, bytes: &[u8]) -> f32 {
         (ComponentType::U8, [b]) => f32::from(*b),
         (ComponentType::I8, [b]) if normalized => (f32::from(*b as i8) / 127.0).max(-1.0),
         (ComponentType::I8, [b]) => f32::from(*b as i8),
-        (ComponentType::U16, [a, b]) if normalized => f32::from(u16::from_le_bytes([*a, *b])) / 65535.0,
+        (ComponentType::U16, [a, b]) if normalized => {
+            f32::from(u16::from_le_bytes([*a, *b])) / 65535.0
+        }
         (ComponentType::U16, [a, b]) => f32::from(u16::from_le_bytes([*a, *b])),
         (ComponentType::I16, [a, b]) if normalized => {
             (f32::from(i16::from_le_bytes([*a, *b])) / 32767.0).max(-1.0)
@@ -425,13 +442,18 @@ fn split_glb(bytes: &[u8]) -> std::result::Result<(&[u8], Option<&[u8]>), String
         let end = start
             .checked_add(chunk_length as usize)
             .filter(|&end| end <= length)
-            .ok_or_else(|| format!("chunk at byte {at} ({chunk_length} bytes) runs past the end"))?;
+            .ok_or_else(|| {
+                format!("chunk at byte {at} ({chunk_length} bytes) runs past the end")
+            })?;
         let chunk = &bytes[start..end];
         match (kind, json.is_some()) {
             (b"JSON", false) => json = Some(chunk),
             (b"BIN\0", true) if bin.is_none() => bin = Some(chunk),
             (b"JSON", true) | (b"BIN\0", _) => {
-                return Err(format!("unexpected chunk {:?} at byte {at}", String::from_utf8_lossy(kind)));
+                return Err(format!(
+                    "unexpected chunk {:?} at byte {at}",
+                    String::from_utf8_lossy(kind)
+                ));
             }
             // The specification says to skip chunks of unknown types.
             _ => {}
@@ -501,7 +523,10 @@ fn load_buffers(ctx: &Ctx, root: &json::Root, bin: Option<&[u8]>) -> Result<Vec<
             if (data.len() as u64) < length {
                 return Err(ctx.error(
                     element,
-                    format!("holds {} bytes, fewer than its byteLength {length}", data.len()),
+                    format!(
+                        "holds {} bytes, fewer than its byteLength {length}",
+                        data.len()
+                    ),
                 ));
             }
             // Reads past byteLength are errors even where the data (a padded BIN chunk) goes on.
@@ -560,8 +585,14 @@ mod tests {
     fn normalised_components() {
         assert_eq!(component_f32(ComponentType::U8, true, &[255]), 1.0);
         assert_eq!(component_f32(ComponentType::I8, true, &[0x80]), -1.0);
-        assert_eq!(component_f32(ComponentType::I16, true, &(-32767i16).to_le_bytes()), -1.0);
-        assert_eq!(component_f32(ComponentType::U16, false, &7u16.to_le_bytes()), 7.0);
+        assert_eq!(
+            component_f32(ComponentType::I16, true, &(-32767i16).to_le_bytes()),
+            -1.0
+        );
+        assert_eq!(
+            component_f32(ComponentType::U16, false, &7u16.to_le_bytes()),
+            7.0
+        );
         assert_eq!(read_uint(ComponentType::U16, &513u16.to_le_bytes()), 513);
     }
 }

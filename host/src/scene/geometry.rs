@@ -49,7 +49,13 @@ pub(super) fn triangulate(mode: Mode, indices: &[u32]) -> (Vec<[u32; 3]>, usize)
             indices
                 .windows(3)
                 .enumerate()
-                .map(|(i, w)| if i % 2 == 0 { [w[0], w[1], w[2]] } else { [w[1], w[0], w[2]] })
+                .map(|(i, w)| {
+                    if i % 2 == 0 {
+                        [w[0], w[1], w[2]]
+                    } else {
+                        [w[1], w[0], w[2]]
+                    }
+                })
                 .collect(),
             0,
         ),
@@ -241,8 +247,22 @@ mod tests {
                 Vec3::new(2.0, 0.0, 0.0), // collinear with 0 and 1
                 Vec3::new(5.0, 5.0, 5.0), // unused
             ],
-            normals: Some(vec![Vec3::Z, Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0), Vec3::Z, Vec3::Z, Vec3::Z]),
-            uvs: Some(vec![Vec2::ZERO, Vec2::new(f32::INFINITY, 0.0), Vec2::ONE, Vec2::ZERO, Vec2::ZERO, Vec2::ZERO]),
+            normals: Some(vec![
+                Vec3::Z,
+                Vec3::ZERO,
+                Vec3::new(0.0, 0.0, 2.0),
+                Vec3::Z,
+                Vec3::Z,
+                Vec3::Z,
+            ]),
+            uvs: Some(vec![
+                Vec2::ZERO,
+                Vec2::new(f32::INFINITY, 0.0),
+                Vec2::ONE,
+                Vec2::ZERO,
+                Vec2::ZERO,
+                Vec2::ZERO,
+            ]),
             triangles: vec![[0, 1, 2], [0, 1, 3], [0, 1, 4], [2, 2, 0]],
         };
         let (clean, repairs) = clean(raw);

@@ -112,7 +112,10 @@ impl Builder<'_> {
                 .collect();
             let why = match skipped.is_empty() {
                 true => "has no triangles to trace".to_owned(),
-                false => format!("has no triangles to trace (skipped: {})", skipped.join("; ")),
+                false => format!(
+                    "has no triangles to trace (skipped: {})",
+                    skipped.join("; ")
+                ),
             };
             return Err(self.ctx.error(scene_element, why));
         }
@@ -151,14 +154,22 @@ impl Builder<'_> {
                 self.ctx.warn(
                     "other scenes",
                     &element,
-                    format!("the file has {} scenes: only this one is loaded", root.scenes.len()),
+                    format!(
+                        "the file has {} scenes: only this one is loaded",
+                        root.scenes.len()
+                    ),
                     1,
                 );
             }
             return (element, scene.nodes.iter().map(|n| n.value()).collect());
         }
         let mut is_child = vec![false; root.nodes.len()];
-        for child in root.nodes.iter().filter_map(|n| n.children.as_ref()).flatten() {
+        for child in root
+            .nodes
+            .iter()
+            .filter_map(|n| n.children.as_ref())
+            .flatten()
+        {
             if let Some(flag) = is_child.get_mut(child.value()) {
                 *flag = true;
             }
@@ -353,10 +364,9 @@ impl Builder<'_> {
                     uv = Some(accessor.value());
                     continue;
                 }
-                Checked::Valid(Semantic::TexCoords(_)) => (
-                    "extra uv sets",
-                    "UV sets after TEXCOORD_0 are ignored",
-                ),
+                Checked::Valid(Semantic::TexCoords(_)) => {
+                    ("extra uv sets", "UV sets after TEXCOORD_0 are ignored")
+                }
                 Checked::Valid(Semantic::Colors(_)) => {
                     ("vertex colours", "vertex colours are ignored")
                 }
@@ -508,8 +518,16 @@ impl Builder<'_> {
             );
         }
         let ignored = [
-            (m.normal_texture.is_some(), "normalTexture", "normal textures are ignored: shading uses the vertex normals"),
-            (m.occlusion_texture.is_some(), "occlusionTexture", "occlusion textures are ignored"),
+            (
+                m.normal_texture.is_some(),
+                "normalTexture",
+                "normal textures are ignored: shading uses the vertex normals",
+            ),
+            (
+                m.occlusion_texture.is_some(),
+                "occlusionTexture",
+                "occlusion textures are ignored",
+            ),
             (
                 pbr.metallic_roughness_texture.is_some(),
                 "pbrMetallicRoughness.metallicRoughnessTexture",
@@ -518,7 +536,8 @@ impl Builder<'_> {
         ];
         for (present, field, message) in ignored {
             if present {
-                self.ctx.warn(field, format!("{element}.{field}"), message, 1);
+                self.ctx
+                    .warn(field, format!("{element}.{field}"), message, 1);
             }
         }
         let strength = m
@@ -529,11 +548,8 @@ impl Builder<'_> {
         let [strength] = self.factor([strength], &element, "emissiveStrength");
         let emissive = Vec3::from(self.factor(m.emissive_factor.0, &element, "emissiveFactor"));
         let emissive = emissive * strength;
-        let base_color = Vec4::from(self.factor(
-            pbr.base_color_factor.0,
-            &element,
-            "baseColorFactor",
-        ));
+        let base_color =
+            Vec4::from(self.factor(pbr.base_color_factor.0, &element, "baseColorFactor"));
         let [metallic] = self.factor([pbr.metallic_factor.0], &element, "metallicFactor");
         let [roughness] = self.factor([pbr.roughness_factor.0], &element, "roughnessFactor");
         let base_color_texture = pbr
@@ -640,7 +656,9 @@ impl Builder<'_> {
             Checked::Valid(WrappingMode::MirroredRepeat) => Wrap::MirroredRepeat,
             _ => Wrap::Repeat,
         };
-        let sampler = texture.sampler.and_then(|s| doc.root.samplers.get(s.value()));
+        let sampler = texture
+            .sampler
+            .and_then(|s| doc.root.samplers.get(s.value()));
         self.textures.push(Texture {
             name: image
                 .name
@@ -673,7 +691,11 @@ impl Builder<'_> {
             })?;
         let element = label("KHR_lights_punctual.lights", index, light.name.as_deref());
         let color = Vec3::from(light.color);
-        if !color.is_finite() || color.min_element() < 0.0 || !light.intensity.is_finite() || light.intensity < 0.0 {
+        if !color.is_finite()
+            || color.min_element() < 0.0
+            || !light.intensity.is_finite()
+            || light.intensity < 0.0
+        {
             self.ctx.warn(
                 "invalid light",
                 element,
@@ -687,10 +709,9 @@ impl Builder<'_> {
             Checked::Valid(LightType::Directional) => LightKind::Directional,
             Checked::Valid(LightType::Spot) => {
                 // The specification's defaults, should a spot light lack its parameters.
-                let (inner, outer) = light
-                    .spot
-                    .as_ref()
-                    .map_or((0.0, FRAC_PI_4), |s| (s.inner_cone_angle, s.outer_cone_angle));
+                let (inner, outer) = light.spot.as_ref().map_or((0.0, FRAC_PI_4), |s| {
+                    (s.inner_cone_angle, s.outer_cone_angle)
+                });
                 if !(0.0 <= inner && inner < outer && outer <= FRAC_PI_2) {
                     self.ctx.warn(
                         "invalid spot cone",
@@ -728,14 +749,15 @@ impl Builder<'_> {
             );
         }
         self.lights.push(Light {
-            name: light
-                .name
-                .clone()
-                .unwrap_or_else(|| node_name.to_owned()),
+            name: light.name.clone().unwrap_or_else(|| node_name.to_owned()),
             kind,
             intensity: color * (light.intensity / LUMENS_PER_WATT),
             position: world.w_axis.truncate(),
-            direction: if direction == Vec3::ZERO { Vec3::NEG_Z } else { direction },
+            direction: if direction == Vec3::ZERO {
+                Vec3::NEG_Z
+            } else {
+                direction
+            },
             range,
         });
         Ok(())
@@ -743,11 +765,10 @@ impl Builder<'_> {
 
     fn camera(&mut self, index: usize, node: &str, node_name: &str, world: Mat4) -> Result<()> {
         let doc = self.doc;
-        let camera = doc
-            .root
-            .cameras
-            .get(index)
-            .ok_or_else(|| self.ctx.error(node, format!("cameras[{index}] does not exist")))?;
+        let camera = doc.root.cameras.get(index).ok_or_else(|| {
+            self.ctx
+                .error(node, format!("cameras[{index}] does not exist"))
+        })?;
         let element = label("cameras", index, camera.name.as_deref());
         let p = match (camera.type_, &camera.perspective) {
             (Checked::Valid(CameraType::Perspective), Some(p)) => p,
@@ -793,10 +814,7 @@ impl Builder<'_> {
             return Ok(());
         }
         self.cameras.push(Camera {
-            name: camera
-                .name
-                .clone()
-                .unwrap_or_else(|| node_name.to_owned()),
+            name: camera.name.clone().unwrap_or_else(|| node_name.to_owned()),
             yfov: p.yfov,
             aspect_ratio: p.aspect_ratio,
             znear: p.znear,

@@ -53,6 +53,7 @@ pub mod bvh;
 mod document;
 mod geometry;
 mod loader;
+pub mod upload;
 
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use std::fmt;
@@ -141,7 +142,7 @@ fn world_triangle(inst: &Instance, mesh: &Mesh, instance: u32, primitive: u32) -
 ///
 /// Every vertex is used by some triangle, and every triangle has a non-zero area and finite
 /// vertices.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
     /// The glTF mesh's name, or `meshes[i]`.
     pub name: String,
@@ -170,7 +171,7 @@ impl Mesh {
 }
 
 /// A mesh placed in the world by a glTF node.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Instance {
     /// The node's name, or `nodes[i]`.
     pub name: String,

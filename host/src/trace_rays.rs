@@ -1,0 +1,93 @@
+//! Host side of the `trace_rays` kernel: closest hits of a batch of rays, in either tracing
+//! variant. Used to check the variants against each other and against the CPU, and to measure
+//! their speed.
+
+use crate::error::Result;
+use crate::scene::upload::SceneGeometry;
+use crate::vulkan::{
+    BindingKind, Buffer, Context, GpuTimer, Kernel, KernelModule, Resource, compute_barrier,
+};
+use gi_shared::abi::WORKGROUP_SIZE;
+use gi_shared::ray::{HitRecord, Ray};
+
+/// The `trace_rays::trace_rays` pipeline.
+pub struct TraceRays {
+    kernel: Kernel,
+}
+
+/// Hits of one batch and the GPU time the dispatch took (when the device has timestamps).
+pub struct TraceResult {
+    /// `hits[i]` is the closest hit of ray `i`.
+    pub hits: Vec<HitRecord>,
+    /// Milliseconds of GPU time.
+    pub gpu_ms: Option<f64>,
+}
+
+impl TraceRays {
+    /// Creates the pipeline for the geometry's binding layout.
+    pub fn new(ctx: &Context, geometry: &SceneGeometry) -> Result<Self> {
+        let module = KernelModule::new(ctx)?;
+        let mut bindings = geometry.binding_kinds();
+        bindings.extend([BindingKind::StorageBuffer; 2]);
+        let kernel = Kernel::new(ctx, &module, "trace_rays::trace_rays", &bindings, 0);
+        module.destroy(ctx);
+        Ok(Self { kernel: kernel? })
+    }
+
+    /// Traces `rays` against `geometry`.
+    pub fn run(
+        &self,
+        ctx: &Context,
+        geometry: &SceneGeometry,
+        rays: &[Ray],
+    ) -> Result<TraceResult> {
+        let ray_buf = Buffer::from_slice(ctx, "rays", rays, Default::default())?;
+        let hit_buf = Buffer::zeroed::<HitRecord>(ctx, "hits", rays.len());
+        let mut hit_buf = match hit_buf {
+            Ok(b) => b,
+            Err(e) => {
+                ray_buf.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let mut timer = GpuTimer::new(ctx, 1).ok();
+        let mut resources = geometry.resources();
+        resources.extend([Resource::Buffer(&ray_buf), Resource::Buffer(&hit_buf)]);
+        let groups = (rays.len() as u32).div_ceil(WORKGROUP_SIZE);
+        let submitted = ctx.submit(|cmd| -> Result<()> {
+            if let Some(t) = timer.as_mut() {
+                t.reset(ctx, cmd);
+                t.begin(ctx, cmd, "trace_rays")?;
+            }
+            self.kernel
+                .dispatch(ctx, cmd, &resources, &[], [groups, 1, 1])?;
+            if let Some(t) = timer.as_ref() {
+                t.end(ctx, cmd);
+            }
+            compute_barrier(ctx, cmd);
+            Ok(())
+        });
+        drop(resources);
+        let hits = submitted
+            .and_then(|r| r)
+            .and_then(|()| hit_buf.read::<HitRecord>());
+        let gpu_ms = timer
+            .as_ref()
+            .and_then(|t| t.results(ctx).ok())
+            .and_then(|r| r.first().map(|(_, ms)| *ms));
+        if let Some(t) = timer {
+            t.destroy(ctx);
+        }
+        ray_buf.destroy(ctx);
+        hit_buf.destroy(ctx);
+        Ok(TraceResult {
+            hits: hits?,
+            gpu_ms,
+        })
+    }
+
+    /// Frees the pipeline.
+    pub fn destroy(self, ctx: &Context) {
+        self.kernel.destroy(ctx);
+    }
+}
