@@ -78,6 +78,14 @@ pub enum Error {
         /// What is wrong with it.
         why: String,
     },
+    /// An image file that cannot be read or written: the file and why.
+    #[error("{}: {why}", path.display())]
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// What went wrong with it.
+        why: String,
+    },
 }
 
 /// Result with the host's [`Error`].

@@ -6,7 +6,10 @@
 //! `gi-shared`.
 
 pub mod error;
+pub mod gbuffer;
+pub mod image_io;
 pub mod kernels;
+pub mod metrics;
 pub mod scene;
 pub mod smoke;
 pub mod trace_rays;

@@ -2,7 +2,7 @@
 //! read-back) on a device by hashing indices on the GPU and comparing with the CPU.
 
 use crate::error::{Error, Result};
-use crate::vulkan::{BindingKind, Buffer, Context, GpuTimer, Kernel, KernelModule, Resource};
+use crate::vulkan::{BindingKind, Buffer, Context, Kernel, KernelModule, Resource, submit_timed};
 use gi_shared::abi::WORKGROUP_SIZE;
 
 /// What a smoke dispatch did.
@@ -35,36 +35,19 @@ pub fn run(ctx: &Context, invocations: u32) -> Result<SmokeReport> {
     module.destroy(ctx);
     let kernel = kernel?;
     let mut out = Buffer::zeroed::<u32>(ctx, "smoke output", invocations as usize)?;
-    let mut timer = GpuTimer::new(ctx, 1).ok();
-    let recorded = ctx.submit(|cmd| -> Result<()> {
-        if let Some(t) = timer.as_mut() {
-            t.reset(ctx, cmd);
-            t.begin(ctx, cmd, "smoke")?;
-        }
+    let dispatched = submit_timed(ctx, "smoke", |cmd| {
         kernel.dispatch(
             ctx,
             cmd,
             &[Resource::Buffer(&out)],
             &[],
             [invocations.div_ceil(WORKGROUP_SIZE), 1, 1],
-        )?;
-        if let Some(t) = timer.as_ref() {
-            t.end(ctx, cmd);
-        }
-        crate::vulkan::compute_barrier(ctx, cmd);
-        Ok(())
+        )
     });
-    let result = recorded.and_then(|r| r).and_then(|()| out.read::<u32>());
-    let gpu_ms = timer
-        .as_ref()
-        .and_then(|t| t.results(ctx).ok())
-        .and_then(|r| r.first().map(|(_, ms)| *ms));
-    if let Some(t) = timer {
-        t.destroy(ctx);
-    }
+    let result = dispatched.and_then(|ms| Ok((ms, out.read::<u32>()?)));
     out.destroy(ctx);
     kernel.destroy(ctx);
-    let values = result?;
+    let (gpu_ms, values) = result?;
     let mismatches = values
         .iter()
         .enumerate()

@@ -4,9 +4,7 @@
 
 use crate::error::Result;
 use crate::scene::upload::SceneGeometry;
-use crate::vulkan::{
-    BindingKind, Buffer, Context, GpuTimer, Kernel, KernelModule, Resource, compute_barrier,
-};
+use crate::vulkan::{BindingKind, Buffer, Context, Kernel, KernelModule, Resource, submit_timed};
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::ray::{HitRecord, Ray};
 
@@ -50,40 +48,19 @@ impl TraceRays {
                 return Err(e);
             }
         };
-        let mut timer = GpuTimer::new(ctx, 1).ok();
         let mut resources = geometry.resources();
         resources.extend([Resource::Buffer(&ray_buf), Resource::Buffer(&hit_buf)]);
         let groups = (rays.len() as u32).div_ceil(WORKGROUP_SIZE);
-        let submitted = ctx.submit(|cmd| -> Result<()> {
-            if let Some(t) = timer.as_mut() {
-                t.reset(ctx, cmd);
-                t.begin(ctx, cmd, "trace_rays")?;
-            }
+        let dispatched = submit_timed(ctx, "trace_rays", |cmd| {
             self.kernel
-                .dispatch(ctx, cmd, &resources, &[], [groups, 1, 1])?;
-            if let Some(t) = timer.as_ref() {
-                t.end(ctx, cmd);
-            }
-            compute_barrier(ctx, cmd);
-            Ok(())
+                .dispatch(ctx, cmd, &resources, &[], [groups, 1, 1])
         });
         drop(resources);
-        let hits = submitted
-            .and_then(|r| r)
-            .and_then(|()| hit_buf.read::<HitRecord>());
-        let gpu_ms = timer
-            .as_ref()
-            .and_then(|t| t.results(ctx).ok())
-            .and_then(|r| r.first().map(|(_, ms)| *ms));
-        if let Some(t) = timer {
-            t.destroy(ctx);
-        }
+        let result = dispatched.and_then(|ms| Ok((ms, hit_buf.read::<HitRecord>()?)));
         ray_buf.destroy(ctx);
         hit_buf.destroy(ctx);
-        Ok(TraceResult {
-            hits: hits?,
-            gpu_ms,
-        })
+        let (gpu_ms, hits) = result?;
+        Ok(TraceResult { hits, gpu_ms })
     }
 
     /// Frees the pipeline.

@@ -67,3 +67,43 @@ fn help_explains_the_options() {
         assert!(text.contains(option), "--help lacks {option}:\n{text}");
     }
 }
+
+#[test]
+fn compare_reports_metrics_and_writes_a_heat_map() {
+    use gi_host::image_io::HdrImage;
+    let dir = std::env::temp_dir().join(format!("gi-cli-compare-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (a, b, heat) = (dir.join("a.exr"), dir.join("b.exr"), dir.join("heat.png"));
+    let reference = HdrImage::from_pixels(4, 2, vec![[0.5; 3]; 8]).unwrap();
+    let mut test = reference.clone();
+    test.pixels_mut()[3] = [1.0, 0.0, 0.0];
+    reference.write_exr(&a).unwrap();
+    test.write_exr(&b).unwrap();
+    let out = gi(
+        &[
+            "compare",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--heat-map",
+            heat.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("RMSE") && text.contains("FLIP"), "{text}");
+    assert!(image::open(&heat).is_ok_and(|i| i.width() == 4 && i.height() == 2));
+
+    let missing = dir.join("missing.exr");
+    let out = gi(
+        &["compare", a.to_str().unwrap(), missing.to_str().unwrap()],
+        &[],
+    );
+    let err = single_error_line(&out);
+    assert!(err.contains("missing.exr"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -10,10 +10,12 @@
 )]
 
 mod difftest;
+mod gbuffer;
 mod smoke;
 pub mod trace;
 mod trace_rays;
 
 pub use difftest::difftest;
+pub use gbuffer::gbuffer;
 pub use smoke::smoke;
 pub use trace_rays::trace_rays;

@@ -276,19 +276,11 @@ fn safe_inverse(d: f32) -> f32 {
     }
 }
 
-/// Whether the ray has no NaN or infinite input and a non-empty interval.
-#[inline]
-fn ray_is_valid(ray: &Ray) -> bool {
-    let o = Vec3::from_array(ray.origin);
-    let d = Vec3::from_array(ray.direction);
-    o.is_finite() && d.is_finite() && !Float::is_nan(ray.t_max) && ray.t_min <= ray.t_max
-}
-
 /// Walks the BVH; with `any` set, stops at the first hit in `[t_min, t_max]`.
 #[inline]
 fn traverse(nodes: &[BvhNode], tris: &[BvhTriangle], ray: &Ray, any: bool) -> HitRecord {
     let mut best = HitRecord::miss();
-    if nodes.is_empty() || !ray_is_valid(ray) {
+    if nodes.is_empty() || !ray.is_traceable() {
         return best;
     }
     let origin = Vec3::from_array(ray.origin);
@@ -377,7 +369,7 @@ fn traverse(nodes: &[BvhNode], tris: &[BvhTriangle], ray: &Ray, any: bool) -> Hi
 
 /// The closest hit of `ray` among `tris` through the BVH `nodes`, or [`HitRecord::miss`].
 ///
-/// A ray with a NaN or infinite origin or direction, a NaN `t_max` or `t_min > t_max` misses,
+/// A ray that is not [`Ray::is_traceable`] misses (as it must with ray queries too),
 /// as does every ray on an empty BVH. See the module documentation for ties.
 pub fn closest_hit(nodes: &[BvhNode], tris: &[BvhTriangle], ray: &Ray) -> HitRecord {
     traverse(nodes, tris, ray, false)
@@ -392,7 +384,7 @@ pub fn any_hit(nodes: &[BvhNode], tris: &[BvhTriangle], ray: &Ray) -> bool {
 /// the same triangle test, validity rules and tie-break (the first triangle in `tris` wins).
 pub fn closest_hit_brute_force(tris: &[BvhTriangle], ray: &Ray) -> HitRecord {
     let mut best = HitRecord::miss();
-    if !ray_is_valid(ray) {
+    if !ray.is_traceable() {
         return best;
     }
     let origin = Vec3::from_array(ray.origin);

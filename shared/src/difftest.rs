@@ -189,7 +189,7 @@ pub fn evaluate(function: u32, input: [u32; 4]) -> [u32; OUTPUT_WORDS] {
             o[3] = p.x.to_bits();
             o[4] = p.y.to_bits();
         }
-        6 | 7 | 8 => {
+        6..=8 => {
             let dir = direction(input);
             let (e, back) = match function {
                 6 => {

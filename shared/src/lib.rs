@@ -8,8 +8,10 @@
 
 pub mod abi;
 pub mod bvh;
+pub mod camera;
 pub mod color;
 pub mod difftest;
+pub mod gbuffer;
 pub mod hash;
 pub mod hash_cells;
 pub mod layout;
@@ -20,4 +22,5 @@ pub mod random;
 pub mod ray;
 pub mod reservoir;
 pub mod sampling;
+pub mod scene_data;
 pub mod sh;

@@ -24,15 +24,20 @@ fn smoke_dispatch_matches_cpu_in_both_variants() {
 fn both_variants_declare_their_entry_points() {
     let sw = KernelVariant::Software.entry_points();
     let rq = KernelVariant::RayQuery.entry_points();
-    assert!(sw.iter().any(|e| e == "smoke::smoke"), "{sw:?}");
-    assert!(
-        !sw.iter().any(|e| e == "ray_query_probe::ray_query_probe"),
-        "{sw:?}"
-    );
-    assert!(
-        rq.iter().any(|e| e == "ray_query_probe::ray_query_probe"),
-        "{rq:?}"
-    );
+    for entries in [&sw, &rq] {
+        for name in [
+            "smoke::smoke",
+            "difftest::difftest",
+            "trace_rays::trace_rays",
+            "gbuffer::gbuffer",
+        ] {
+            assert!(
+                entries.iter().any(|e| e == name),
+                "{name} missing: {entries:?}"
+            );
+        }
+    }
+    assert_eq!(sw.len(), rq.len(), "the variants differ in entry points");
 }
 
 #[test]

@@ -78,15 +78,12 @@ impl Aabb {
         max: [f32::NEG_INFINITY; 3],
     };
 
-    /// `f32::min`/`max` return the other operand for NaN, so NaN coordinates are skipped.
     #[inline]
     fn grow_point(&mut self, p: [f32; 3]) {
-        for a in 0..3 {
-            self.min[a] = self.min[a].min(p[a]);
-            self.max[a] = self.max[a].max(p[a]);
-        }
+        self.grow(&Aabb { min: p, max: p });
     }
 
+    /// `f32::min`/`max` return the other operand for NaN, so NaN coordinates are skipped.
     #[inline]
     fn grow(&mut self, b: &Aabb) {
         for a in 0..3 {
@@ -431,13 +428,11 @@ fn median_split(items: &[Item], range: &mut [u32], centroids: &Aabb) {
             axis = a;
         }
     }
-    if !(extent[axis] > 0.0) {
-        return;
+    if extent[axis] > 0.0 {
+        range.select_nth_unstable_by(range.len() / 2, |&a, &b| {
+            items[a as usize].centroid[axis].total_cmp(&items[b as usize].centroid[axis])
+        });
     }
-    let mid = range.len() / 2;
-    range.select_nth_unstable_by(mid, |&a, &b| {
-        items[a as usize].centroid[axis].total_cmp(&items[b as usize].centroid[axis])
-    });
 }
 
 #[cfg(test)]
@@ -503,7 +498,7 @@ mod tests {
     fn random_ray(rng: &mut Rng, scene: &[[[f32; 3]; 3]]) -> Ray {
         let origin = rng.vec(-15.0, 15.0);
         let jitter = rng.vec(-0.3, 0.3);
-        let target = if scene.is_empty() || rng.next_u64() % 4 == 0 {
+        let target = if scene.is_empty() || rng.next_u64().is_multiple_of(4) {
             rng.vec(-8.0, 8.0)
         } else {
             let t = scene[(rng.next_u64() % scene.len() as u64) as usize];
@@ -514,7 +509,7 @@ mod tests {
             origin,
             t_min: 0.0,
             direction: [0, 1, 2].map(|a| (target[a] - origin[a]) * len),
-            t_max: if rng.next_u64() % 2 == 0 {
+            t_max: if rng.next_u64().is_multiple_of(2) {
                 f32::INFINITY
             } else {
                 rng.range(0.0, 1.5) / len

@@ -21,9 +21,9 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
 ];
 
-/// Largest accessor the loader reads, in bytes of decoded values: bounds what an accessor without a
-/// buffer view (all zeros, or sparse) can make it allocate.
-const MAX_ACCESSOR_BYTES: u64 = 1 << 30;
+/// Largest accessor the loader reads, in bytes as stored: bounds what an accessor without a buffer
+/// view (all zeros, or sparse), whose size no data limits, can make it allocate.
+const MAX_ACCESSOR_BYTES: u64 = 1 << 28;
 
 /// The file being loaded, and what the loader has to say about it.
 pub(super) struct Ctx {
@@ -156,6 +156,10 @@ impl Document {
         } else {
             (bytes, None)
         };
+        // The specification lets readers skip a UTF-8 byte order mark; serde does not.
+        let json_bytes = json_bytes
+            .strip_prefix(b"\xEF\xBB\xBF")
+            .unwrap_or(json_bytes);
         let root = json::Root::from_slice(json_bytes)
             .map_err(|e| ctx.error("JSON", format!("malformed glTF JSON: {e}")))?;
         for (i, ext) in root.extensions_required.iter().enumerate() {
@@ -223,13 +227,23 @@ impl Document {
     /// [-1, 1] as `KHR_mesh_quantization` allows); `usage` names what reads it, for errors.
     pub fn read_vec3(&self, ctx: &Ctx, index: usize, usage: &str) -> Result<Vec<Vec3>> {
         let values = self.read::<f32>(ctx, index, usage, Type::Vec3, component_f32)?;
-        Ok(values.chunks_exact(3).map(Vec3::from_slice).collect())
+        Ok(values
+            .as_chunks::<3>()
+            .0
+            .iter()
+            .map(|&v| Vec3::from_array(v))
+            .collect())
     }
 
     /// Accessor `index` as `VEC2` floats, like [`Document::read_vec3`].
     pub fn read_vec2(&self, ctx: &Ctx, index: usize, usage: &str) -> Result<Vec<Vec2>> {
         let values = self.read::<f32>(ctx, index, usage, Type::Vec2, component_f32)?;
-        Ok(values.chunks_exact(2).map(Vec2::from_slice).collect())
+        Ok(values
+            .as_chunks::<2>()
+            .0
+            .iter()
+            .map(|&v| Vec2::from_array(v))
+            .collect())
     }
 
     /// Accessor `index` as vertex indices: `SCALAR` of unsigned bytes, shorts or ints.
@@ -290,8 +304,7 @@ impl Document {
         let count = count as usize;
         let normalized = accessor.normalized;
         let zero = [0u8; 4];
-        let mut out = Vec::with_capacity(count * components);
-        match accessor.buffer_view {
+        let mut out = match accessor.buffer_view {
             Some(view_index) => {
                 let bytes = self.view(ctx, view_index.value())?;
                 let stride = self.root.buffer_views[view_index.value()]
@@ -315,6 +328,7 @@ impl Document {
                         ));
                     }
                 }
+                let mut out = Vec::with_capacity(count * components);
                 for i in 0..count {
                     let base = offset + i * stride;
                     for c in 0..components {
@@ -322,12 +336,10 @@ impl Document {
                         out.push(convert(component, normalized, &bytes[at..at + size]));
                     }
                 }
+                out
             }
-            None => out.resize(
-                count * components,
-                convert(component, normalized, &zero[..size]),
-            ),
-        }
+            None => vec![convert(component, normalized, &zero[..size]); count * components],
+        };
         if let Some(sparse) = &accessor.sparse {
             let n = sparse.count.0 as usize;
             let sparse_element = format!("{element}.sparse");
@@ -469,6 +481,20 @@ fn split_glb(bytes: &[u8]) -> std::result::Result<(&[u8], Option<&[u8]>), String
 /// missing `min`/`max` bounds (unused here: a warning) and unsupported extensions (checked before,
 /// against [`SUPPORTED_EXTENSIONS`]).
 fn validate(ctx: &mut Ctx, root: &json::Root) -> Result<()> {
+    // The crate's validation indexes the POSITION accessor without a bounds check: check first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = Checked::Valid(json::mesh::Semantic::Positions);
+            if let Some(accessor) = primitive.attributes.get(&position)
+                && accessor.value() >= root.accessors.len()
+            {
+                return Err(ctx.error(
+                    format!("meshes[{m}].primitives[{p}].attributes[\"POSITION\"]"),
+                    "refers to an element that does not exist",
+                ));
+            }
+        }
+    }
     let mut errors = Vec::new();
     root.validate(root, json::Path::new, &mut |path, error| {
         errors.push((path().to_string(), error))

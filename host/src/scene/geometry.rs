@@ -41,9 +41,8 @@ pub(super) struct Repairs {
 pub(super) fn triangulate(mode: Mode, indices: &[u32]) -> (Vec<[u32; 3]>, usize) {
     match mode {
         Mode::Triangles => {
-            let chunks = indices.chunks_exact(3);
-            let rest = chunks.remainder().len();
-            (chunks.map(|t| [t[0], t[1], t[2]]).collect(), rest)
+            let (triangles, rest) = indices.as_chunks::<3>();
+            (triangles.to_vec(), rest.len())
         }
         Mode::TriangleStrip => (
             indices

@@ -52,6 +52,7 @@
 pub mod bvh;
 mod document;
 mod geometry;
+pub mod gpu_data;
 mod loader;
 pub mod upload;
 
@@ -442,7 +443,7 @@ impl fmt::Display for Warning {
             self.message
         )?;
         if self.count > 1 {
-            write!(f, " ({} in all; the first is named)", self.count)?;
+            write!(f, " ({} in all, the first at this element)", self.count)?;
         }
         Ok(())
     }

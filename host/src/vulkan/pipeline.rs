@@ -2,6 +2,7 @@
 //! descriptor set has to outlive its dispatch.
 
 use super::context::Context;
+use super::image::Image;
 use super::memory::Buffer;
 use crate::error::{Error, Result, VkContext};
 use crate::kernels::KernelVariant;
@@ -15,6 +16,8 @@ pub enum BindingKind {
     StorageBuffer,
     /// A top-level acceleration structure (ray-query variant only).
     AccelerationStructure,
+    /// A storage image in the `GENERAL` layout (`Image!(2D, format = ..., sampled = false)`).
+    StorageImage,
 }
 
 /// A resource bound at dispatch time, matching a [`BindingKind`].
@@ -24,6 +27,8 @@ pub enum Resource<'a> {
     Buffer(&'a Buffer),
     /// An acceleration structure handle.
     AccelerationStructure(vk::AccelerationStructureKHR),
+    /// A whole storage image.
+    Image(&'a Image),
 }
 
 /// The shader module of the context's kernel variant.
@@ -192,14 +197,25 @@ impl Kernel {
                 Resource::Buffer(b) => [vk::DescriptorBufferInfo::default()
                     .buffer(b.handle)
                     .range(vk::WHOLE_SIZE)],
-                Resource::AccelerationStructure(_) => [vk::DescriptorBufferInfo::default()],
+                Resource::AccelerationStructure(_) | Resource::Image(_) => {
+                    [vk::DescriptorBufferInfo::default()]
+                }
+            })
+            .collect();
+        let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = resources
+            .iter()
+            .map(|r| match r {
+                Resource::Image(image) => [image.descriptor()],
+                Resource::Buffer(_) | Resource::AccelerationStructure(_) => {
+                    [vk::DescriptorImageInfo::default()]
+                }
             })
             .collect();
         let accels: Vec<[vk::AccelerationStructureKHR; 1]> = resources
             .iter()
             .map(|r| match r {
                 Resource::AccelerationStructure(a) => [*a],
-                Resource::Buffer(_) => [vk::AccelerationStructureKHR::null()],
+                Resource::Buffer(_) | Resource::Image(_) => [vk::AccelerationStructureKHR::null()],
             })
             .collect();
         let mut accel_writes: Vec<vk::WriteDescriptorSetAccelerationStructureKHR<'_>> = accels
@@ -223,6 +239,7 @@ impl Kernel {
                 (BindingKind::StorageBuffer, Resource::Buffer(_)) => {
                     w.buffer_info(&buffer_infos[i])
                 }
+                (BindingKind::StorageImage, Resource::Image(_)) => w.image_info(&image_infos[i]),
                 (BindingKind::AccelerationStructure, Resource::AccelerationStructure(_)) => {
                     let mut w = w.push_next(accel_write);
                     w.descriptor_count = 1;
@@ -298,5 +315,6 @@ fn descriptor_type(kind: BindingKind) -> vk::DescriptorType {
     match kind {
         BindingKind::StorageBuffer => vk::DescriptorType::STORAGE_BUFFER,
         BindingKind::AccelerationStructure => vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+        BindingKind::StorageImage => vk::DescriptorType::STORAGE_IMAGE,
     }
 }

@@ -110,3 +110,33 @@ impl GpuTimer {
         unsafe { ctx.device.destroy_query_pool(self.pool, None) };
     }
 }
+
+/// Submits the commands `record` writes, followed by [`super::compute_barrier`], and waits.
+/// Returns their GPU time in milliseconds when the device has compute timestamps.
+pub fn submit_timed(
+    ctx: &Context,
+    label: &str,
+    record: impl FnOnce(vk::CommandBuffer) -> Result<()>,
+) -> Result<Option<f64>> {
+    let mut timer = GpuTimer::new(ctx, 1).ok();
+    let submitted = ctx.submit(|cmd| -> Result<()> {
+        if let Some(t) = timer.as_mut() {
+            t.reset(ctx, cmd);
+            t.begin(ctx, cmd, label)?;
+        }
+        record(cmd)?;
+        if let Some(t) = timer.as_ref() {
+            t.end(ctx, cmd);
+        }
+        super::compute_barrier(ctx, cmd);
+        Ok(())
+    });
+    let ms = match (&submitted, &timer) {
+        (Ok(Ok(())), Some(t)) => t.results(ctx)?.first().map(|(_, ms)| *ms),
+        _ => None,
+    };
+    if let Some(t) = timer {
+        t.destroy(ctx);
+    }
+    submitted.and_then(|r| r).map(|()| ms)
+}

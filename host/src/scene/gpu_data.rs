@@ -1,0 +1,346 @@
+//! The scene's shading data in the layouts of `gi_shared::scene_data`: built on the CPU
+//! ([`ShadingData`], which the CPU reference of the kernels reads too) and uploaded to storage
+//! buffers ([`GpuShadingData`]).
+//!
+//! Only what the scene has is stored: without textures there is no texture table and no texel
+//! buffer (the kernels' bindings then get a 16-byte placeholder, since a Vulkan buffer cannot be
+//! empty). Every buffer must fit one storage binding ([`MAX_STORAGE_BUFFER_BYTES`]); a scene that
+//! does not is an error naming the scene and the buffer.
+
+use super::{Scene, Wrap};
+use crate::error::{Error, Result};
+use crate::vulkan::{BindingKind, Buffer, Context, Resource};
+use ash::vk;
+use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
+use gi_shared::scene_data::{
+    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, NONE,
+    WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT,
+};
+
+/// The scene's shading data on the CPU, in GPU layouts.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShadingData {
+    /// One per `Scene::instances`.
+    pub instances: Vec<GpuInstance>,
+    /// One per `Scene::meshes`.
+    pub meshes: Vec<GpuMesh>,
+    /// Every mesh's vertices, concatenated.
+    pub vertices: Vec<GpuVertex>,
+    /// Every mesh's triangles, concatenated.
+    pub triangles: Vec<GpuTriangle>,
+    /// One per `Scene::materials`.
+    pub materials: Vec<GpuMaterial>,
+    /// The texture table, one per `Scene::textures`; empty without textures.
+    pub textures: Vec<GpuTexture>,
+    /// Every texture's RGBA8 texels (red in the low byte), concatenated; empty without textures.
+    pub texels: Vec<u32>,
+}
+
+fn wrap_code(w: Wrap) -> u32 {
+    match w {
+        Wrap::Repeat => WRAP_REPEAT,
+        Wrap::MirroredRepeat => WRAP_MIRRORED_REPEAT,
+        Wrap::ClampToEdge => WRAP_CLAMP_TO_EDGE,
+    }
+}
+
+fn u32_index(scene: &Scene, what: &str, n: usize) -> Result<u32> {
+    u32::try_from(n).map_err(|_| too_big(scene, what, n as u64 * 4))
+}
+
+fn too_big(scene: &Scene, buffer: &str, bytes: u64) -> Error {
+    Error::Scene {
+        file: scene.source.clone(),
+        element: format!("shading data buffer {buffer:?}"),
+        why: format!(
+            "{bytes} bytes exceed the {} MiB a storage buffer binding may hold on every device",
+            MAX_STORAGE_BUFFER_BYTES >> 20
+        ),
+    }
+}
+
+fn check_size<T>(scene: &Scene, buffer: &str, data: &[T]) -> Result<()> {
+    let bytes = std::mem::size_of_val(data) as u64;
+    if bytes > MAX_STORAGE_BUFFER_BYTES as u64 {
+        return Err(too_big(scene, buffer, bytes));
+    }
+    Ok(())
+}
+
+impl ShadingData {
+    /// Lays out `scene`'s shading data. Errors when a buffer would exceed
+    /// [`MAX_STORAGE_BUFFER_BYTES`], naming the scene and the buffer.
+    pub fn new(scene: &Scene) -> Result<Self> {
+        let mut data = Self::default();
+        for mesh in &scene.meshes {
+            let first_vertex = u32_index(scene, "vertices", data.vertices.len())?;
+            let first_triangle = u32_index(scene, "triangles", data.triangles.len())?;
+            data.meshes.push(GpuMesh {
+                first_triangle,
+                triangle_count: u32_index(scene, "triangles", mesh.triangles.len())?,
+                first_vertex,
+                vertex_count: u32_index(scene, "vertices", mesh.positions.len())?,
+                has_uvs: u32::from(mesh.uvs.is_some()),
+                _pad: [0; 3],
+            });
+            for (i, (p, n)) in mesh.positions.iter().zip(&mesh.normals).enumerate() {
+                let uv = mesh
+                    .uvs
+                    .as_ref()
+                    .and_then(|uvs| uvs.get(i).copied())
+                    .unwrap_or_default();
+                data.vertices.push(GpuVertex {
+                    position: p.to_array(),
+                    u: uv.x,
+                    normal: n.to_array(),
+                    v: uv.y,
+                });
+            }
+            data.triangles
+                .extend(
+                    mesh.triangles
+                        .iter()
+                        .zip(&mesh.materials)
+                        .map(|(t, m)| GpuTriangle {
+                            indices: *t,
+                            material: *m,
+                        }),
+                );
+        }
+        data.instances = scene
+            .instances
+            .iter()
+            .map(|inst| {
+                let n = inst.normal_matrix().transpose().to_cols_array_2d();
+                GpuInstance {
+                    object_to_world: inst.transform_3x4(),
+                    normal_to_world: n.map(|r| [r[0], r[1], r[2], 0.0]),
+                    mesh: inst.mesh,
+                    winding: if inst.is_mirrored() { -1.0 } else { 1.0 },
+                    _pad: [0; 2],
+                }
+            })
+            .collect();
+        data.materials = scene
+            .materials
+            .iter()
+            .map(|m| GpuMaterial {
+                base_color: m.base_color.to_array(),
+                emissive: m.emissive.to_array(),
+                base_color_texture: m.base_color_texture.unwrap_or(NONE),
+                emissive_texture: m.emissive_texture.unwrap_or(NONE),
+                metallic: m.metallic,
+                roughness: m.roughness,
+                double_sided: u32::from(m.double_sided),
+            })
+            .collect();
+        for t in &scene.textures {
+            data.textures.push(GpuTexture {
+                offset: u32_index(scene, "texels", data.texels.len())?,
+                width: t.width,
+                height: t.height,
+                srgb: u32::from(t.srgb),
+                wrap_u: wrap_code(t.wrap[0]),
+                wrap_v: wrap_code(t.wrap[1]),
+                _pad: [0; 2],
+            });
+            let texel_count = t.width as usize * t.height as usize;
+            let start = data.texels.len();
+            data.texels.extend(
+                t.rgba8
+                    .as_chunks::<4>()
+                    .0
+                    .iter()
+                    .take(texel_count)
+                    .map(|c| u32::from_le_bytes(*c)),
+            );
+            // A short pixel array (the loader never makes one) still gets its full size, white.
+            data.texels.resize(start + texel_count, u32::MAX);
+            check_size(scene, "texels", &data.texels)?;
+        }
+        check_size(scene, "instances", &data.instances)?;
+        check_size(scene, "meshes", &data.meshes)?;
+        check_size(scene, "vertices", &data.vertices)?;
+        check_size(scene, "triangles", &data.triangles)?;
+        check_size(scene, "materials", &data.materials)?;
+        check_size(scene, "textures", &data.textures)?;
+        Ok(data)
+    }
+}
+
+/// Names of the shading data's buffers, in binding order.
+pub const BUFFER_NAMES: [&str; 7] = [
+    "instances",
+    "meshes",
+    "vertices",
+    "triangles",
+    "materials",
+    "textures",
+    "texels",
+];
+
+/// The shading data in storage buffers, bound as seven consecutive bindings in the order of
+/// [`BUFFER_NAMES`].
+pub struct GpuShadingData {
+    /// One per name of [`BUFFER_NAMES`]; `None` for a kind the scene does not have (the texture
+    /// table and texels of a scene without textures).
+    buffers: [Option<Buffer>; 7],
+    /// 16 zero bytes, bound in place of absent kinds: too short for one record of any kind but
+    /// triangles and texels, so the kernels' bounds checks see an empty array. `None` when every
+    /// kind is present.
+    placeholder: Option<Buffer>,
+}
+
+impl GpuShadingData {
+    /// Uploads `data` to host-visible storage buffers.
+    pub fn new(ctx: &Context, data: &ShadingData) -> Result<Self> {
+        let contents: [&[u8]; 7] = [
+            bytemuck::cast_slice(&data.instances),
+            bytemuck::cast_slice(&data.meshes),
+            bytemuck::cast_slice(&data.vertices),
+            bytemuck::cast_slice(&data.triangles),
+            bytemuck::cast_slice(&data.materials),
+            bytemuck::cast_slice(&data.textures),
+            bytemuck::cast_slice(&data.texels),
+        ];
+        let mut uploaded = Self {
+            buffers: Default::default(),
+            placeholder: None,
+        };
+        for (slot, (name, bytes)) in uploaded
+            .buffers
+            .iter_mut()
+            .zip(BUFFER_NAMES.into_iter().zip(contents))
+        {
+            if bytes.is_empty() {
+                continue;
+            }
+            match Buffer::from_slice(ctx, name, bytes, vk::BufferUsageFlags::empty()) {
+                Ok(b) => *slot = Some(b),
+                Err(e) => {
+                    uploaded.destroy(ctx);
+                    return Err(e);
+                }
+            }
+        }
+        if uploaded.buffers.iter().any(Option::is_none) {
+            match Buffer::zeroed::<[u32; 4]>(ctx, "shading data placeholder", 1) {
+                Ok(b) => uploaded.placeholder = Some(b),
+                Err(e) => {
+                    uploaded.destroy(ctx);
+                    return Err(e);
+                }
+            }
+        }
+        Ok(uploaded)
+    }
+
+    /// The binding kinds of the shading data: seven storage buffers.
+    pub fn binding_kinds() -> [BindingKind; 7] {
+        [BindingKind::StorageBuffer; 7]
+    }
+
+    /// The resources for [`GpuShadingData::binding_kinds`], the placeholder in place of absent
+    /// kinds.
+    pub fn resources(&self) -> Vec<Resource<'_>> {
+        self.buffers
+            .iter()
+            .filter_map(|b| b.as_ref().or(self.placeholder.as_ref()))
+            .map(Resource::Buffer)
+            .collect()
+    }
+
+    /// Whether the device holds buffer `name` of [`BUFFER_NAMES`] (false for the texture table and
+    /// texels of a scene without textures).
+    pub fn has_buffer(&self, name: &str) -> bool {
+        BUFFER_NAMES
+            .iter()
+            .zip(&self.buffers)
+            .any(|(n, b)| *n == name && b.is_some())
+    }
+
+    /// Frees the buffers.
+    pub fn destroy(self, ctx: &Context) {
+        self.buffers
+            .into_iter()
+            .chain([self.placeholder])
+            .flatten()
+            .for_each(|b| b.destroy(ctx));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn scene(file: &str) -> Scene {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenes")
+            .join(file);
+        Scene::load(path).unwrap().0
+    }
+
+    #[test]
+    fn cornell_box_has_no_texture_data() {
+        let s = scene("cornell-box.gltf");
+        let d = ShadingData::new(&s).unwrap();
+        assert_eq!(d.instances.len(), s.instances.len());
+        assert_eq!(d.meshes.len(), s.meshes.len());
+        assert_eq!(d.materials.len(), s.materials.len());
+        assert_eq!(
+            d.triangles.len(),
+            s.meshes.iter().map(|m| m.triangles.len()).sum::<usize>()
+        );
+        assert!(d.textures.is_empty() && d.texels.is_empty());
+        assert!(d.meshes.iter().all(|m| m.has_uvs == 0));
+        // Runs line up: each mesh's triangles index its own vertices.
+        for m in &d.meshes {
+            let tris = &d.triangles[m.first_triangle as usize..][..m.triangle_count as usize];
+            assert!(
+                tris.iter()
+                    .flat_map(|t| t.indices)
+                    .all(|i| i < m.vertex_count)
+            );
+        }
+    }
+
+    #[test]
+    fn textured_scene_packs_texels_and_the_table() {
+        let s = scene("textured.gltf");
+        let d = ShadingData::new(&s).unwrap();
+        let t = &s.textures[0];
+        assert_eq!(d.textures.len(), 1);
+        assert_eq!(
+            (
+                d.textures[0].width,
+                d.textures[0].height,
+                d.textures[0].srgb
+            ),
+            (t.width, t.height, 1)
+        );
+        assert_eq!(d.textures[0].wrap_u, WRAP_REPEAT);
+        assert_eq!(d.texels.len(), (t.width * t.height) as usize);
+        // Red in the low byte.
+        let first = d.texels[0];
+        assert_eq!(first & 0xff, u32::from(t.rgba8[0]));
+        assert_eq!(first >> 24, u32::from(t.rgba8[3]));
+        assert!(d.meshes.iter().all(|m| m.has_uvs == 1));
+        assert_eq!(d.materials[0].base_color_texture, 0);
+        assert_eq!(d.materials[0].emissive_texture, NONE);
+    }
+
+    #[test]
+    fn a_buffer_over_the_binding_limit_is_an_error_naming_scene_and_buffer() {
+        let mut s = scene("textured.gltf");
+        // 5800² texels of 4 bytes: just over 128 MiB.
+        let side = 5800;
+        s.textures[0].width = side;
+        s.textures[0].height = side;
+        s.textures[0].rgba8 = vec![0; (side * side * 4) as usize];
+        let err = ShadingData::new(&s).unwrap_err().to_string();
+        assert!(err.contains("textured.gltf"), "{err}");
+        assert!(err.contains("\"texels\""), "{err}");
+        assert!(err.contains("128 MiB"), "{err}");
+    }
+}

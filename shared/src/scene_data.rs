@@ -1,0 +1,711 @@
+//! The scene's shading data on the GPU: instances, meshes, vertices, triangles, materials and
+//! textures, with the attribute fetch and texture sampling that the CPU and the kernels share.
+//!
+//! # Buffers
+//!
+//! All `#[repr(C)]` + [`Pod`], only `f32`/`u32`, explicit padding; sizes and offsets are asserted
+//! by the tests below.
+//!
+//! * [`GpuInstance`] (112 bytes), indexed by the hit's instance.
+//! * [`GpuMesh`] (32 bytes), indexed by [`GpuInstance::mesh`].
+//! * [`GpuVertex`] (32 bytes): every mesh's vertices, concatenated, in object space.
+//! * [`GpuTriangle`] (16 bytes): every mesh's triangles, concatenated; a hit's primitive indexes
+//!   its mesh's run.
+//! * [`GpuMaterial`] (48 bytes).
+//! * [`GpuTexture`] (32 bytes), the texture table, and the texels: one `u32` per texel, RGBA8 with
+//!   red in the low byte, all textures concatenated row by row (top row first).
+//!
+//! # Robustness
+//!
+//! Nothing here panics or reads out of bounds: an instance, mesh, vertex, triangle, material or
+//! texel index out of range falls back to a defined value (a zero transform, no vertices, the
+//! default white material, a texture reading as 1), so a malformed upload gives wrong colours,
+//! never a fault.
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec2, Vec3, Vec4};
+use num_traits::Float;
+
+use crate::math::{clamp, floor, floor_to_i32_clamped, max_i32, min_i32};
+
+/// A texture or material index meaning "none".
+pub const NONE: u32 = u32::MAX;
+
+/// [`GpuTexture::wrap_u`]/[`GpuTexture::wrap_v`]: tile.
+pub const WRAP_REPEAT: u32 = 0;
+/// Tile, mirroring every other tile.
+pub const WRAP_MIRRORED_REPEAT: u32 = 1;
+/// Clamp to the edge texels.
+pub const WRAP_CLAMP_TO_EDGE: u32 = 2;
+
+/// One placement of a mesh (112 bytes).
+///
+/// | offset | field             |
+/// |--------|-------------------|
+/// | 0      | `object_to_world` |
+/// | 48     | `normal_to_world` |
+/// | 96     | `mesh`            |
+/// | 100    | `winding`         |
+/// | 104    | `_pad`            |
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuInstance {
+    /// Object to world, three rows of four (row-major 3×4).
+    pub object_to_world: [[f32; 4]; 3],
+    /// Rows of the inverse transpose of the upper 3×3 of `object_to_world` (`w` = 0): transforms
+    /// object-space normals to world space (normalise afterwards).
+    pub normal_to_world: [[f32; 4]; 3],
+    /// Index of the mesh.
+    pub mesh: u32,
+    /// `-1.0` when the transform mirrors (negative determinant), so that world-space winding is the
+    /// reverse of object-space winding; `1.0` otherwise.
+    pub winding: f32,
+    /// Explicit padding.
+    pub _pad: [u32; 2],
+}
+
+impl GpuInstance {
+    /// All zero: what an out-of-range instance index reads as. (`Zeroable::zeroed` does not
+    /// compile for SPIR-V.)
+    pub const ZERO: Self = Self {
+        object_to_world: [[0.0; 4]; 3],
+        normal_to_world: [[0.0; 4]; 3],
+        mesh: 0,
+        winding: 0.0,
+        _pad: [0; 2],
+    };
+
+    /// Transforms an object-space point to world space.
+    #[inline]
+    pub fn transform_point(&self, p: Vec3) -> Vec3 {
+        let h = p.extend(1.0);
+        Vec3::new(
+            Vec4::from_array(self.object_to_world[0]).dot(h),
+            Vec4::from_array(self.object_to_world[1]).dot(h),
+            Vec4::from_array(self.object_to_world[2]).dot(h),
+        )
+    }
+
+    /// Transforms an object-space normal to world space (not normalised).
+    #[inline]
+    pub fn transform_normal(&self, n: Vec3) -> Vec3 {
+        let h = n.extend(0.0);
+        Vec3::new(
+            Vec4::from_array(self.normal_to_world[0]).dot(h),
+            Vec4::from_array(self.normal_to_world[1]).dot(h),
+            Vec4::from_array(self.normal_to_world[2]).dot(h),
+        )
+    }
+}
+
+/// A mesh: a run of triangles and a run of vertices (32 bytes).
+///
+/// | offset | field            |
+/// |--------|------------------|
+/// | 0      | `first_triangle` |
+/// | 4      | `triangle_count` |
+/// | 8      | `first_vertex`   |
+/// | 12     | `vertex_count`   |
+/// | 16     | `has_uvs`        |
+/// | 20     | `_pad`           |
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMesh {
+    /// Index of the mesh's first [`GpuTriangle`].
+    pub first_triangle: u32,
+    /// Number of triangles.
+    pub triangle_count: u32,
+    /// Index of the mesh's first [`GpuVertex`]; triangle indices are relative to it.
+    pub first_vertex: u32,
+    /// Number of vertices.
+    pub vertex_count: u32,
+    /// 1 when the vertices carry UVs; 0 when the mesh has none (UVs then read as zero).
+    pub has_uvs: u32,
+    /// Explicit padding.
+    pub _pad: [u32; 3],
+}
+
+impl GpuMesh {
+    /// A mesh without triangles or vertices: what an out-of-range mesh index reads as.
+    pub const EMPTY: Self = Self {
+        first_triangle: 0,
+        triangle_count: 0,
+        first_vertex: 0,
+        vertex_count: 0,
+        has_uvs: 0,
+        _pad: [0; 3],
+    };
+}
+
+/// One vertex in object space (32 bytes).
+///
+/// | offset | field      |
+/// |--------|------------|
+/// | 0      | `position` |
+/// | 12     | `u`        |
+/// | 16     | `normal`   |
+/// | 28     | `v`        |
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuVertex {
+    /// Position.
+    pub position: [f32; 3],
+    /// First UV set, u.
+    pub u: f32,
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// First UV set, v.
+    pub v: f32,
+}
+
+impl GpuVertex {
+    /// All zero: what an out-of-range vertex index reads as.
+    pub const ZERO: Self = Self {
+        position: [0.0; 3],
+        u: 0.0,
+        normal: [0.0; 3],
+        v: 0.0,
+    };
+}
+
+/// One triangle: its vertices relative to the mesh's first vertex, and its material (16 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct GpuTriangle {
+    /// Vertex indices, counter-clockwise seen from the front.
+    pub indices: [u32; 3],
+    /// Index of the material.
+    pub material: u32,
+}
+
+/// A material (48 bytes). Texture indices index the texture table, [`NONE`] for none.
+///
+/// | offset | field                |
+/// |--------|----------------------|
+/// | 0      | `base_color`         |
+/// | 16     | `emissive`           |
+/// | 28     | `base_color_texture` |
+/// | 32     | `emissive_texture`   |
+/// | 36     | `metallic`           |
+/// | 40     | `roughness`          |
+/// | 44     | `double_sided`       |
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterial {
+    /// Linear base colour and alpha.
+    pub base_color: [f32; 4],
+    /// Emitted radiance, W/(sr·m²): emissive factor × strength.
+    pub emissive: [f32; 3],
+    /// Base colour texture (sRGB), multiplies `base_color`.
+    pub base_color_texture: u32,
+    /// Emissive texture (sRGB), multiplies `emissive`.
+    pub emissive_texture: u32,
+    /// Metalness.
+    pub metallic: f32,
+    /// Perceptual roughness.
+    pub roughness: f32,
+    /// 1 when the back face is lit like the front.
+    pub double_sided: u32,
+}
+
+impl Default for GpuMaterial {
+    /// White, not emissive, untextured, rough dielectric, single-sided.
+    fn default() -> Self {
+        Self {
+            base_color: [1.0; 4],
+            emissive: [0.0; 3],
+            base_color_texture: NONE,
+            emissive_texture: NONE,
+            metallic: 0.0,
+            roughness: 1.0,
+            double_sided: 0,
+        }
+    }
+}
+
+/// An entry of the texture table (32 bytes).
+///
+/// | offset | field    |
+/// |--------|----------|
+/// | 0      | `offset` |
+/// | 4      | `width`  |
+/// | 8      | `height` |
+/// | 12     | `srgb`   |
+/// | 16     | `wrap_u` |
+/// | 20     | `wrap_v` |
+/// | 24     | `_pad`   |
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct GpuTexture {
+    /// Index of the texture's first texel in the texel buffer.
+    pub offset: u32,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// 1 when the colour channels are sRGB-encoded (alpha never is).
+    pub srgb: u32,
+    /// Wrap mode of u: [`WRAP_REPEAT`], [`WRAP_MIRRORED_REPEAT`] or [`WRAP_CLAMP_TO_EDGE`].
+    pub wrap_u: u32,
+    /// Wrap mode of v.
+    pub wrap_v: u32,
+    /// Explicit padding.
+    pub _pad: [u32; 2],
+}
+
+/// The surface at a hit, in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Surface {
+    /// Position interpolated from the world-space vertices.
+    pub position: Vec3,
+    /// Unit normal of the triangle's front (counter-clockwise) face, from the world-space cross
+    /// product (corrected for mirroring transforms); zero for a degenerate triangle.
+    pub geometric_normal: Vec3,
+    /// Unit interpolated vertex normal; the geometric normal when it vanishes.
+    pub shading_normal: Vec3,
+    /// Interpolated first UV set (zero without UVs).
+    pub uv: Vec2,
+    /// The triangle's material index.
+    pub material: u32,
+}
+
+/// The vertex `index` of `mesh`, or a zero vertex when out of range.
+#[inline]
+fn vertex(vertices: &[GpuVertex], mesh: &GpuMesh, index: u32) -> GpuVertex {
+    let i = mesh.first_vertex as usize + index as usize;
+    if index < mesh.vertex_count && i < vertices.len() {
+        vertices[i]
+    } else {
+        GpuVertex::ZERO
+    }
+}
+
+/// The surface of triangle `primitive` of `instance` at `barycentrics` (weights of the second and
+/// third vertex, as in [`crate::ray::HitRecord`]).
+pub fn fetch_surface(
+    instances: &[GpuInstance],
+    meshes: &[GpuMesh],
+    vertices: &[GpuVertex],
+    triangles: &[GpuTriangle],
+    instance: u32,
+    primitive: u32,
+    barycentrics: Vec2,
+) -> Surface {
+    let inst = if (instance as usize) < instances.len() {
+        instances[instance as usize]
+    } else {
+        GpuInstance::ZERO
+    };
+    let mesh = if (inst.mesh as usize) < meshes.len() {
+        meshes[inst.mesh as usize]
+    } else {
+        GpuMesh::EMPTY
+    };
+    let t = mesh.first_triangle as usize + primitive as usize;
+    let tri = if primitive < mesh.triangle_count && t < triangles.len() {
+        triangles[t]
+    } else {
+        GpuTriangle {
+            indices: [0; 3],
+            material: NONE,
+        }
+    };
+    let a = vertex(vertices, &mesh, tri.indices[0]);
+    let b = vertex(vertices, &mesh, tri.indices[1]);
+    let c = vertex(vertices, &mesh, tri.indices[2]);
+    let (w1, w2) = (barycentrics.x, barycentrics.y);
+    let w0 = 1.0 - w1 - w2;
+
+    let pa = inst.transform_point(Vec3::from_array(a.position));
+    let pb = inst.transform_point(Vec3::from_array(b.position));
+    let pc = inst.transform_point(Vec3::from_array(c.position));
+    let geometric_normal = ((pb - pa).cross(pc - pa) * inst.winding).normalize_or_zero();
+
+    let n = Vec3::from_array(a.normal) * w0
+        + Vec3::from_array(b.normal) * w1
+        + Vec3::from_array(c.normal) * w2;
+    let shading_normal = inst.transform_normal(n).normalize_or(geometric_normal);
+    let uv = if mesh.has_uvs != 0 {
+        Vec2::new(a.u, a.v) * w0 + Vec2::new(b.u, b.v) * w1 + Vec2::new(c.u, c.v) * w2
+    } else {
+        Vec2::ZERO
+    };
+    Surface {
+        position: pa * w0 + pb * w1 + pc * w2,
+        geometric_normal,
+        shading_normal,
+        uv,
+        material: tri.material,
+    }
+}
+
+/// What a material looks like at one point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaterialSample {
+    /// Linear base colour × texture, and alpha.
+    pub base_color: Vec4,
+    /// Emitted radiance × texture, W/(sr·m²).
+    pub emissive: Vec3,
+}
+
+/// Material `material` at texture coordinate `uv`; the default material when out of range.
+pub fn sample_material(
+    materials: &[GpuMaterial],
+    textures: &[GpuTexture],
+    texels: &[u32],
+    material: u32,
+    uv: Vec2,
+) -> MaterialSample {
+    let m = if (material as usize) < materials.len() {
+        materials[material as usize]
+    } else {
+        GpuMaterial::default()
+    };
+    let base = Vec4::from_array(m.base_color)
+        * sample_texture_index(textures, texels, m.base_color_texture, uv);
+    let emissive = Vec3::from_array(m.emissive)
+        * sample_texture_index(textures, texels, m.emissive_texture, uv).truncate();
+    MaterialSample {
+        base_color: base,
+        emissive,
+    }
+}
+
+/// Texture `index` of the table at `uv`; 1 (the factor alone) for [`NONE`] or out of range.
+#[inline]
+fn sample_texture_index(textures: &[GpuTexture], texels: &[u32], index: u32, uv: Vec2) -> Vec4 {
+    if (index as usize) < textures.len() {
+        sample_texture(&textures[index as usize], texels, uv)
+    } else {
+        Vec4::ONE
+    }
+}
+
+/// Bilinear sample of `texture` at `uv` (`(0, 0)` is the top-left corner of the first texel) with
+/// its wrap modes; sRGB colour channels are decoded to linear before filtering, like an `_SRGB`
+/// image format. Non-finite coordinates read as 0; a texture whose texels lie outside `texels`, or
+/// that is empty, reads as 1.
+pub fn sample_texture(texture: &GpuTexture, texels: &[u32], uv: Vec2) -> Vec4 {
+    let w = texture.width;
+    let h = texture.height;
+    let end = texture.offset as usize + w as usize * h as usize;
+    if w == 0 || h == 0 || end > texels.len() {
+        return Vec4::ONE;
+    }
+    let (x0, x1, fx) = texel_pair(uv.x, w, texture.wrap_u);
+    let (y0, y1, fy) = texel_pair(uv.y, h, texture.wrap_v);
+    let base = texture.offset as usize;
+    let row0 = base + y0 as usize * w as usize;
+    let row1 = base + y1 as usize * w as usize;
+    let srgb = texture.srgb;
+    let t00 = decode_texel(texels[row0 + x0 as usize], srgb);
+    let t10 = decode_texel(texels[row0 + x1 as usize], srgb);
+    let t01 = decode_texel(texels[row1 + x0 as usize], srgb);
+    let t11 = decode_texel(texels[row1 + x1 as usize], srgb);
+    let top = t00 + (t10 - t00) * fx;
+    let bottom = t01 + (t11 - t01) * fx;
+    top + (bottom - top) * fy
+}
+
+/// The two texel indices (each in `0..size`) that bilinear filtering at `coord` blends along one
+/// axis, and the weight of the second.
+#[inline]
+fn texel_pair(coord: f32, size: u32, wrap: u32) -> (u32, u32, f32) {
+    let c = if coord.is_finite() { coord } else { 0.0 };
+    // Wrap in texture space first: exact for any magnitude, and keeps the texel index small.
+    let c = if wrap == WRAP_CLAMP_TO_EDGE {
+        clamp(c, 0.0, 1.0)
+    } else if wrap == WRAP_MIRRORED_REPEAT {
+        let t = c - 2.0 * floor(0.5 * c);
+        if t > 1.0 { 2.0 - t } else { t }
+    } else {
+        c - floor(c)
+    };
+    let x = c * size as f32 - 0.5;
+    let fx = floor(x);
+    let n = size as i32;
+    // x is in [-0.5, size - 0.5]: i0 in [-1, size - 1].
+    let i0 = floor_to_i32_clamped(fx, -1, n - 1);
+    let i1 = i0 + 1;
+    let (a, b) = if wrap == WRAP_REPEAT {
+        (
+            if i0 < 0 { n - 1 } else { i0 },
+            if i1 >= n { 0 } else { i1 },
+        )
+    } else {
+        // Clamp and the mirror's seam both repeat the edge texel.
+        (max_i32(i0, 0), min_i32(i1, n - 1))
+    };
+    (a as u32, b as u32, clamp(x - fx, 0.0, 1.0))
+}
+
+/// A packed RGBA8 texel (red in the low byte) as linear floats in `[0, 1]`.
+#[inline]
+pub fn decode_texel(texel: u32, srgb: u32) -> Vec4 {
+    let c = Vec4::new(
+        (texel & 0xff) as f32,
+        ((texel >> 8) & 0xff) as f32,
+        ((texel >> 16) & 0xff) as f32,
+        (texel >> 24) as f32,
+    ) * (1.0 / 255.0);
+    if srgb != 0 {
+        Vec4::new(
+            srgb_to_linear(c.x),
+            srgb_to_linear(c.y),
+            srgb_to_linear(c.z),
+            c.w,
+        )
+    } else {
+        c
+    }
+}
+
+/// The sRGB transfer function's inverse (IEC 61966-2-1) for `c` in `[0, 1]`.
+#[inline]
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c * (1.0 / 12.92)
+    } else {
+        Float::powf((c + 0.055) * (1.0 / 1.055), 2.4)
+    }
+}
+
+/// The sRGB transfer function (IEC 61966-2-1) for linear `c` in `[0, 1]` (clamped).
+#[inline]
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let c = clamp(c, 0.0, 1.0);
+    if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * Float::powf(c, 1.0 / 2.4) - 0.055
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::mem::{offset_of, size_of};
+
+    #[test]
+    fn layouts() {
+        assert_eq!(size_of::<GpuInstance>(), 112);
+        assert_eq!(offset_of!(GpuInstance, object_to_world), 0);
+        assert_eq!(offset_of!(GpuInstance, normal_to_world), 48);
+        assert_eq!(offset_of!(GpuInstance, mesh), 96);
+        assert_eq!(offset_of!(GpuInstance, winding), 100);
+        assert_eq!(offset_of!(GpuInstance, _pad), 104);
+
+        assert_eq!(size_of::<GpuMesh>(), 32);
+        assert_eq!(offset_of!(GpuMesh, first_triangle), 0);
+        assert_eq!(offset_of!(GpuMesh, triangle_count), 4);
+        assert_eq!(offset_of!(GpuMesh, first_vertex), 8);
+        assert_eq!(offset_of!(GpuMesh, vertex_count), 12);
+        assert_eq!(offset_of!(GpuMesh, has_uvs), 16);
+        assert_eq!(offset_of!(GpuMesh, _pad), 20);
+
+        assert_eq!(size_of::<GpuVertex>(), 32);
+        assert_eq!(offset_of!(GpuVertex, position), 0);
+        assert_eq!(offset_of!(GpuVertex, u), 12);
+        assert_eq!(offset_of!(GpuVertex, normal), 16);
+        assert_eq!(offset_of!(GpuVertex, v), 28);
+
+        assert_eq!(size_of::<GpuTriangle>(), 16);
+        assert_eq!(offset_of!(GpuTriangle, indices), 0);
+        assert_eq!(offset_of!(GpuTriangle, material), 12);
+
+        assert_eq!(size_of::<GpuMaterial>(), 48);
+        assert_eq!(offset_of!(GpuMaterial, base_color), 0);
+        assert_eq!(offset_of!(GpuMaterial, emissive), 16);
+        assert_eq!(offset_of!(GpuMaterial, base_color_texture), 28);
+        assert_eq!(offset_of!(GpuMaterial, emissive_texture), 32);
+        assert_eq!(offset_of!(GpuMaterial, metallic), 36);
+        assert_eq!(offset_of!(GpuMaterial, roughness), 40);
+        assert_eq!(offset_of!(GpuMaterial, double_sided), 44);
+
+        assert_eq!(size_of::<GpuTexture>(), 32);
+        assert_eq!(offset_of!(GpuTexture, offset), 0);
+        assert_eq!(offset_of!(GpuTexture, width), 4);
+        assert_eq!(offset_of!(GpuTexture, height), 8);
+        assert_eq!(offset_of!(GpuTexture, srgb), 12);
+        assert_eq!(offset_of!(GpuTexture, wrap_u), 16);
+        assert_eq!(offset_of!(GpuTexture, wrap_v), 20);
+        assert_eq!(offset_of!(GpuTexture, _pad), 24);
+    }
+
+    fn rgba(r: u32, g: u32, b: u32, a: u32) -> u32 {
+        r | (g << 8) | (b << 16) | (a << 24)
+    }
+
+    /// A 2×2 texture at offset 1 of the texel buffer: black, white / red, green.
+    fn two_by_two(wrap: u32, srgb: u32) -> (GpuTexture, [u32; 5]) {
+        let texels = [
+            0xdead_beef,
+            rgba(0, 0, 0, 255),
+            rgba(255, 255, 255, 255),
+            rgba(255, 0, 0, 255),
+            rgba(0, 255, 0, 0),
+        ];
+        let t = GpuTexture {
+            offset: 1,
+            width: 2,
+            height: 2,
+            srgb,
+            wrap_u: wrap,
+            wrap_v: wrap,
+            _pad: [0; 2],
+        };
+        (t, texels)
+    }
+
+    fn close(a: Vec4, b: Vec4) -> bool {
+        (a - b).abs().max_element() < 1e-6
+    }
+
+    #[test]
+    fn texel_centres_read_exactly() {
+        let (t, texels) = two_by_two(WRAP_REPEAT, 0);
+        let at = |u, v| sample_texture(&t, &texels, Vec2::new(u, v));
+        assert!(close(at(0.25, 0.25), Vec4::new(0.0, 0.0, 0.0, 1.0)));
+        assert!(close(at(0.75, 0.25), Vec4::ONE));
+        assert!(close(at(0.25, 0.75), Vec4::new(1.0, 0.0, 0.0, 1.0)));
+        assert!(close(at(0.75, 0.75), Vec4::new(0.0, 1.0, 0.0, 0.0)));
+        // Half way between the two top texels.
+        assert!(close(at(0.5, 0.25), Vec4::new(0.5, 0.5, 0.5, 1.0)));
+    }
+
+    #[test]
+    fn wrap_modes() {
+        // u = 0: between the last and the first texel of a row when repeating, the first alone when
+        // clamping or mirroring.
+        let (t, texels) = two_by_two(WRAP_REPEAT, 0);
+        let s = sample_texture(&t, &texels, Vec2::new(0.0, 0.25));
+        assert!(close(s, Vec4::new(0.5, 0.5, 0.5, 1.0)), "{s}");
+        // Whole tiles away, repeating gives the same value, even far out.
+        for k in [-3.0, 1.0, 1000.0] {
+            let s = sample_texture(&t, &texels, Vec2::new(0.75 + k, 0.25 - k));
+            assert!(close(s, Vec4::ONE), "{k}: {s}");
+        }
+        let (t, texels) = two_by_two(WRAP_CLAMP_TO_EDGE, 0);
+        let s = sample_texture(&t, &texels, Vec2::new(0.0, 0.25));
+        assert!(close(s, Vec4::new(0.0, 0.0, 0.0, 1.0)), "{s}");
+        let s = sample_texture(&t, &texels, Vec2::new(7.0, -5.0));
+        assert!(close(s, Vec4::ONE), "clamped to the top right: {s}");
+        let (t, texels) = two_by_two(WRAP_MIRRORED_REPEAT, 0);
+        // Mirrored: u = 1.25 reads like u = 0.75, u = 1.75 like u = 0.25.
+        let s = sample_texture(&t, &texels, Vec2::new(1.25, 0.25));
+        assert!(close(s, Vec4::ONE), "{s}");
+        let s = sample_texture(&t, &texels, Vec2::new(1.75, 0.25));
+        assert!(close(s, Vec4::new(0.0, 0.0, 0.0, 1.0)), "{s}");
+        let s = sample_texture(&t, &texels, Vec2::new(-0.25, 0.25));
+        assert!(close(s, Vec4::new(0.0, 0.0, 0.0, 1.0)), "{s}");
+    }
+
+    #[test]
+    fn srgb_decodes_colour_not_alpha() {
+        let t = GpuTexture {
+            offset: 0,
+            width: 1,
+            height: 1,
+            srgb: 1,
+            wrap_u: WRAP_REPEAT,
+            wrap_v: WRAP_REPEAT,
+            _pad: [0; 2],
+        };
+        let s = sample_texture(&t, &[rgba(230, 40, 0, 128)], Vec2::splat(0.3));
+        assert!((s.x - 0.791_298).abs() < 1e-5, "{s}");
+        assert!((s.y - 0.021_219).abs() < 1e-5, "{s}");
+        assert_eq!(s.z, 0.0);
+        assert!((s.w - 128.0 / 255.0).abs() < 1e-6);
+        for i in 0..=255 {
+            let c = i as f32 / 255.0;
+            assert!((linear_to_srgb(srgb_to_linear(c)) - c).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn bad_input_is_defined() {
+        let (t, texels) = two_by_two(WRAP_REPEAT, 0);
+        for uv in [
+            Vec2::new(f32::NAN, 0.5),
+            Vec2::new(f32::INFINITY, f32::NEG_INFINITY),
+        ] {
+            let s = sample_texture(&t, &texels, uv);
+            assert!(s.is_finite(), "{uv}: {s}");
+        }
+        let big = GpuTexture { width: 4, ..t };
+        assert_eq!(sample_texture(&big, &texels, Vec2::ZERO), Vec4::ONE);
+        let empty = GpuTexture { width: 0, ..t };
+        assert_eq!(sample_texture(&empty, &texels, Vec2::ZERO), Vec4::ONE);
+        let m = sample_material(&[], &[], &[], 3, Vec2::ZERO);
+        assert_eq!(m.base_color, Vec4::ONE);
+        assert_eq!(m.emissive, Vec3::ZERO);
+        let s = fetch_surface(&[], &[], &[], &[], 0, 0, Vec2::splat(0.3));
+        assert_eq!(s.material, NONE);
+        assert!(s.position.is_finite() && s.shading_normal.is_finite());
+    }
+
+    #[test]
+    fn surface_of_a_mirrored_scaled_instance() {
+        // One triangle in the z = 0 plane facing +z, placed with x mirrored, scaled and moved.
+        let v = |p: [f32; 3], uv: [f32; 2]| GpuVertex {
+            position: p,
+            u: uv[0],
+            normal: [0.0, 0.0, 1.0],
+            v: uv[1],
+        };
+        let vertices = [
+            v([0.0, 0.0, 0.0], [0.0, 0.0]),
+            v([1.0, 0.0, 0.0], [1.0, 0.0]),
+            v([0.0, 1.0, 0.0], [0.0, 1.0]),
+        ];
+        let triangles = [GpuTriangle {
+            indices: [0, 1, 2],
+            material: 7,
+        }];
+        let meshes = [GpuMesh {
+            first_triangle: 0,
+            triangle_count: 1,
+            first_vertex: 0,
+            vertex_count: 3,
+            has_uvs: 1,
+            _pad: [0; 3],
+        }];
+        let instances = [GpuInstance {
+            object_to_world: [
+                [-2.0, 0.0, 0.0, 5.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 3.0, 1.0],
+            ],
+            normal_to_world: [
+                [-0.5, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0 / 3.0, 0.0],
+            ],
+            mesh: 0,
+            winding: -1.0,
+            _pad: [0; 2],
+        }];
+        let s = fetch_surface(
+            &instances,
+            &meshes,
+            &vertices,
+            &triangles,
+            0,
+            0,
+            Vec2::new(0.25, 0.5),
+        );
+        assert_eq!(s.material, 7);
+        assert!((s.position - Vec3::new(4.5, 0.5, 1.0)).length() < 1e-6);
+        assert!((s.uv - Vec2::new(0.25, 0.5)).length() < 1e-6);
+        // The front face still faces +z after mirroring x.
+        assert!(
+            (s.geometric_normal - Vec3::Z).length() < 1e-6,
+            "{}",
+            s.geometric_normal
+        );
+        assert!((s.shading_normal - Vec3::Z).length() < 1e-6);
+        // Out-of-range primitive: material NONE, no fault.
+        let bad = fetch_surface(&instances, &meshes, &vertices, &triangles, 0, 1, Vec2::ZERO);
+        assert_eq!(bad.material, NONE);
+    }
+}
