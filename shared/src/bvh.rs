@@ -408,24 +408,23 @@ pub fn closest_hit_brute_force(tris: &[BvhTriangle], ray: &Ray) -> HitRecord {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::random::Random;
     use core::mem::{offset_of, size_of};
 
-    /// A small deterministic generator (SplitMix64), so the tests need no crate.
-    struct Rng(u64);
+    /// The crate's PCG stream, with the draws the tests need.
+    struct Rng(Random);
 
     impl Rng {
-        fn next_u64(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            z ^ (z >> 31)
+        fn new(seed: u32) -> Self {
+            Self(Random::new(seed, 0))
         }
 
-        /// Uniform in `[lo, hi)`.
+        fn next_u32(&mut self) -> u32 {
+            self.0.next_u32()
+        }
+
         fn range(&mut self, lo: f32, hi: f32) -> f32 {
-            let unit = (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32;
-            lo + (hi - lo) * unit
+            self.0.next_in(lo, hi)
         }
 
         fn vec(&mut self, lo: f32, hi: f32) -> [f32; 3] {
@@ -529,7 +528,7 @@ mod tests {
 
     #[test]
     fn bvh_agrees_with_brute_force_on_random_soups() {
-        let mut rng = Rng(1);
+        let mut rng = Rng::new(1);
         let mut hits = 0;
         for (n, size) in [
             (1, 1.0),
@@ -591,12 +590,12 @@ mod tests {
     #[test]
     fn axis_aligned_rays_with_zero_components() {
         let (nodes, tris) = median_bvh(&grid());
-        let mut rng = Rng(2);
+        let mut rng = Rng::new(2);
         for i in 0..2000 {
             // Half the origins sit exactly on grid lines, i.e. on node bounds.
             let mut xy = [rng.range(-1.0, 17.0), rng.range(-1.0, 17.0)];
             if i % 2 == 0 {
-                xy[i % 4 / 2] = (rng.next_u64() % 17) as f32;
+                xy[i % 4 / 2] = (rng.next_u32() % 17) as f32;
             }
             for direction in [[0.0, 0.0, -1.0], [0.0, -0.0, -3.0], [-0.0, 0.0, 0.5]] {
                 let ray = Ray {
@@ -749,7 +748,7 @@ mod tests {
         soup[5].v0[1] = f32::NAN;
         soup[9].e2 = [f32::NAN; 3];
         let (nodes, tris) = median_bvh(&soup);
-        let mut rng = Rng(3);
+        let mut rng = Rng::new(3);
         for _ in 0..2000 {
             let ray = Ray {
                 origin: [rng.range(-1.0, 17.0), rng.range(-1.0, 17.0), 1.0],

@@ -54,6 +54,12 @@ impl Random {
         let x = self.next_f32();
         Vec2::new(x, self.next_f32())
     }
+
+    /// Uniform in `[lo, hi)` (for `lo < hi`), from [`Random::next_f32`].
+    #[inline]
+    pub fn next_in(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next_f32()
+    }
 }
 
 /// Radical inverse of `index` in `base` (van der Corput), in `[0, 1)`. Bases below 2 give 0.

@@ -439,24 +439,23 @@ fn median_split(items: &[Item], range: &mut [u32], centroids: &Aabb) {
 mod tests {
     use super::*;
     use gi_shared::bvh::closest_hit_brute_force;
+    use gi_shared::random::Random;
     use std::time::Instant;
 
-    /// SplitMix64, so the tests need no crate.
-    struct Rng(u64);
+    /// The crate's PCG stream, with the draws the tests need.
+    struct Rng(Random);
 
     impl Rng {
-        fn next_u64(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            z ^ (z >> 31)
+        fn new(seed: u32) -> Self {
+            Self(Random::new(seed, 0))
         }
 
-        /// Uniform in `[lo, hi)`.
+        fn next_u32(&mut self) -> u32 {
+            self.0.next_u32()
+        }
+
         fn range(&mut self, lo: f32, hi: f32) -> f32 {
-            let unit = (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32;
-            lo + (hi - lo) * unit
+            self.0.next_in(lo, hi)
         }
 
         fn vec(&mut self, lo: f32, hi: f32) -> [f32; 3] {
@@ -498,10 +497,10 @@ mod tests {
     fn random_ray(rng: &mut Rng, scene: &[[[f32; 3]; 3]]) -> Ray {
         let origin = rng.vec(-15.0, 15.0);
         let jitter = rng.vec(-0.3, 0.3);
-        let target = if scene.is_empty() || rng.next_u64().is_multiple_of(4) {
+        let target = if scene.is_empty() || rng.next_u32().is_multiple_of(4) {
             rng.vec(-8.0, 8.0)
         } else {
-            let t = scene[(rng.next_u64() % scene.len() as u64) as usize];
+            let t = scene[(rng.next_u32() % scene.len() as u32) as usize];
             [0, 1, 2].map(|a| (t[0][a] + t[1][a] + t[2][a]) / 3.0 + jitter[a])
         };
         let len = rng.range(0.1, 2.0);
@@ -509,7 +508,7 @@ mod tests {
             origin,
             t_min: 0.0,
             direction: [0, 1, 2].map(|a| (target[a] - origin[a]) * len),
-            t_max: if rng.next_u64().is_multiple_of(2) {
+            t_max: if rng.next_u32().is_multiple_of(2) {
                 f32::INFINITY
             } else {
                 rng.range(0.0, 1.5) / len
@@ -601,7 +600,7 @@ mod tests {
 
     #[test]
     fn bvh_agrees_with_brute_force_on_random_scenes() {
-        let mut rng = Rng(7);
+        let mut rng = Rng::new(7);
         for (n, size) in [
             (1, 1.0),
             (2, 1.0),
@@ -661,9 +660,9 @@ mod tests {
             tight.stats.sah_cost
         );
         // Rays along the line, each starting in the plane of triangle `i`: `i` is hit at t = 0.
-        let mut rng = Rng(8);
+        let mut rng = Rng::new(8);
         for _ in 0..2000 {
-            let i = (rng.next_u64() % input.len() as u64) as usize;
+            let i = (rng.next_u32() % input.len() as u32) as usize;
             let ray = Ray {
                 origin: [input[i][0][0], 0.25, 0.25],
                 t_min: 0.0,
@@ -680,7 +679,7 @@ mod tests {
 
     #[test]
     fn nan_degenerate_and_coincident_triangles_do_not_break_the_build() {
-        let mut rng = Rng(9);
+        let mut rng = Rng::new(9);
         let mut input = random_scene(&mut rng, 400, 1.0);
         let nan = f32::NAN;
         input[3][1][2] = nan;
@@ -716,12 +715,15 @@ mod tests {
         let bvh = Bvh::build(&[], &[]).unwrap();
         assert!(bvh.nodes.is_empty() && bvh.triangles.is_empty());
         assert_eq!(bvh.stats, BvhStats::default());
-        assert!(!bvh.closest_hit(&random_ray(&mut Rng(10), &[])).is_hit());
+        assert!(
+            !bvh.closest_hit(&random_ray(&mut Rng::new(10), &[]))
+                .is_hit()
+        );
     }
 
     #[test]
     fn bad_arguments_are_errors() {
-        let input = random_scene(&mut Rng(11), 100, 1.0);
+        let input = random_scene(&mut Rng::new(11), 100, 1.0);
         let err = Bvh::build(&input, &ids(99)).unwrap_err();
         assert!(
             matches!(err, Error::InvalidArgument { name: "ids", .. }),
@@ -761,7 +763,7 @@ mod tests {
     /// figure that matters) and checks the result is sound.
     #[test]
     fn build_100k_triangles() {
-        let mut rng = Rng(12);
+        let mut rng = Rng::new(12);
         let input = random_scene(&mut rng, 100_000, 0.3);
         let ids = ids(input.len());
         let start = Instant::now();

@@ -2,11 +2,11 @@
 //! whole life, with read-back through a host-visible buffer.
 
 use super::context::Context;
-use super::memory::Buffer;
+use super::memory::{Buffer, allocate};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
-use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::vulkan::Allocation;
 
 /// A 2D storage image (one mip level, one layer) and its view and memory, in the `GENERAL`
 /// layout from creation on. Destroy it with [`Image::destroy`] before the context goes.
@@ -90,26 +90,7 @@ impl Image {
             .initial_layout(vk::ImageLayout::UNDEFINED);
         let handle = unsafe { ctx.device.create_image(&info, None) }.vk("vkCreateImage")?;
         let requirements = unsafe { ctx.device.get_image_memory_requirements(handle) };
-        let allocation = ctx
-            .allocator
-            .lock()
-            .map_err(|_| Error::InvalidArgument {
-                name: "allocator",
-                why: "poisoned by an earlier panic".into(),
-            })
-            .and_then(|mut a| {
-                a.allocate(&AllocationCreateDesc {
-                    name,
-                    requirements,
-                    location: MemoryLocation::GpuOnly,
-                    linear: false,
-                    allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-                })
-                .map_err(|source| Error::Allocation {
-                    what: name.to_string(),
-                    source,
-                })
-            });
+        let allocation = allocate(ctx, name, requirements, MemoryLocation::GpuOnly, false);
         let allocation = match allocation {
             Ok(a) => a,
             Err(e) => {

@@ -6,6 +6,32 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 
+/// Allocates memory for a resource named `name` (named in errors and allocator reports).
+pub(crate) fn allocate(
+    ctx: &Context,
+    name: &str,
+    requirements: vk::MemoryRequirements,
+    location: MemoryLocation,
+    linear: bool,
+) -> Result<Allocation> {
+    let mut allocator = ctx.allocator.lock().map_err(|_| Error::InvalidArgument {
+        name: "allocator",
+        why: "poisoned by an earlier panic".into(),
+    })?;
+    allocator
+        .allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        })
+        .map_err(|source| Error::Allocation {
+            what: name.to_string(),
+            source,
+        })
+}
+
 /// A storage buffer and its memory. Destroy it with [`Buffer::destroy`] before the context goes.
 pub struct Buffer {
     /// The Vulkan handle.
@@ -44,26 +70,7 @@ impl Buffer {
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let handle = unsafe { ctx.device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
         let requirements = unsafe { ctx.device.get_buffer_memory_requirements(handle) };
-        let allocation = ctx
-            .allocator
-            .lock()
-            .map_err(|_| Error::InvalidArgument {
-                name: "allocator",
-                why: "poisoned by an earlier panic".into(),
-            })
-            .and_then(|mut a| {
-                a.allocate(&AllocationCreateDesc {
-                    name,
-                    requirements,
-                    location,
-                    linear: true,
-                    allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-                })
-                .map_err(|source| Error::Allocation {
-                    what: name.to_string(),
-                    source,
-                })
-            });
+        let allocation = allocate(ctx, name, requirements, location, true);
         let allocation = match allocation {
             Ok(a) => a,
             Err(e) => {
