@@ -106,6 +106,8 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     let ctx = Context::new(&options)?;
     println!("{}", ctx.capabilities());
     println!("kernels:             {}", ctx.variant());
+    // Every device command first proves the chain (kernels, binding, dispatch, read-back) works.
+    smoke(&ctx, invocations)?;
     if let Some(Command::Gbuffer {
         scene,
         out,
@@ -114,14 +116,12 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     }) = &cli.command
     {
         gbuffer(&ctx, scene, out, *width, *height)?;
-        return check_validation(&ctx);
     }
-    let report = gi_host::smoke::run(&ctx, invocations)?;
-    let timing = report
-        .gpu_ms
-        .map(|ms| format!(" in {ms:.3} ms GPU time"))
-        .unwrap_or_default();
-    check_validation(&ctx)?;
+    check_validation(&ctx)
+}
+
+fn smoke(ctx: &Context, invocations: u32) -> Result<(), Box<dyn std::error::Error>> {
+    let report = gi_host::smoke::run(ctx, invocations)?;
     if report.mismatches > 0 {
         return Err(format!(
             "smoke dispatch: {} of {} results differ from the CPU",
@@ -129,6 +129,10 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         )
         .into());
     }
+    let timing = report
+        .gpu_ms
+        .map(|ms| format!(" in {ms:.3} ms GPU time"))
+        .unwrap_or_default();
     println!(
         "smoke dispatch:      ok, {} invocations match the CPU{timing}",
         report.invocations
