@@ -36,7 +36,6 @@ fn main() {
         let mut b = SpirvBuilder::new(&kernels, "spirv-unknown-vulkan1.2")
             .target_dir_path(v.target_dir)
             .spirv_metadata(SpirvMetadata::NameVariables)
-            .scalar_block_layout(true)
             .shader_crate_features(v.features.iter().map(|s| s.to_string()));
         b.build_script.defaults = true;
         // The host enables a device feature for each of these (gi_shared::abi).

@@ -62,7 +62,7 @@ pub struct Capabilities {
     pub device_local_bytes: u64,
 }
 
-/// The raw feature structs a probe fills; the same structs, trimmed, are passed to device creation.
+/// The feature structs a probe fills, and device creation enables (trimmed to what kernels use).
 #[derive(Default)]
 pub(crate) struct FeatureChain {
     pub core: vk::PhysicalDeviceFeatures,
@@ -84,7 +84,7 @@ impl Capabilities {
     pub(crate) unsafe fn probe(
         instance: &ash::Instance,
         pd: vk::PhysicalDevice,
-    ) -> (Self, FeatureChain, Vec<vk::ExtensionProperties>) {
+    ) -> (Self, Vec<vk::ExtensionProperties>) {
         let extensions =
             unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
         let has = |n: &CStr| has_extension(&extensions, n);
@@ -110,11 +110,6 @@ impl Capabilities {
             unsafe { instance.get_physical_device_features2(pd, &mut f2) };
             chain.core = f2.features;
         }
-        chain.v11.p_next = std::ptr::null_mut();
-        chain.v12.p_next = std::ptr::null_mut();
-        chain.accel.p_next = std::ptr::null_mut();
-        chain.ray_query.p_next = std::ptr::null_mut();
-        chain.atomic_float.p_next = std::ptr::null_mut();
 
         let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
         let mut driver = vk::PhysicalDeviceDriverProperties::default();
@@ -184,7 +179,7 @@ impl Capabilities {
                 .min_acceleration_structure_scratch_offset_alignment,
             device_local_bytes,
         };
-        (caps, chain, extensions)
+        (caps, extensions)
     }
 
     /// `cpu`, `discrete GPU`, ... for reports.

@@ -157,21 +157,21 @@ impl Context {
             .clone()
             .or_else(|| std::env::var(DEVICE_ENV).ok().filter(|s| !s.is_empty()));
         let index = match &wanted {
-            Some(w) => select_device(w, probed.iter().map(|(_, (c, _, _))| c.name.as_str()))?,
+            Some(w) => select_device(w, probed.iter().map(|(_, (c, _))| c.name.as_str()))?,
             None => probed
                 .iter()
                 .enumerate()
-                .max_by_key(|(i, (_, (c, _, _)))| (device_rank(c.device_type), usize::MAX - i))
+                .max_by_key(|(i, (_, (c, _)))| (device_rank(c.device_type), usize::MAX - i))
                 .map(|(i, _)| i)
                 .unwrap_or(0),
         };
-        let (physical_device, (capabilities, available, extensions)) = probed
+        let (physical_device, (capabilities, extensions)) = probed
             .into_iter()
             .nth(index)
             .ok_or_else(|| Error::NoDevice(icd_hint()))?;
 
         let variant = KernelVariant::resolve(options.trace, &capabilities)?;
-        let mut enabled = required_features(&capabilities, &available, variant)?;
+        let mut enabled = required_features(&capabilities, variant)?;
 
         let queue_family =
             unsafe { instance.get_physical_device_queue_family_properties(physical_device) }
@@ -409,11 +409,7 @@ pub fn select_device<'a>(wanted: &str, names: impl Iterator<Item = &'a str>) -> 
 }
 
 /// The device features the kernels use, and nothing else; an error names the first one missing.
-fn required_features(
-    caps: &Capabilities,
-    available: &FeatureChain,
-    variant: KernelVariant,
-) -> Result<FeatureChain> {
+fn required_features(caps: &Capabilities, variant: KernelVariant) -> Result<FeatureChain> {
     let missing = |feature: &str, needed_for: &str| Error::MissingFeature {
         device: caps.name.clone(),
         feature: feature.into(),
@@ -436,7 +432,6 @@ fn required_features(
         ));
     }
     f.v12.vulkan_memory_model = vk::TRUE;
-    f.v12.vulkan_memory_model_device_scope = available.v12.vulkan_memory_model_device_scope;
     for cap in gi_shared::abi::KERNEL_CAPABILITIES {
         let (have, name) = match *cap {
             "Int8" => (caps.shader_int8, "shaderInt8"),
