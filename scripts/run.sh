@@ -8,4 +8,7 @@ bash scripts/setup.sh
 if [ "$#" -eq 0 ]; then
   set -- gbuffer scenes/cornell-box.gltf --out out/cornell-box
 fi
-exec cargo run --quiet -p gi-host --bin gi -- "$@"
+# Built as part of the whole workspace, like the tests: another package selection would unify
+# dependency features differently and rebuild rust-gpu's backend.
+cargo build --quiet --workspace --all-targets
+exec "$CARGO_TARGET_DIR/debug/gi" "$@"
