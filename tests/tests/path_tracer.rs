@@ -1,0 +1,309 @@
+//! The reference path tracer against closed-form answers (a white furnace, a point light over a
+//! plane), against the CPU running the same per-path code, and across the two tracing variants,
+//! with the validation layer silent. Images are small (lavapipe is slow).
+//!
+//! Agreement tests use the same seeds on both sides, so most paths are the same path; where float
+//! rounding makes a path take another turn it becomes an independent sample. So two renders with
+//! the same seed must differ by no more than two renders with different seeds (the noise at that
+//! sample count), and their image means must agree within three standard errors.
+
+use gi_host::KernelVariant;
+use gi_host::gbuffer::scene_camera;
+use gi_host::image_io::HdrImage;
+use gi_host::path_tracer::{PathTracerPass, PathTracerSettings, Render, render_on_cpu};
+use gi_host::scene::gpu_data::{GpuShadingData, ShadingData};
+use gi_host::scene::lights::{GpuLights, gpu_lights};
+use gi_host::scene::upload::{SceneGeometry, build_bvh};
+use gi_host::scene::{Aabb, Instance, Light, LightKind, Material, Mesh, Scene};
+use gi_shared::camera::{CameraParams, primary_ray};
+use gi_shared::path_tracer::path_random;
+use gi_tests::{context, finish_without_validation_messages, scene_path};
+use glam::{Mat4, UVec2, Vec2, Vec3, Vec4};
+use std::f32::consts::PI;
+
+const VARIANTS: [KernelVariant; 2] = [KernelVariant::RayQuery, KernelVariant::Software];
+
+/// Renders `scene` from `camera` on the device with `variant`.
+fn render_gpu(
+    variant: KernelVariant,
+    scene: &Scene,
+    camera: &CameraParams,
+    settings: &PathTracerSettings,
+) -> Render {
+    let ctx = context(variant);
+    let geometry = SceneGeometry::new(&ctx, scene, None).unwrap();
+    let shading = GpuShadingData::new(&ctx, &ShadingData::new(scene).unwrap()).unwrap();
+    let lights = GpuLights::new(&ctx, &gpu_lights(scene)).unwrap();
+    assert_eq!(
+        lights.count() as usize,
+        scene.lights.len() + scene.emissive_triangles.len()
+    );
+    let mut pass = PathTracerPass::new(&ctx, &geometry).unwrap();
+    let render = pass
+        .render(
+            &ctx,
+            &geometry,
+            &shading,
+            &lights,
+            camera,
+            settings,
+            |_, _| {},
+        )
+        .unwrap();
+    let [w, h] = camera.image_size;
+    println!(
+        "{} {variant}: {w}x{h}, {} spp in {:.1?} ms GPU time",
+        scene.source.display(),
+        settings.samples,
+        render.gpu_ms
+    );
+    pass.destroy(&ctx);
+    lights.destroy(&ctx);
+    shading.destroy(&ctx);
+    geometry.destroy(&ctx);
+    finish_without_validation_messages(ctx);
+    render
+}
+
+fn render_cpu(scene: &Scene, camera: &CameraParams, settings: &PathTracerSettings) -> HdrImage {
+    let shading = ShadingData::new(scene).unwrap();
+    let bvh = build_bvh(scene).unwrap();
+    render_on_cpu(&shading, &gpu_lights(scene), &bvh, camera, settings).unwrap()
+}
+
+/// Mean of all channels of all pixels.
+fn mean(image: &HdrImage) -> f64 {
+    let sum: f64 = image.pixels().iter().flatten().map(|&c| f64::from(c)).sum();
+    sum / (3 * image.pixels().len()) as f64
+}
+
+/// Root-mean-square difference of two images, over all channels.
+fn rmse(a: &HdrImage, b: &HdrImage) -> f64 {
+    let sum: f64 = a
+        .pixels()
+        .iter()
+        .flatten()
+        .zip(b.pixels().iter().flatten())
+        .map(|(&x, &y)| f64::from(x - y).powi(2))
+        .sum();
+    (sum / (3 * a.pixels().len()) as f64).sqrt()
+}
+
+/// A scene of quads (each `[corner, edge u, edge v]`, wound towards `u × v`) with one material
+/// per quad.
+fn quad_scene(
+    name: &str,
+    quads: &[[Vec3; 3]],
+    materials: Vec<Material>,
+    lights: Vec<Light>,
+) -> Scene {
+    let mut mesh = Mesh {
+        name: name.to_owned(),
+        ..Default::default()
+    };
+    for (i, [o, u, v]) in quads.iter().enumerate() {
+        let n = u.cross(*v).normalize();
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend([*o, *o + *u, *o + *u + *v, *o + *v]);
+        mesh.normals.extend([n; 4]);
+        mesh.triangles
+            .extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+        mesh.materials
+            .extend([i.min(materials.len() - 1) as u32; 2]);
+    }
+    let mut scene = Scene {
+        source: name.into(),
+        meshes: vec![mesh],
+        instances: vec![Instance {
+            name: name.to_owned(),
+            node: 0,
+            mesh: 0,
+            transform: Mat4::IDENTITY,
+        }],
+        materials,
+        textures: vec![],
+        lights,
+        cameras: vec![],
+        emissive_triangles: vec![],
+        bounds: Aabb::EMPTY,
+    };
+    scene.update_derived();
+    scene
+}
+
+fn lambertian(albedo: f32, emission: f32) -> Material {
+    Material {
+        base_color: Vec4::new(albedo, albedo, albedo, 1.0),
+        emissive: Vec3::splat(emission),
+        metallic: 0.0,
+        ..Default::default()
+    }
+}
+
+/// A closed cube `[-1, 1]³` of albedo `albedo` emitting `emission` on every face. Faces are wound
+/// alternately inwards and outwards: both sides are shaded and emit.
+fn furnace(albedo: f32, emission: f32) -> Scene {
+    let quads = [
+        [Vec3::new(-1.0, -1.0, -1.0), Vec3::X * 2.0, Vec3::Y * 2.0],
+        [Vec3::new(-1.0, -1.0, 1.0), Vec3::Y * 2.0, Vec3::X * 2.0],
+        [Vec3::new(-1.0, -1.0, -1.0), Vec3::Z * 2.0, Vec3::X * 2.0],
+        [Vec3::new(-1.0, 1.0, -1.0), Vec3::Z * 2.0, Vec3::X * 2.0],
+        [Vec3::new(-1.0, -1.0, -1.0), Vec3::Y * 2.0, Vec3::Z * 2.0],
+        [Vec3::new(1.0, -1.0, -1.0), Vec3::Z * 2.0, Vec3::Y * 2.0],
+    ];
+    quad_scene(
+        "furnace",
+        &quads,
+        vec![lambertian(albedo, emission)],
+        vec![],
+    )
+}
+
+/// White furnace: radiance `E / (1 - a)` everywhere inside, whatever the view, in both variants
+/// and on the CPU. Every path sees emission at every vertex, by light sampling and by BSDF
+/// sampling: the MIS weights must sum to one for the mean to come out right.
+#[test]
+fn white_furnace_converges_to_the_geometric_series() {
+    let (albedo, emission) = (0.5, 1.0);
+    let expected = emission / (1.0 - albedo);
+    let scene = furnace(albedo, emission);
+    let camera = CameraParams::new(
+        Vec3::new(0.2, 0.1, 0.3),
+        Vec3::new(-1.0, -0.3, -1.0),
+        Vec3::Y,
+        1.2,
+        16,
+        16,
+    );
+    let settings = PathTracerSettings {
+        samples: 64,
+        ..Default::default()
+    };
+    for variant in VARIANTS {
+        let render = render_gpu(variant, &scene, &camera, &settings);
+        let m = mean(&render.image);
+        let error = (m - f64::from(expected)).abs() / f64::from(expected);
+        println!(
+            "furnace {variant}: mean {m:.5}, expected {expected}, error {:.3}%",
+            error * 100.0
+        );
+        assert!(error < 0.01, "{variant}: {m} vs {expected}");
+    }
+    let cpu = mean(&render_cpu(&scene, &camera, &settings));
+    println!("furnace CPU: mean {cpu:.5}");
+    assert!((cpu - f64::from(expected)).abs() / f64::from(expected) < 0.01);
+}
+
+/// Where `camera`'s ray of `pixel` with sub-pixel offset `jitter` meets the plane z = 0.
+fn plane_hit(camera: &CameraParams, pixel: UVec2, jitter: Vec2) -> Vec3 {
+    let ray = primary_ray(camera, pixel, jitter);
+    let o = Vec3::from_array(ray.origin);
+    let d = Vec3::from_array(ray.direction);
+    o + d * (-o.z / d.z)
+}
+
+/// One point light over a large plane: the radiance of a point is `albedo / π · I cos θ / d²`.
+/// Direct lighting from one point light involves no random choice but the pixel jitter, which the
+/// test replays from the path's random stream: each pixel must match the mean of the analytic
+/// radiance at its samples' points.
+#[test]
+fn point_light_over_a_plane_matches_the_inverse_square_law() {
+    let albedo = 0.8;
+    let intensity = 2.0;
+    let light_position = Vec3::new(0.3, -0.2, 1.0);
+    let scene = quad_scene(
+        "plane",
+        &[[
+            Vec3::new(-50.0, -50.0, 0.0),
+            Vec3::X * 100.0,
+            Vec3::Y * 100.0,
+        ]],
+        vec![lambertian(albedo, 0.0)],
+        vec![Light {
+            name: "point".to_owned(),
+            kind: LightKind::Point,
+            intensity: Vec3::splat(intensity),
+            position: light_position,
+            direction: Vec3::NEG_Z,
+            range: None,
+        }],
+    );
+    let camera = CameraParams::new(Vec3::new(0.0, 0.0, 4.0), Vec3::NEG_Z, Vec3::Y, 0.6, 16, 16);
+    let settings = PathTracerSettings {
+        samples: 4,
+        max_bounces: 4,
+        ..Default::default()
+    };
+    for variant in VARIANTS {
+        let image = render_gpu(variant, &scene, &camera, &settings).image;
+        let mut worst = 0.0f32;
+        for y in 0..16 {
+            for x in 0..16 {
+                let pixel = UVec2::new(x, y);
+                let expected = (0..settings.samples)
+                    .map(|sample| {
+                        let params = settings.params(1, sample);
+                        let jitter = path_random(&params, pixel).next_vec2() - Vec2::splat(0.5);
+                        let to = light_position - plane_hit(&camera, pixel, jitter);
+                        albedo / PI * intensity * to.normalize().z / to.length_squared()
+                    })
+                    .sum::<f32>()
+                    / settings.samples as f32;
+                let got = image.pixel(x, y)[0];
+                worst = worst.max((got - expected).abs() / expected);
+            }
+        }
+        println!(
+            "point light {variant}: worst pixel error {:.3}%",
+            worst * 100.0
+        );
+        assert!(worst < 0.01, "{variant}: {worst}");
+    }
+}
+
+/// The Cornell box (area light, MIS, indirect bounces) on the CPU and on the device, and in the
+/// two variants, agree within the noise of the sample count (see the module).
+#[test]
+fn cpu_and_both_variants_agree_within_noise() {
+    let (scene, _) = Scene::load(scene_path("cornell-box.gltf")).unwrap();
+    let camera = scene_camera(&scene, 12, 12);
+    let settings = PathTracerSettings {
+        samples: 16,
+        max_bounces: 8,
+        ..Default::default()
+    };
+    let cpu = render_cpu(&scene, &camera, &settings);
+    let other_seed = render_cpu(
+        &scene,
+        &camera,
+        &PathTracerSettings {
+            seed: 1,
+            ..settings
+        },
+    );
+    let noise = rmse(&cpu, &other_seed);
+    // Standard error of the image mean, from the spread of the pixel differences between seeds.
+    let n = cpu.pixels().len() as f64;
+    let mean_error = noise / n.sqrt();
+    let mut gpu = vec![];
+    for variant in VARIANTS {
+        let image = render_gpu(variant, &scene, &camera, &settings).image;
+        let d = rmse(&cpu, &image);
+        let dm = (mean(&cpu) - mean(&image)).abs();
+        println!(
+            "{variant} vs CPU: RMSE {d:.5} (seed-to-seed noise {noise:.5}), mean {:.5} vs {:.5}",
+            mean(&image),
+            mean(&cpu)
+        );
+        assert!(d <= noise, "{variant}: RMSE {d} above the noise {noise}");
+        assert!(
+            dm <= 3.0 * mean_error.max(1e-6),
+            "{variant}: means differ by {dm}"
+        );
+        gpu.push(image);
+    }
+    let d = rmse(&gpu[0], &gpu[1]);
+    println!("ray query vs software: RMSE {d:.5}");
+    assert!(d <= noise);
+    assert!(noise > 0.0, "different seeds must give different images");
+}
