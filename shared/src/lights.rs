@@ -12,8 +12,8 @@
 //!
 //! # Conventions
 //!
-//! Emissive triangles emit on both sides (every surface is shaded on both sides, and a closed
-//! emitter may be wound either way). Punctual lights ignore glTF's `range` (a culling hint; the
+//! Sampling a triangle ignores which side faces the shading point; whether that side emits (the
+//! front face, or both for a double-sided material) is the path tracer's business. Punctual lights ignore glTF's `range` (a culling hint; the
 //! falloff is inverse-square without a window).
 
 use bytemuck::{Pod, Zeroable};

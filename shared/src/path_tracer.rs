@@ -22,7 +22,8 @@
 //!
 //! Lambertian diffuse (albedo = base colour × texture) and emission; metallic and roughness are
 //! ignored. Both sides of every surface are shaded (the normals are flipped toward the incoming
-//! ray). Next-event estimation picks one light uniformly (see [`crate::lights`]): an emissive
+//! ray). Surfaces emit from their front (counter-clockwise) face, and from both faces when the
+//! material is double-sided: a one-sided ceiling light must not light the ceiling behind it. Next-event estimation picks one light uniformly (see [`crate::lights`]): an emissive
 //! triangle is combined with BSDF sampling by multiple importance sampling (power heuristic);
 //! punctual lights are sampled by NEE only (no ray can hit them). The sky is a constant radiance
 //! seen by rays that escape, found by BSDF sampling only (no environment image yet). Russian
@@ -148,6 +149,20 @@ pub fn finite_radiance(radiance: Vec3) -> Vec3 {
     }
 }
 
+/// Whether a surface of material `material` with front-face normal `front_normal` emits toward
+/// `outgoing`: from its front face, or from both for a double-sided material.
+#[inline]
+pub fn emits_toward(
+    materials: &[GpuMaterial],
+    material: u32,
+    front_normal: Vec3,
+    outgoing: Vec3,
+) -> bool {
+    let double_sided =
+        (material as usize) < materials.len() && materials[material as usize].double_sided != 0;
+    double_sided || front_normal.dot(outgoing) > 0.0
+}
+
 /// Offset of a ray origin off a surface at `p`, scaled to the position's magnitude.
 #[inline]
 fn ray_epsilon(p: Vec3) -> f32 {
@@ -213,7 +228,14 @@ pub fn shade(
     }
 
     let emission = material.emissive * params.emissive_multiplier;
-    if emission.max_element() > 0.0 {
+    if emission.max_element() > 0.0
+        && emits_toward(
+            materials,
+            surface.material,
+            surface.geometric_normal,
+            -direction,
+        )
+    {
         let weight = if path.bsdf_pdf > 0.0 && light_count > 0 {
             let distance = hit.t * ray_direction.length();
             let light_pdf =
@@ -258,6 +280,12 @@ pub fn shade(
                     light.primitive,
                     s.barycentrics,
                 );
+                let emits = emits_toward(
+                    materials,
+                    light_surface.material,
+                    light_surface.geometric_normal,
+                    -s.direction,
+                );
                 let radiance = sample_material(
                     materials,
                     textures,
@@ -276,7 +304,7 @@ pub fn shade(
                     direction: s.direction.to_array(),
                     t_max: s.distance * (1.0 - 1e-3),
                 };
-                path.shadow_pending = path.shadow_radiance.max_element() > 0.0;
+                path.shadow_pending = emits && path.shadow_radiance.max_element() > 0.0;
             }
         } else {
             let incidence = punctual_incidence(&light, origin);
@@ -347,6 +375,26 @@ mod tests {
             Vec3::ZERO
         );
         assert_eq!(finite_radiance(Vec3::new(-1.0, 0.0, 0.0)), Vec3::ZERO);
+    }
+
+    #[test]
+    fn surfaces_emit_from_the_front_unless_double_sided() {
+        let one = GpuMaterial::default();
+        let two = GpuMaterial {
+            double_sided: 1,
+            ..one
+        };
+        let materials = [one, two];
+        assert!(emits_toward(
+            &materials,
+            0,
+            Vec3::Z,
+            Vec3::new(0.0, 0.5, 1.0)
+        ));
+        assert!(!emits_toward(&materials, 0, Vec3::Z, Vec3::NEG_Z));
+        assert!(emits_toward(&materials, 1, Vec3::Z, Vec3::NEG_Z));
+        // An unknown material reads as the default, single-sided one.
+        assert!(!emits_toward(&materials, 7, Vec3::Z, Vec3::NEG_Z));
     }
 
     /// A sky-only scene: every camera ray misses and sees the sky, whatever the bounce count.

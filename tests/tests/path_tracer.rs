@@ -140,23 +140,28 @@ fn lambertian(albedo: f32, emission: f32) -> Material {
     }
 }
 
-/// A closed cube `[-1, 1]³` of albedo `albedo` emitting `emission` on every face. Faces are wound
-/// alternately inwards and outwards: both sides are shaded and emit.
+/// A closed cube `[-1, 1]³` of albedo `albedo` emitting `emission` inwards on every face. Faces
+/// are wound alternately inwards and outwards; those wound outwards are double-sided, so that
+/// every face emits inwards: both the front-face and the double-sided rule are exercised, and
+/// every surface is shaded from its inner side whatever its winding.
 fn furnace(albedo: f32, emission: f32) -> Scene {
     let quads = [
         [Vec3::new(-1.0, -1.0, -1.0), Vec3::X * 2.0, Vec3::Y * 2.0],
-        [Vec3::new(-1.0, -1.0, 1.0), Vec3::Y * 2.0, Vec3::X * 2.0],
+        [Vec3::new(-1.0, -1.0, 1.0), Vec3::X * 2.0, Vec3::Y * 2.0],
         [Vec3::new(-1.0, -1.0, -1.0), Vec3::Z * 2.0, Vec3::X * 2.0],
         [Vec3::new(-1.0, 1.0, -1.0), Vec3::Z * 2.0, Vec3::X * 2.0],
         [Vec3::new(-1.0, -1.0, -1.0), Vec3::Y * 2.0, Vec3::Z * 2.0],
-        [Vec3::new(1.0, -1.0, -1.0), Vec3::Z * 2.0, Vec3::Y * 2.0],
+        [Vec3::new(1.0, -1.0, -1.0), Vec3::Y * 2.0, Vec3::Z * 2.0],
     ];
-    quad_scene(
-        "furnace",
-        &quads,
-        vec![lambertian(albedo, emission)],
-        vec![],
-    )
+    let inwards = lambertian(albedo, emission);
+    let outwards = Material {
+        double_sided: true,
+        ..inwards.clone()
+    };
+    let materials = (0..6)
+        .map(|i| if i % 2 == 0 { &inwards } else { &outwards }.clone())
+        .collect();
+    quad_scene("furnace", &quads, materials, vec![])
 }
 
 /// White furnace: radiance `E / (1 - a)` everywhere inside, whatever the view, in both variants
