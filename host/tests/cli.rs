@@ -107,3 +107,43 @@ fn compare_reports_metrics_and_writes_a_heat_map() {
     assert!(err.contains("missing.exr"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn render_writes_an_exr_and_a_png() {
+    use gi_host::image_io::HdrImage;
+    let dir = std::env::temp_dir().join(format!("gi-cli-render-{}", std::process::id()));
+    let out_exr = dir.join("cornell.exr");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-box.gltf");
+    let out = gi(
+        &[
+            "--validation",
+            "render",
+            scene,
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--spp",
+            "4",
+            "--out",
+            out_exr.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let image = HdrImage::read(&out_exr).unwrap();
+    assert_eq!((image.width(), image.height()), (16, 12));
+    assert!(image.pixels().iter().flatten().any(|&c| c > 0.0));
+    assert!(image::open(dir.join("cornell.png")).is_ok_and(|i| i.width() == 16));
+    std::fs::remove_dir_all(&dir).ok();
+
+    // Argument errors are clap's (an error line and a pointer to --help).
+    let out = gi(&["render", scene, "--sky", "1,2"], &[]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.starts_with("error: ") && err.contains("x,y,z"), "{err}");
+}
