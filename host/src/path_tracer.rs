@@ -34,7 +34,7 @@ pub struct PathTracerSettings {
     pub max_bounces: u32,
     /// Factor on every surface's emission.
     pub emissive_multiplier: f32,
-    /// Constant sky radiance (zero for none).
+    /// Constant sky radiance (zero for none); unused with an environment image.
     pub sky: Vec3,
     /// Seed of the random streams.
     pub seed: u32,
@@ -54,8 +54,14 @@ impl Default for PathTracerSettings {
 }
 
 impl PathTracerSettings {
-    /// The kernel's push constants for sample `sample_index` with `light_count` lights.
-    pub fn params(&self, light_count: u32, sample_index: u32) -> PathTracerParams {
+    /// The kernel's push constants for sample `sample_index` with `light_count` lights and an
+    /// environment of `environment_size` texels (zero for none).
+    pub fn params(
+        &self,
+        light_count: u32,
+        sample_index: u32,
+        environment_size: [u32; 2],
+    ) -> PathTracerParams {
         PathTracerParams {
             sky: self.sky.to_array(),
             sample_index,
@@ -63,6 +69,32 @@ impl PathTracerSettings {
             emissive_multiplier: self.emissive_multiplier,
             light_count,
             seed: self.seed,
+            environment_size,
+            _pad: [0; 2],
+        }
+    }
+}
+
+/// An equirectangular environment image in the kernel's layout (see
+/// `gi_shared::path_tracer::sky_radiance` for its orientation).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Environment {
+    /// Width and height in texels; zero for none.
+    pub size: [u32; 2],
+    /// Texels row by row from the top, RGB and an unused fourth channel.
+    pub texels: Vec<[f32; 4]>,
+}
+
+impl Environment {
+    /// The environment of an equirectangular image.
+    pub fn from_image(image: &HdrImage) -> Self {
+        Self {
+            size: [image.width(), image.height()],
+            texels: image
+                .pixels()
+                .iter()
+                .map(|p| [p[0], p[1], p[2], 0.0])
+                .collect(),
         }
     }
 }
@@ -76,10 +108,13 @@ pub struct Render {
     pub gpu_ms: Option<f64>,
 }
 
-/// The `path_tracer::path_tracer` pipeline and its camera buffer.
+/// The `path_tracer::path_tracer` pipeline, its camera buffer and the environment image.
 pub struct PathTracerPass {
     kernel: Kernel,
     camera: Buffer,
+    /// The environment's texels, or a one-texel placeholder.
+    environment: Buffer,
+    environment_size: [u32; 2],
 }
 
 impl PathTracerPass {
@@ -89,7 +124,7 @@ impl PathTracerPass {
         let mut bindings = geometry.binding_kinds();
         bindings.push(BindingKind::StorageBuffer);
         bindings.extend(GpuShadingData::binding_kinds());
-        bindings.extend([BindingKind::StorageBuffer; 2]);
+        bindings.extend([BindingKind::StorageBuffer; 3]);
         let kernel = Kernel::new(
             ctx,
             &module,
@@ -99,18 +134,66 @@ impl PathTracerPass {
         );
         module.destroy(ctx);
         let kernel = kernel?;
-        match Buffer::from_slice(
+        let usage = vk::BufferUsageFlags::empty();
+        let camera = match Buffer::from_slice(
             ctx,
             "path tracer camera",
             &[CameraParams::default()],
-            vk::BufferUsageFlags::empty(),
+            usage,
         ) {
-            Ok(camera) => Ok(Self { kernel, camera }),
+            Ok(c) => c,
             Err(e) => {
+                kernel.destroy(ctx);
+                return Err(e);
+            }
+        };
+        match Buffer::from_slice(ctx, "no environment", &[[0.0f32; 4]], usage) {
+            Ok(environment) => Ok(Self {
+                kernel,
+                camera,
+                environment,
+                environment_size: [0; 2],
+            }),
+            Err(e) => {
+                camera.destroy(ctx);
                 kernel.destroy(ctx);
                 Err(e)
             }
         }
+    }
+
+    /// Lights escaping rays with `environment` instead of the constant sky (from the next render
+    /// on); `None` goes back to the constant sky.
+    pub fn set_environment(
+        &mut self,
+        ctx: &Context,
+        environment: Option<&Environment>,
+    ) -> Result<()> {
+        let usage = vk::BufferUsageFlags::empty();
+        let (buffer, size) = match environment {
+            Some(e)
+                if !e.texels.is_empty()
+                    && e.size[0] as usize * e.size[1] as usize == e.texels.len() =>
+            {
+                (
+                    Buffer::from_slice(ctx, "environment", &e.texels, usage)?,
+                    e.size,
+                )
+            }
+            Some(e) => {
+                return Err(Error::InvalidArgument {
+                    name: "environment",
+                    why: format!("{} texels for {:?}", e.texels.len(), e.size),
+                });
+            }
+            None => (
+                Buffer::from_slice(ctx, "no environment", &[[0.0f32; 4]], usage)?,
+                [0; 2],
+            ),
+        };
+        std::mem::replace(&mut self.environment, buffer).destroy(ctx);
+        self.environment_size = size;
+        Ok(())
     }
 
     /// Renders `settings.samples` paths per pixel of `camera`'s image, calling `progress(done,
@@ -156,13 +239,15 @@ impl PathTracerPass {
                 resources.push(Resource::Buffer(&self.camera));
                 resources.extend(shading.resources());
                 resources.push(lights.resource());
+                resources.push(Resource::Buffer(&self.environment));
                 resources.push(Resource::Buffer(&accumulation));
                 let ms = submit_timed(ctx, "path tracer", |cmd| {
                     for s in 0..batch {
                         if s > 0 {
                             compute_barrier(ctx, cmd);
                         }
-                        let params = settings.params(lights.count(), done + s);
+                        let params =
+                            settings.params(lights.count(), done + s, self.environment_size);
                         self.kernel.dispatch(
                             ctx,
                             cmd,
@@ -198,18 +283,21 @@ impl PathTracerPass {
         })
     }
 
-    /// Frees the pipeline and the camera buffer.
+    /// Frees the pipeline and the buffers.
     pub fn destroy(self, ctx: &Context) {
         self.kernel.destroy(ctx);
         self.camera.destroy(ctx);
+        self.environment.destroy(ctx);
     }
 }
 
 /// The mean of `settings.samples` paths through `pixel`, computed on the CPU by the kernel's
-/// per-path code, tracing with `bvh` (built from the same scene as `shading` and `lights`).
+/// per-path code, tracing with `bvh` (built from the same scene as `shading` and `lights`), the
+/// sky from `environment`.
 pub fn render_pixel_on_cpu(
     shading: &ShadingData,
     lights: &[GpuLight],
+    environment: &Environment,
     bvh: &Bvh,
     camera: &CameraParams,
     settings: &PathTracerSettings,
@@ -217,7 +305,7 @@ pub fn render_pixel_on_cpu(
 ) -> Vec3 {
     let mut sum = Vec3::ZERO;
     for sample in 0..settings.samples {
-        let params = settings.params(lights.len() as u32, sample);
+        let params = settings.params(lights.len() as u32, sample, environment.size);
         let mut path = begin_path(camera, &params, pixel);
         let mut steps = 0;
         while path.active && steps <= MAX_BOUNCES {
@@ -234,6 +322,7 @@ pub fn render_pixel_on_cpu(
                 &shading.textures,
                 &shading.texels,
                 lights,
+                &environment.texels,
             );
             if path.shadow_pending && !bvh.any_hit(&path.shadow_ray) {
                 path.radiance += path.shadow_radiance;
@@ -249,6 +338,7 @@ pub fn render_pixel_on_cpu(
 pub fn render_on_cpu(
     shading: &ShadingData,
     lights: &[GpuLight],
+    environment: &Environment,
     bvh: &Bvh,
     camera: &CameraParams,
     settings: &PathTracerSettings,
@@ -256,7 +346,9 @@ pub fn render_on_cpu(
     let [width, height] = camera.image_size;
     let pixels = (0..height)
         .flat_map(|y| (0..width).map(move |x| UVec2::new(x, y)))
-        .map(|p| render_pixel_on_cpu(shading, lights, bvh, camera, settings, p).to_array())
+        .map(|p| {
+            render_pixel_on_cpu(shading, lights, environment, bvh, camera, settings, p).to_array()
+        })
         .collect();
     HdrImage::from_pixels(width, height, pixels)
 }

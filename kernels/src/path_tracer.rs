@@ -5,7 +5,8 @@
 //!
 //! Set 0 after the scene's geometry (1 binding with ray queries, 2 in software): the camera
 //! (`CameraParams`), the shading data (instances, meshes, vertices, triangles, materials, texture
-//! table, texels), the lights (`GpuLight`), the accumulation buffer. Push constants:
+//! table, texels), the lights (`GpuLight`), the environment image (`[f32; 4]` texels), the
+//! accumulation buffer. Push constants:
 //! `PathTracerParams`. Workgroups of 8 × 8 pixels.
 
 use crate::trace;
@@ -51,7 +52,8 @@ pub fn path_tracer(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] textures: &[GpuTexture],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] texels: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] lights: &[GpuLight],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] accumulation: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] environment: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] accumulation: &mut [[f32; 4]],
 ) {
     let pixel = UVec2::new(id.x, id.y);
     if !in_image(camera, pixel) {
@@ -62,8 +64,18 @@ pub fn path_tracer(
     while path.active && steps <= MAX_BOUNCES {
         let hit = trace::closest_hit(tlas, &path.ray);
         shade(
-            &mut path, &hit, params, instances, meshes, vertices, triangles, materials, textures,
-            texels, lights,
+            &mut path,
+            &hit,
+            params,
+            instances,
+            meshes,
+            vertices,
+            triangles,
+            materials,
+            textures,
+            texels,
+            lights,
+            environment,
         );
         if path.shadow_pending && !trace::any_hit(tlas, &path.shadow_ray) {
             path.radiance += path.shadow_radiance;
@@ -95,7 +107,8 @@ pub fn path_tracer(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] textures: &[GpuTexture],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] texels: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] lights: &[GpuLight],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] accumulation: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] environment: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] accumulation: &mut [[f32; 4]],
 ) {
     let pixel = UVec2::new(id.x, id.y);
     if !in_image(camera, pixel) {
@@ -106,8 +119,18 @@ pub fn path_tracer(
     while path.active && steps <= MAX_BOUNCES {
         let hit = trace::closest_hit(nodes, bvh_triangles, &path.ray);
         shade(
-            &mut path, &hit, params, instances, meshes, vertices, triangles, materials, textures,
-            texels, lights,
+            &mut path,
+            &hit,
+            params,
+            instances,
+            meshes,
+            vertices,
+            triangles,
+            materials,
+            textures,
+            texels,
+            lights,
+            environment,
         );
         if path.shadow_pending && !trace::any_hit(nodes, bvh_triangles, &path.shadow_ray) {
             path.radiance += path.shadow_radiance;

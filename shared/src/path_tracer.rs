@@ -8,7 +8,7 @@
 //! let mut path = begin_path(camera, params, pixel);
 //! while path.active {
 //!     let hit = closest_hit(&path.ray);
-//!     shade(&mut path, &hit, params, <scene buffers>, lights);
+//!     shade(&mut path, &hit, params, <scene buffers>, lights, environment);
 //!     if path.shadow_pending && !any_hit(&path.shadow_ray) {
 //!         path.radiance += path.shadow_radiance;
 //!     }
@@ -23,10 +23,12 @@
 //! Lambertian diffuse (albedo = base colour × texture) and emission; metallic and roughness are
 //! ignored. Both sides of every surface are shaded (the normals are flipped toward the incoming
 //! ray). Surfaces emit from their front (counter-clockwise) face, and from both faces when the
-//! material is double-sided: a one-sided ceiling light must not light the ceiling behind it. Next-event estimation picks one light uniformly (see [`crate::lights`]): an emissive
-//! triangle is combined with BSDF sampling by multiple importance sampling (power heuristic);
-//! punctual lights are sampled by NEE only (no ray can hit them). The sky is a constant radiance
-//! seen by rays that escape, found by BSDF sampling only (no environment image yet). Russian
+//! material is double-sided: a one-sided ceiling light must not light the ceiling behind it.
+//! Next-event estimation picks one light uniformly (see [`crate::lights`]): an emissive triangle
+//! is combined with BSDF sampling by multiple importance sampling (power heuristic); punctual
+//! lights are sampled by NEE only (no ray can hit them). The sky is a constant radiance or an
+//! equirectangular environment image ([`sky_radiance`]), seen by rays that escape and found by
+//! BSDF sampling only (no importance sampling of the environment yet). Russian
 //! roulette starts after [`ROULETTE_START`] bounces.
 //!
 //! `max_bounces` counts reflections: 0 shows only what the camera sees emit, 1 adds direct
@@ -41,7 +43,7 @@ use crate::lights::{
     GpuLight, LIGHT_TRIANGLE, power_heuristic, punctual_incidence, russian_roulette_survival,
     sample_triangle_light, select_light, triangle_light_pdf,
 };
-use crate::math::{INV_PI, abs, max};
+use crate::math::{INV_PI, abs, acos, atan2, clamp, max, min_u32, to_u32_clamped};
 use crate::random::Random;
 use crate::ray::{HitRecord, Ray};
 use crate::sampling::{sample_cosine_hemisphere, tangent_to_world};
@@ -57,7 +59,7 @@ pub const ROULETTE_START: u32 = 3;
 /// Workgroup size of the kernel, both directions.
 pub const PATH_TRACER_TILE: u32 = 8;
 
-/// The kernel's push constants (32 bytes).
+/// The kernel's push constants (48 bytes).
 ///
 /// | offset | field                 |
 /// |--------|-----------------------|
@@ -67,6 +69,8 @@ pub const PATH_TRACER_TILE: u32 = 8;
 /// | 20     | `emissive_multiplier` |
 /// | 24     | `light_count`         |
 /// | 28     | `seed`                |
+/// | 32     | `environment_size`    |
+/// | 40     | `_pad`                |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PathTracerParams {
@@ -82,6 +86,35 @@ pub struct PathTracerParams {
     pub light_count: u32,
     /// Seed of every random stream.
     pub seed: u32,
+    /// Width and height of the equirectangular environment image; zero for none (the sky is then
+    /// the constant `sky`).
+    pub environment_size: [u32; 2],
+    /// Explicit padding.
+    pub _pad: [u32; 2],
+}
+
+/// Radiance arriving from the sky along the unit `direction` (pointing away from the scene): the
+/// environment image's texel when there is one, else the constant `params.sky`.
+///
+/// The environment is equirectangular in glTF's frame (+Y up): row 0 is straight up, the middle
+/// column looks along -Z, u grows toward +X; `environment` holds its texels row by row (RGB, the
+/// fourth channel unused). Nearest texel; a too-short buffer reads as black.
+pub fn sky_radiance(params: &PathTracerParams, environment: &[[f32; 4]], direction: Vec3) -> Vec3 {
+    let [w, h] = params.environment_size;
+    if w == 0 || h == 0 {
+        return Vec3::from_array(params.sky);
+    }
+    let u = 0.5 + atan2(direction.x, -direction.z) * (0.5 * INV_PI);
+    let v = acos(clamp(direction.y, -1.0, 1.0)) * INV_PI;
+    let x = min_u32(to_u32_clamped(u * w as f32), w - 1);
+    let y = min_u32(to_u32_clamped(v * h as f32), h - 1);
+    let i = y as usize * w as usize + x as usize;
+    if i < environment.len() {
+        let t = environment[i];
+        Vec3::new(t[0], t[1], t[2])
+    } else {
+        Vec3::ZERO
+    }
 }
 
 /// One path in flight (see the [module](self) for the loop that drives it).
@@ -187,10 +220,12 @@ pub fn shade(
     textures: &[GpuTexture],
     texels: &[u32],
     lights: &[GpuLight],
+    environment: &[[f32; 4]],
 ) {
     path.shadow_pending = false;
     if !hit.is_hit() {
-        path.radiance += path.throughput * Vec3::from_array(params.sky);
+        let direction = Vec3::from_array(path.ray.direction).normalize_or_zero();
+        path.radiance += path.throughput * sky_radiance(params, environment, direction);
         path.active = false;
         return;
     }
@@ -357,13 +392,44 @@ mod tests {
 
     #[test]
     fn layout() {
-        assert_eq!(size_of::<PathTracerParams>(), 32);
+        assert_eq!(size_of::<PathTracerParams>(), 48);
         assert_eq!(offset_of!(PathTracerParams, sky), 0);
         assert_eq!(offset_of!(PathTracerParams, sample_index), 12);
         assert_eq!(offset_of!(PathTracerParams, max_bounces), 16);
         assert_eq!(offset_of!(PathTracerParams, emissive_multiplier), 20);
         assert_eq!(offset_of!(PathTracerParams, light_count), 24);
         assert_eq!(offset_of!(PathTracerParams, seed), 28);
+        assert_eq!(offset_of!(PathTracerParams, environment_size), 32);
+        assert_eq!(offset_of!(PathTracerParams, _pad), 40);
+    }
+
+    #[test]
+    fn environment_lookup() {
+        // 4 × 2 texels, each its own index.
+        let env: [[f32; 4]; 8] = core::array::from_fn(|i| [i as f32, 0.0, 0.0, 0.0]);
+        let params = PathTracerParams {
+            sky: [9.0; 3],
+            environment_size: [4, 2],
+            ..Default::default()
+        };
+        let at = |d: Vec3| sky_radiance(&params, &env, d.normalize()).x;
+        // Up is row 0, down row 1; -Z is the middle (u = 0.5), +X at u = 0.75, -X at u = 0.25.
+        assert_eq!(at(Vec3::new(0.0, 0.5, -1.0)), 2.0);
+        assert_eq!(at(Vec3::new(1.0, 0.5, 0.0)), 3.0);
+        assert_eq!(at(Vec3::new(-1.0, 0.5, -0.01)), 1.0);
+        assert_eq!(at(Vec3::new(0.0, -0.5, -1.0)), 6.0);
+        // Straight up is row 0, whichever column.
+        assert!(at(Vec3::Y) < 4.0);
+        // +Z wraps to either edge column, never outside.
+        let back = at(Vec3::new(0.0, 0.5, 1.0));
+        assert!(back == 0.0 || back == 3.0);
+        // Without an image the constant sky; with a short buffer black.
+        let none = PathTracerParams {
+            environment_size: [0, 0],
+            ..params
+        };
+        assert_eq!(sky_radiance(&none, &env, Vec3::Y), Vec3::splat(9.0));
+        assert_eq!(sky_radiance(&params, &env[..3], Vec3::NEG_Y), Vec3::ZERO);
     }
 
     #[test]
@@ -412,6 +478,7 @@ mod tests {
             &mut path,
             &HitRecord::miss(),
             &params,
+            &[],
             &[],
             &[],
             &[],

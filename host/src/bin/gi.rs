@@ -4,7 +4,7 @@ use clap::{Parser, Subcommand};
 use gi_host::gbuffer::{GBufferData, GBufferImages, GBufferPass, scene_camera, write_debug_pngs};
 use gi_host::image_io::{HdrImage, ToneMap};
 use gi_host::metrics::{self, CompareSettings};
-use gi_host::path_tracer::{PathTracerPass, PathTracerSettings, Render};
+use gi_host::path_tracer::{Environment, PathTracerPass, PathTracerSettings, Render};
 use gi_host::scene::Scene;
 use gi_host::scene::gpu_data::{GpuShadingData, ShadingData};
 use gi_host::scene::lights::{GpuLights, gpu_lights};
@@ -84,10 +84,13 @@ enum Command {
         /// Factor on the emission of every surface.
         #[arg(long, default_value_t = 1.0)]
         emissive_multiplier: f32,
-        /// Constant sky radiance as r,g,b (W/(sr·m²)); none by default. (glTF has no environment;
-        /// an HDR environment image is not supported yet.)
-        #[arg(long, value_parser = parse_vec3)]
+        /// Constant sky radiance as r,g,b (W/(sr·m²)); none by default (glTF has no environment).
+        #[arg(long, value_parser = parse_vec3, conflicts_with = "environment")]
         sky: Option<Vec3>,
+        /// Equirectangular environment image lighting the scene instead of --sky: Radiance .hdr
+        /// or OpenEXR, linear, +Y up, its middle column looking along -Z.
+        #[arg(long)]
+        environment: Option<PathBuf>,
         /// Exposure of the PNG in stops.
         #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
         exposure: f32,
@@ -207,6 +210,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         max_bounces,
         emissive_multiplier,
         sky,
+        environment,
         exposure,
         seed,
         camera_position,
@@ -224,9 +228,17 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         let view = camera_position
             .zip(*camera_target)
             .map(|(p, t)| (p, t, *fov));
-        render(
-            &ctx, scene, out, *width, *height, view, &settings, *exposure,
-        )?;
+        let environment = environment
+            .as_ref()
+            .map(|p| HdrImage::read(p).map(|i| Environment::from_image(&i)))
+            .transpose()?;
+        let output = Output {
+            path: out,
+            width: *width,
+            height: *height,
+            exposure: *exposure,
+        };
+        render(&ctx, scene, &output, view, environment.as_ref(), &settings)?;
         return check_validation(&ctx);
     }
     let report = gi_host::smoke::run(&ctx, invocations)?;
@@ -403,19 +415,22 @@ impl Uploaded {
         &self,
         ctx: &Context,
         camera: &CameraParams,
+        environment: Option<&Environment>,
         settings: &PathTracerSettings,
         progress: impl FnMut(u32, u32),
     ) -> gi_host::Result<Render> {
         let mut pass = PathTracerPass::new(ctx, &self.geometry)?;
-        let result = pass.render(
-            ctx,
-            &self.geometry,
-            &self.shading,
-            &self.lights,
-            camera,
-            settings,
-            progress,
-        );
+        let result = pass.set_environment(ctx, environment).and_then(|()| {
+            pass.render(
+                ctx,
+                &self.geometry,
+                &self.shading,
+                &self.lights,
+                camera,
+                settings,
+                progress,
+            )
+        });
         pass.destroy(ctx);
         result
     }
@@ -435,20 +450,28 @@ fn load_scene(path: &Path) -> Result<Scene, Box<dyn std::error::Error>> {
     Ok(scene)
 }
 
-#[allow(
-    clippy::too_many_arguments,
-    reason = "one argument per command-line option group"
-)]
+/// Where and how `gi render` writes its image.
+struct Output<'a> {
+    path: &'a Path,
+    width: u32,
+    height: u32,
+    exposure: f32,
+}
+
 fn render(
     ctx: &Context,
     path: &Path,
-    out: &Path,
-    width: u32,
-    height: u32,
+    output: &Output<'_>,
     view: Option<(Vec3, Vec3, f32)>,
+    environment: Option<&Environment>,
     settings: &PathTracerSettings,
-    exposure: f32,
 ) -> Result<(), Box<dyn std::error::Error>> {
+    let Output {
+        path: out,
+        width,
+        height,
+        exposure,
+    } = *output;
     let start = Instant::now();
     let scene = load_scene(path)?;
     println!(
@@ -474,7 +497,7 @@ fn render(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} spp, eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let rendered = uploaded.render(ctx, &camera, settings, |done, _| {
+    let rendered = uploaded.render(ctx, &camera, environment, settings, |done, _| {
         bar.set_position(u64::from(done))
     });
     bar.finish_and_clear();
@@ -547,8 +570,8 @@ fn benchmark(
                 ..*settings
             };
             let result = uploaded
-                .render(&ctx, &camera, &warm, |_, _| {})
-                .and_then(|_| uploaded.render(&ctx, &camera, settings, |_, _| {}));
+                .render(&ctx, &camera, None, &warm, |_, _| {})
+                .and_then(|_| uploaded.render(&ctx, &camera, None, settings, |_, _| {}));
             uploaded.destroy(&ctx);
             let ms = result?.gpu_ms.unwrap_or(f64::NAN);
             let paths = f64::from(width) * f64::from(height) * f64::from(settings.samples);
