@@ -14,6 +14,7 @@ use crate::vulkan::{
 };
 use ash::vk;
 use gi_shared::camera::CameraParams;
+use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
 use gi_shared::lights::GpuLight;
 use gi_shared::path_tracer::{
     MAX_BOUNCES, PATH_TRACER_TILE, PathTracerParams, begin_path, finite_radiance, shade,
@@ -163,13 +164,29 @@ impl PathTracerPass {
     }
 
     /// Lights escaping rays with `environment` instead of the constant sky (from the next render
-    /// on); `None` goes back to the constant sky.
+    /// on); `None` goes back to the constant sky. An environment must fit one storage binding
+    /// (`MAX_STORAGE_BUFFER_BYTES`: up to 4096 × 2048 texels).
     pub fn set_environment(
         &mut self,
         ctx: &Context,
         environment: Option<&Environment>,
     ) -> Result<()> {
         let usage = vk::BufferUsageFlags::empty();
+        if let Some(e) = environment {
+            let bytes = std::mem::size_of_val(e.texels.as_slice()) as u64;
+            if bytes > MAX_STORAGE_BUFFER_BYTES as u64 {
+                return Err(Error::InvalidArgument {
+                    name: "environment",
+                    why: format!(
+                        "{}x{} texels take {bytes} bytes, more than the {} MiB a storage buffer \
+                         binding may hold on every device: use a smaller image",
+                        e.size[0],
+                        e.size[1],
+                        MAX_STORAGE_BUFFER_BYTES >> 20
+                    ),
+                });
+            }
+        }
         let (buffer, size) = match environment {
             Some(e)
                 if !e.texels.is_empty()

@@ -41,6 +41,7 @@ fn render_gpu(
         scene.lights.len() + scene.emissive_triangles.len()
     );
     let mut pass = PathTracerPass::new(&ctx, &geometry).unwrap();
+    let mut reports = vec![];
     let render = pass
         .render(
             &ctx,
@@ -49,9 +50,12 @@ fn render_gpu(
             &lights,
             camera,
             settings,
-            |_, _| {},
+            |done, total| reports.push((done, total)),
         )
         .unwrap();
+    // Progress rises to the total, once per submission.
+    assert_eq!(reports.last(), Some(&(settings.samples, settings.samples)));
+    assert!(reports.windows(2).all(|w| w[0].0 < w[1].0));
     let [w, h] = camera.image_size;
     println!(
         "{} {variant}: {w}x{h}, {} spp in {:.1?} ms GPU time",
