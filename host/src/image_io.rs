@@ -203,18 +203,33 @@ impl HdrImage {
         self.pixels[y as usize * self.width as usize + x as usize]
     }
 
-    /// Reads an image by the file's extension: `.exr` (any case) as OpenEXR, anything else as
-    /// PNG/JPEG through [`HdrImage::read_ldr`].
+    /// Reads an image by the file's extension: `.exr` (any case) as OpenEXR, `.hdr` as Radiance
+    /// RGBE (linear, as it is), anything else as PNG/JPEG through [`HdrImage::read_ldr`].
     pub fn read(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let is_exr = path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        if is_exr {
+        let extension = |x: &str| path.extension().is_some_and(|e| e.eq_ignore_ascii_case(x));
+        if extension("exr") {
             Self::read_exr(path)
+        } else if extension("hdr") {
+            Self::read_radiance_hdr(path)
         } else {
             Self::read_ldr(path)
         }
+    }
+
+    /// Reads a Radiance RGBE (`.hdr`) image; its values are linear already.
+    pub fn read_radiance_hdr(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let decoded = image::ImageReader::open(path)
+            .map_err(|e| image_error(path, format_args!("cannot open: {e}")))?
+            .with_guessed_format()
+            .map_err(|e| image_error(path, format_args!("cannot read: {e}")))?
+            .decode()
+            .map_err(|e| image_error(path, format_args!("cannot decode: {e}")))?
+            .into_rgb32f();
+        let (width, height) = decoded.dimensions();
+        let pixels = decoded.pixels().map(|p| p.0).collect();
+        Self::from_pixels(width, height, pixels).map_err(|e| image_error(path, e))
     }
 
     /// Writes the image as OpenEXR: channels R, G, B in `f32`, lossless ZIP compression, every

@@ -10,6 +10,7 @@ pub mod gbuffer;
 pub mod image_io;
 pub mod kernels;
 pub mod metrics;
+pub mod path_tracer;
 pub mod scene;
 pub mod smoke;
 pub mod trace_rays;

@@ -107,3 +107,89 @@ fn compare_reports_metrics_and_writes_a_heat_map() {
     assert!(err.contains("missing.exr"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn render_writes_an_exr_and_a_png() {
+    use gi_host::image_io::HdrImage;
+    let dir = std::env::temp_dir().join(format!("gi-cli-render-{}", std::process::id()));
+    let out_exr = dir.join("cornell.exr");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-box.gltf");
+    let out = gi(
+        &[
+            "--validation",
+            "render",
+            scene,
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--spp",
+            "4",
+            "--out",
+            out_exr.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let image = HdrImage::read(&out_exr).unwrap();
+    assert_eq!((image.width(), image.height()), (16, 12));
+    assert!(image.pixels().iter().flatten().any(|&c| c > 0.0));
+    assert!(image::open(dir.join("cornell.png")).is_ok_and(|i| i.width() == 16));
+
+    // An environment image (here a uniform one) lights what the open side of the scene sees.
+    let env = dir.join("white.exr");
+    HdrImage::from_pixels(8, 4, vec![[0.5; 3]; 32])
+        .unwrap()
+        .write_exr(&env)
+        .unwrap();
+    let lit = dir.join("lit.exr");
+    let out = gi(
+        &[
+            "--validation",
+            "render",
+            scene,
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "2",
+            "--environment",
+            env.to_str().unwrap(),
+            "--camera-position",
+            "0,1,10",
+            "--camera-target",
+            "0,1,0",
+            "--fov",
+            "60",
+            "--out",
+            lit.to_str().unwrap(),
+        ],
+        &[],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The corners look past the box into the environment.
+    assert_eq!(HdrImage::read(&lit).unwrap().pixel(0, 0), [0.5; 3]);
+    let missing = dir.join("missing.hdr");
+    let out = gi(
+        &["render", scene, "--environment", missing.to_str().unwrap()],
+        &[],
+    );
+    let err = single_error_line(&out);
+    assert!(err.contains("missing.hdr"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+
+    // Argument errors are clap's (an error line and a pointer to --help).
+    let out = gi(&["render", scene, "--sky", "1,2"], &[]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.starts_with("error: ") && err.contains("x,y,z"), "{err}");
+}

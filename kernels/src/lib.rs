@@ -11,11 +11,13 @@
 
 mod difftest;
 mod gbuffer;
+mod path_tracer;
 mod smoke;
 pub mod trace;
 mod trace_rays;
 
 pub use difftest::difftest;
 pub use gbuffer::gbuffer;
+pub use path_tracer::path_tracer;
 pub use smoke::smoke;
 pub use trace_rays::trace_rays;

@@ -56,3 +56,36 @@ pub fn closest_hit(tlas: &AccelerationStructure, ray: &Ray) -> HitRecord {
 pub fn closest_hit(nodes: &[BvhNode], triangles: &[BvhTriangle], ray: &Ray) -> HitRecord {
     gi_shared::bvh::closest_hit(nodes, triangles, ray)
 }
+
+/// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+#[cfg(feature = "ray-query")]
+pub fn any_hit(tlas: &AccelerationStructure, ray: &Ray) -> bool {
+    use spirv_std::glam::Vec3;
+    use spirv_std::ray_tracing::{CommittedIntersection, RayFlags, RayQuery};
+    if !ray.is_traceable() {
+        return false;
+    }
+    spirv_std::ray_query!(let mut query);
+    unsafe {
+        query.initialize(
+            tlas,
+            RayFlags::OPAQUE | RayFlags::TERMINATE_ON_FIRST_HIT,
+            0xff,
+            Vec3::from(ray.origin),
+            ray.t_min,
+            Vec3::from(ray.direction),
+            ray.t_max,
+        );
+        while query.proceed() {}
+        !matches!(
+            query.get_committed_intersection_type(),
+            CommittedIntersection::None
+        )
+    }
+}
+
+/// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+#[cfg(not(feature = "ray-query"))]
+pub fn any_hit(nodes: &[BvhNode], triangles: &[BvhTriangle], ray: &Ray) -> bool {
+    gi_shared::bvh::any_hit(nodes, triangles, ray)
+}

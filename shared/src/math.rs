@@ -62,6 +62,18 @@ pub fn atan(x: f32) -> f32 {
     Float::atan(x)
 }
 
+/// Four-quadrant arctangent of `y / x`, in `[-π, π]`.
+#[inline]
+pub fn atan2(y: f32, x: f32) -> f32 {
+    Float::atan2(y, x)
+}
+
+/// Arccosine, in `[0, π]` for `x` in `[-1, 1]`.
+#[inline]
+pub fn acos(x: f32) -> f32 {
+    Float::acos(x)
+}
+
 /// Smaller of `a` and `b`; returns `b` when either is NaN (SPIR-V `FMin` leaves NaN undefined).
 #[inline]
 pub fn min(a: f32, b: f32) -> f32 {

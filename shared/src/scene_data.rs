@@ -267,6 +267,8 @@ pub struct Surface {
     pub uv: Vec2,
     /// The triangle's material index.
     pub material: u32,
+    /// World-space area of the triangle.
+    pub area: f32,
 }
 
 /// The vertex `index` of `mesh`, or a zero vertex when out of range.
@@ -319,7 +321,8 @@ pub fn fetch_surface(
     let pa = inst.transform_point(Vec3::from_array(a.position));
     let pb = inst.transform_point(Vec3::from_array(b.position));
     let pc = inst.transform_point(Vec3::from_array(c.position));
-    let geometric_normal = ((pb - pa).cross(pc - pa) * inst.winding).normalize_or_zero();
+    let cross = (pb - pa).cross(pc - pa);
+    let geometric_normal = (cross * inst.winding).normalize_or_zero();
 
     let n = Vec3::from_array(a.normal) * w0
         + Vec3::from_array(b.normal) * w1
@@ -336,6 +339,7 @@ pub fn fetch_surface(
         shading_normal,
         uv,
         material: tri.material,
+        area: 0.5 * cross.length(),
     }
 }
 

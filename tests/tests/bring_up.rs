@@ -30,6 +30,7 @@ fn both_variants_declare_their_entry_points() {
             "difftest::difftest",
             "trace_rays::trace_rays",
             "gbuffer::gbuffer",
+            "path_tracer::path_tracer",
         ] {
             assert!(
                 entries.iter().any(|e| e == name),

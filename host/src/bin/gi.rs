@@ -4,12 +4,16 @@ use clap::{Parser, Subcommand};
 use gi_host::gbuffer::{GBufferData, GBufferImages, GBufferPass, scene_camera, write_debug_pngs};
 use gi_host::image_io::{HdrImage, ToneMap};
 use gi_host::metrics::{self, CompareSettings};
+use gi_host::path_tracer::{Environment, PathTracerPass, PathTracerSettings, Render};
 use gi_host::scene::Scene;
 use gi_host::scene::gpu_data::{GpuShadingData, ShadingData};
+use gi_host::scene::lights::{GpuLights, gpu_lights};
 use gi_host::scene::upload::{SceneGeometry, build_bvh};
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
 use gi_shared::camera::CameraParams;
+use glam::Vec3;
+use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -57,6 +61,72 @@ enum Command {
         #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(1..=8192))]
         height: u32,
     },
+    /// Render a scene with the reference path tracer: progressive, one path per pixel per
+    /// dispatch. Writes the linear image as OpenEXR and a tone-mapped PNG beside it.
+    Render {
+        /// The glTF scene (.gltf or .glb).
+        scene: PathBuf,
+        /// Output image: OpenEXR (linear radiance); the PNG goes beside it with the same name.
+        #[arg(long, default_value = "out/render.exr")]
+        out: PathBuf,
+        /// Image width in pixels.
+        #[arg(long, default_value_t = 320, value_parser = clap::value_parser!(u32).range(1..=8192))]
+        width: u32,
+        /// Image height in pixels.
+        #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(1..=8192))]
+        height: u32,
+        /// Paths per pixel.
+        #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+        spp: u32,
+        /// Reflections per path (0: emitters only, 1: direct lighting); at most 64.
+        #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(0..=64))]
+        max_bounces: u32,
+        /// Factor on the emission of every surface.
+        #[arg(long, default_value_t = 1.0)]
+        emissive_multiplier: f32,
+        /// Constant sky radiance as r,g,b (W/(sr·m²)); none by default (glTF has no environment).
+        #[arg(long, value_parser = parse_vec3, conflicts_with = "environment")]
+        sky: Option<Vec3>,
+        /// Equirectangular environment image lighting the scene instead of --sky: Radiance .hdr
+        /// or OpenEXR, linear, +Y up, its middle column looking along -Z.
+        #[arg(long)]
+        environment: Option<PathBuf>,
+        /// Exposure of the PNG in stops.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        exposure: f32,
+        /// Seed of the random streams.
+        #[arg(long, default_value_t = 0)]
+        seed: u32,
+        /// Camera position x,y,z (with --camera-target); default: the scene's first camera, else a
+        /// view of the whole scene.
+        #[arg(long, value_parser = parse_vec3, requires = "camera_target", allow_negative_numbers = true)]
+        camera_position: Option<Vec3>,
+        /// Point the camera looks at, x,y,z.
+        #[arg(long, value_parser = parse_vec3, requires = "camera_position", allow_negative_numbers = true)]
+        camera_target: Option<Vec3>,
+        /// Vertical field of view in degrees, with --camera-position.
+        #[arg(long, default_value_t = 45.0)]
+        fov: f32,
+    },
+    /// Measure the path tracer's speed: paths per second for each scene in each tracing variant
+    /// the device has (ignores --trace).
+    Benchmark {
+        /// glTF scenes.
+        #[arg(default_values = ["scenes/cornell-box.gltf", "scenes/indirect-room.gltf", "scenes/many-lights.gltf"])]
+        scenes: Vec<PathBuf>,
+        /// Image width in pixels.
+        #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=8192))]
+        width: u32,
+        /// Image height in pixels.
+        #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=8192))]
+        height: u32,
+        /// Paths per pixel.
+        #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+        spp: u32,
+        /// Reflections per path.
+        #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(0..=64))]
+        max_bounces: u32,
+    },
     /// Compare a test image with a reference: RMSE, relative MSE, PSNR and FLIP, and optionally
     /// FLIP's error heat map. Images are OpenEXR (linear) or PNG/JPEG (sRGB).
     Compare {
@@ -94,6 +164,21 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     {
         return compare(reference, test, *exposure, heat_map.as_deref());
     }
+    if let Some(Command::Benchmark {
+        scenes,
+        width,
+        height,
+        spp,
+        max_bounces,
+    }) = &cli.command
+    {
+        let settings = PathTracerSettings {
+            samples: *spp,
+            max_bounces: *max_bounces,
+            ..PathTracerSettings::default()
+        };
+        return benchmark(cli, scenes, *width, *height, &settings);
+    }
     let options = ContextOptions {
         validation: cli.validation,
         device: cli.device.clone(),
@@ -116,6 +201,45 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     }) = &cli.command
     {
         gbuffer(&ctx, scene, out, *width, *height)?;
+    }
+    if let Some(Command::Render {
+        scene,
+        out,
+        width,
+        height,
+        spp,
+        max_bounces,
+        emissive_multiplier,
+        sky,
+        environment,
+        exposure,
+        seed,
+        camera_position,
+        camera_target,
+        fov,
+    }) = &cli.command
+    {
+        let settings = PathTracerSettings {
+            samples: *spp,
+            max_bounces: *max_bounces,
+            emissive_multiplier: *emissive_multiplier,
+            sky: sky.unwrap_or(Vec3::ZERO),
+            seed: *seed,
+        };
+        let view = camera_position
+            .zip(*camera_target)
+            .map(|(p, t)| (p, t, *fov));
+        let environment = environment
+            .as_ref()
+            .map(|p| HdrImage::read(p).map(|i| Environment::from_image(&i)))
+            .transpose()?;
+        let output = Output {
+            path: out,
+            width: *width,
+            height: *height,
+            exposure: *exposure,
+        };
+        render(&ctx, scene, &output, view, environment.as_ref(), &settings)?;
     }
     check_validation(&ctx)
 }
@@ -243,4 +367,225 @@ fn render_gbuffer(
     images.destroy(ctx);
     pass.destroy(ctx);
     result
+}
+
+/// Parses `x,y,z`.
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>().map_err(|e| format!("{p:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    match parts[..] {
+        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("{s:?} is not three finite numbers x,y,z")),
+    }
+}
+
+/// A scene on the device, ready for the path tracer.
+struct Uploaded {
+    geometry: SceneGeometry,
+    shading: GpuShadingData,
+    lights: GpuLights,
+}
+
+impl Uploaded {
+    fn new(ctx: &Context, scene: &Scene) -> gi_host::Result<Self> {
+        let shading_data = ShadingData::new(scene)?;
+        let geometry = SceneGeometry::new(ctx, scene, None)?;
+        let shading = match GpuShadingData::new(ctx, &shading_data) {
+            Ok(s) => s,
+            Err(e) => {
+                geometry.destroy(ctx);
+                return Err(e);
+            }
+        };
+        match GpuLights::new(ctx, &gpu_lights(scene)) {
+            Ok(lights) => Ok(Self {
+                geometry,
+                shading,
+                lights,
+            }),
+            Err(e) => {
+                shading.destroy(ctx);
+                geometry.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    /// Renders `settings.samples` paths per pixel of `camera`, reporting progress to `progress`.
+    fn render(
+        &self,
+        ctx: &Context,
+        camera: &CameraParams,
+        environment: Option<&Environment>,
+        settings: &PathTracerSettings,
+        progress: impl FnMut(u32, u32),
+    ) -> gi_host::Result<Render> {
+        let mut pass = PathTracerPass::new(ctx, &self.geometry)?;
+        let result = pass.set_environment(ctx, environment).and_then(|()| {
+            pass.render(
+                ctx,
+                &self.geometry,
+                &self.shading,
+                &self.lights,
+                camera,
+                settings,
+                progress,
+            )
+        });
+        pass.destroy(ctx);
+        result
+    }
+
+    fn destroy(self, ctx: &Context) {
+        self.lights.destroy(ctx);
+        self.shading.destroy(ctx);
+        self.geometry.destroy(ctx);
+    }
+}
+
+fn load_scene(path: &Path) -> Result<Scene, Box<dyn std::error::Error>> {
+    let (scene, warnings) = Scene::load(path)?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(scene)
+}
+
+/// Where and how `gi render` writes its image.
+struct Output<'a> {
+    path: &'a Path,
+    width: u32,
+    height: u32,
+    exposure: f32,
+}
+
+fn render(
+    ctx: &Context,
+    path: &Path,
+    output: &Output<'_>,
+    view: Option<(Vec3, Vec3, f32)>,
+    environment: Option<&Environment>,
+    settings: &PathTracerSettings,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let Output {
+        path: out,
+        width,
+        height,
+        exposure,
+    } = *output;
+    let start = Instant::now();
+    let scene = load_scene(path)?;
+    println!(
+        "scene:               {} ({} triangles, {} punctual lights, {} emissive triangles)",
+        path.display(),
+        scene.triangle_count(),
+        scene.lights.len(),
+        scene.emissive_triangles.len()
+    );
+    let camera = match view {
+        Some((position, target, fov)) => CameraParams::new(
+            position,
+            target - position,
+            Vec3::Y,
+            fov.to_radians(),
+            width,
+            height,
+        ),
+        None => scene_camera(&scene, width, height),
+    };
+    let uploaded = Uploaded::new(ctx, &scene)?;
+    let bar = ProgressBar::new(u64::from(settings.samples)).with_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} spp, eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let rendered = uploaded.render(ctx, &camera, environment, settings, |done, _| {
+        bar.set_position(u64::from(done))
+    });
+    bar.finish_and_clear();
+    uploaded.destroy(ctx);
+    let rendered = rendered?;
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
+    }
+    let png = out.with_extension("png");
+    rendered.image.write_exr(out)?;
+    rendered.image.write_png(
+        &png,
+        &ToneMap {
+            exposure,
+            ..ToneMap::default()
+        },
+    )?;
+    let seconds = start.elapsed().as_secs_f64();
+    let paths = f64::from(width) * f64::from(height) * f64::from(settings.samples);
+    let gpu = rendered
+        .gpu_ms
+        .map(|ms| format!(", {:.2} Mpaths/s GPU time", paths / ms / 1e3))
+        .unwrap_or_default();
+    println!(
+        "render:              {width}x{height}, {} spp, {} bounces in {seconds:.1} s{gpu}",
+        settings.samples, settings.max_bounces
+    );
+    println!("wrote                {}", out.display());
+    println!("wrote                {}", png.display());
+    Ok(())
+}
+
+fn benchmark(
+    cli: &Cli,
+    scenes: &[PathBuf],
+    width: u32,
+    height: u32,
+    settings: &PathTracerSettings,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let loaded: Vec<(String, Scene)> = scenes
+        .iter()
+        .map(|p| Ok((p.display().to_string(), load_scene(p)?)))
+        .collect::<Result<_, Box<dyn std::error::Error>>>()?;
+    println!(
+        "path tracer, {width}x{height}, {} spp, {} bounces",
+        settings.samples, settings.max_bounces
+    );
+    println!(
+        "{:<32} {:>10} {:>22} {:>14} {:>14}",
+        "scene", "triangles", "variant", "GPU ms", "Mpaths/s"
+    );
+    for trace in [TraceMode::RayQuery, TraceMode::Software] {
+        let ctx = match Context::new(&ContextOptions {
+            validation: cli.validation,
+            device: cli.device.clone(),
+            trace,
+        }) {
+            Ok(ctx) => ctx,
+            Err(e) => {
+                println!("{trace:?}: skipped ({e})");
+                continue;
+            }
+        };
+        for (name, scene) in &loaded {
+            let camera = scene_camera(scene, width, height);
+            let uploaded = Uploaded::new(&ctx, scene)?;
+            // A first small render compiles the pipeline and warms the caches.
+            let warm = PathTracerSettings {
+                samples: 1,
+                ..*settings
+            };
+            let result = uploaded
+                .render(&ctx, &camera, None, &warm, |_, _| {})
+                .and_then(|_| uploaded.render(&ctx, &camera, None, settings, |_, _| {}));
+            uploaded.destroy(&ctx);
+            let ms = result?.gpu_ms.unwrap_or(f64::NAN);
+            let paths = f64::from(width) * f64::from(height) * f64::from(settings.samples);
+            println!(
+                "{name:<32} {:>10} {:>22} {ms:>14.1} {:>14.3}",
+                scene.triangle_count(),
+                ctx.variant().to_string(),
+                paths / ms / 1e3
+            );
+        }
+        check_validation(&ctx)?;
+    }
+    Ok(())
 }

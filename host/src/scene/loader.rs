@@ -18,8 +18,8 @@ use std::path::Path;
 use super::document::{Ctx, Document, label};
 use super::geometry::{self, CleanPrimitive, RawPrimitive};
 use super::{
-    Aabb, Camera, EmissiveTriangle, Instance, LUMENS_PER_WATT, Light, LightKind, Material, Mesh,
-    Scene, Texture, Warning, Wrap,
+    Aabb, Camera, Instance, LUMENS_PER_WATT, Light, LightKind, Material, Mesh, Scene, Texture,
+    Warning, Wrap,
 };
 use crate::Result;
 
@@ -119,24 +119,7 @@ impl Builder<'_> {
             };
             return Err(self.ctx.error(scene_element, why));
         }
-        let mut bounds = Aabb::EMPTY;
-        let mut emissive = Vec::new();
-        for tri in scene.world_triangles() {
-            tri.vertices.iter().for_each(|&v| bounds.grow(v));
-            let material = &scene.materials[tri.material as usize];
-            if material.is_emissive() {
-                let [a, b, c] = tri.vertices;
-                emissive.push(EmissiveTriangle {
-                    instance: tri.instance,
-                    primitive: tri.primitive,
-                    vertices: tri.vertices,
-                    emission: material.emissive,
-                    area: 0.5 * (b - a).cross(c - a).length(),
-                });
-            }
-        }
-        scene.bounds = bounds;
-        scene.emissive_triangles = emissive;
+        scene.update_derived();
         Ok((scene, self.ctx.into_warnings()))
     }
 

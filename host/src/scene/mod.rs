@@ -53,6 +53,7 @@ pub mod bvh;
 mod document;
 mod geometry;
 pub mod gpu_data;
+pub mod lights;
 mod loader;
 pub mod upload;
 
@@ -96,6 +97,30 @@ impl Scene {
     /// input is an error and which a warning.
     pub fn load(path: impl AsRef<Path>) -> Result<(Scene, Vec<Warning>)> {
         loader::load(path.as_ref())
+    }
+
+    /// Recomputes [`Scene::bounds`] and [`Scene::emissive_triangles`] from the meshes, instances
+    /// and materials: the loader's last step, and what a scene built in code calls once its parts
+    /// are in place.
+    pub fn update_derived(&mut self) {
+        let mut bounds = Aabb::EMPTY;
+        let mut emissive = Vec::new();
+        for tri in self.world_triangles() {
+            tri.vertices.iter().for_each(|&v| bounds.grow(v));
+            let material = self.materials.get(tri.material as usize);
+            if let Some(material) = material.filter(|m| m.is_emissive()) {
+                let [a, b, c] = tri.vertices;
+                emissive.push(EmissiveTriangle {
+                    instance: tri.instance,
+                    primitive: tri.primitive,
+                    vertices: tri.vertices,
+                    emission: material.emissive,
+                    area: 0.5 * (b - a).cross(c - a).length(),
+                });
+            }
+        }
+        self.bounds = bounds;
+        self.emissive_triangles = emissive;
     }
 
     /// Number of world-space triangles: the triangles of every instance's mesh.
