@@ -4,8 +4,10 @@
 # host's unit and integration tests) and GPU tests (the `gi-tests` package: kernels on the Vulkan
 # device, lavapipe here, with the validation layer on; any validation message fails).
 #
-# One invocation over the whole workspace matters: cargo unifies dependency features over the
-# packages it builds, and another selection would rebuild rust-gpu's backend (7 minutes).
+# One invocation over the whole workspace, in the `dev` profile, matters: cargo unifies dependency
+# features over the packages it builds and keys build dependencies by profile, so another
+# selection or the `test` profile would rebuild rust-gpu's backend (7 minutes) beside the one
+# `scripts/run.sh` and clippy use.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -14,7 +16,7 @@ bash scripts/setup.sh
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 status=0
-cargo test --workspace "$@" 2>&1 | tee "$log" || status=1
+cargo test --profile dev --workspace "$@" 2>&1 | tee "$log" || status=1
 # cargo prints "Running <target> (<path of the test binary>)" before each binary's results; the
 # binaries of gi-tests live under a path naming their package.
 awk '
