@@ -420,18 +420,12 @@ pub fn write_debug_pngs(data: &GBufferData, dir: &Path) -> Result<Vec<PathBuf>> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::test_scene;
     use gi_shared::camera::{project, to_clip};
-
-    fn scene(file: &str) -> Scene {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes")
-            .join(file);
-        Scene::load(path).unwrap().0
-    }
 
     #[test]
     fn the_scene_camera_comes_from_the_file() {
-        let s = scene("cornell-box.gltf");
+        let s = test_scene("cornell-box.gltf");
         let c = scene_camera(&s, 64, 48);
         assert_eq!(c.position(), Vec3::new(0.0, 1.0, 3.9));
         assert!((c.forward() - Vec3::NEG_Z).length() < 1e-6);
@@ -443,7 +437,7 @@ mod tests {
 
     #[test]
     fn without_a_camera_the_whole_scene_is_in_view() {
-        let mut s = scene("cornell-box.gltf");
+        let mut s = test_scene("cornell-box.gltf");
         s.cameras.clear();
         let c = scene_camera(&s, 64, 48);
         let uv = project(&c.view_proj, s.bounds.center());
@@ -465,7 +459,7 @@ mod tests {
 
     #[test]
     fn debug_pngs_of_a_cpu_g_buffer() {
-        let s = scene("textured.gltf");
+        let s = test_scene("textured.gltf");
         let shading = ShadingData::new(&s).unwrap();
         let bvh = crate::scene::upload::build_bvh(&s).unwrap();
         let data = render_on_cpu(&shading, &bvh, &scene_camera(&s, 16, 12));

@@ -272,18 +272,11 @@ impl GpuShadingData {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::path::Path;
-
-    fn scene(file: &str) -> Scene {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes")
-            .join(file);
-        Scene::load(path).unwrap().0
-    }
+    use crate::scene::test_scene;
 
     #[test]
     fn cornell_box_has_no_texture_data() {
-        let s = scene("cornell-box.gltf");
+        let s = test_scene("cornell-box.gltf");
         let d = ShadingData::new(&s).unwrap();
         assert_eq!(d.instances.len(), s.instances.len());
         assert_eq!(d.meshes.len(), s.meshes.len());
@@ -307,7 +300,7 @@ mod tests {
 
     #[test]
     fn textured_scene_packs_texels_and_the_table() {
-        let s = scene("textured.gltf");
+        let s = test_scene("textured.gltf");
         let d = ShadingData::new(&s).unwrap();
         let t = &s.textures[0];
         assert_eq!(d.textures.len(), 1);
@@ -332,7 +325,7 @@ mod tests {
 
     #[test]
     fn a_buffer_over_the_binding_limit_is_an_error_naming_scene_and_buffer() {
-        let mut s = scene("textured.gltf");
+        let mut s = test_scene("textured.gltf");
         // 5800² texels of 4 bytes: just over 128 MiB.
         let side = 5800;
         s.textures[0].width = side;

@@ -473,3 +473,12 @@ impl fmt::Display for Warning {
         Ok(())
     }
 }
+
+/// Loads a scene of the repository's `scenes/` for unit tests.
+#[cfg(test)]
+pub(crate) fn test_scene(file: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes")
+        .join(file);
+    Scene::load(path).unwrap().0
+}
