@@ -28,13 +28,12 @@
 //! view-projection; equal matrices (a static camera) give exactly zero. Neither matrix holds the
 //! jitter: motion vectors carry no jitter.
 
-use glam::{UVec2, UVec4, Vec2, Vec3, Vec4};
+use glam::{UVec2, UVec4, Vec3, Vec4};
 
 use crate::camera::{CameraParams, to_clip, uv_of_clip};
 use crate::ray::{HitRecord, Ray};
 use crate::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, fetch_surface,
-    sample_material,
+    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, hit_surface,
 };
 
 /// Workgroup of the `gbuffer` kernel: `GBUFFER_TILE × GBUFFER_TILE` pixels.
@@ -135,16 +134,9 @@ pub fn gbuffer_texel(
     if !hit.is_hit() {
         return GBufferTexel::SKY;
     }
-    let surface = fetch_surface(
-        instances,
-        meshes,
-        vertices,
-        triangles,
-        hit.instance,
-        hit.primitive,
-        Vec2::from_array(hit.barycentrics),
+    let (surface, material) = hit_surface(
+        instances, meshes, vertices, triangles, materials, textures, texels, hit,
     );
-    let material = sample_material(materials, textures, texels, surface.material, surface.uv);
     let direction = Vec3::from_array(ray.direction);
     // The point on the ray, not the interpolated one: depth and motion then agree with the
     // pixel the ray went through, whatever the rounding of the vertex data.
@@ -187,6 +179,7 @@ mod tests {
     use super::*;
     use crate::camera::{primary_ray, view_projection};
     use crate::scene_data::NONE;
+    use glam::Vec2;
 
     /// The G-buffer pixel (16, 16) of `camera` for `hit` on a unit quad at z = -2 made of two
     /// triangles with a red, emissive material: facing +z (towards a camera at the origin looking

@@ -49,7 +49,7 @@ use crate::ray::{HitRecord, Ray};
 use crate::sampling::{sample_cosine_hemisphere, tangent_to_world};
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, fetch_surface,
-    sample_material,
+    hit_surface, sample_material,
 };
 
 /// The largest bounce count a path may take, whatever the parameters ask.
@@ -234,16 +234,9 @@ pub fn shade(
     } else {
         lights.len() as u32
     };
-    let surface = fetch_surface(
-        instances,
-        meshes,
-        vertices,
-        triangles,
-        hit.instance,
-        hit.primitive,
-        Vec2::from_array(hit.barycentrics),
+    let (surface, material) = hit_surface(
+        instances, meshes, vertices, triangles, materials, textures, texels, hit,
     );
-    let material = sample_material(materials, textures, texels, surface.material, surface.uv);
     let ray_direction = Vec3::from_array(path.ray.direction);
     let direction = ray_direction.normalize_or_zero();
     let position = Vec3::from_array(path.ray.origin) + ray_direction * hit.t;

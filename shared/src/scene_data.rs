@@ -22,6 +22,7 @@
 //! default white material, a texture reading as 1), so a malformed upload gives wrong colours,
 //! never a fault.
 
+use crate::ray::HitRecord;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3, Vec4};
 use num_traits::Float;
@@ -350,6 +351,32 @@ pub struct MaterialSample {
     pub base_color: Vec4,
     /// Emitted radiance × texture, W/(sr·m²).
     pub emissive: Vec3,
+}
+
+/// The surface `hit` landed on and its material there: what every pass that shades a hit needs.
+#[allow(clippy::too_many_arguments, reason = "one argument per scene buffer")]
+#[inline]
+pub fn hit_surface(
+    instances: &[GpuInstance],
+    meshes: &[GpuMesh],
+    vertices: &[GpuVertex],
+    triangles: &[GpuTriangle],
+    materials: &[GpuMaterial],
+    textures: &[GpuTexture],
+    texels: &[u32],
+    hit: &HitRecord,
+) -> (Surface, MaterialSample) {
+    let surface = fetch_surface(
+        instances,
+        meshes,
+        vertices,
+        triangles,
+        hit.instance,
+        hit.primitive,
+        Vec2::from_array(hit.barycentrics),
+    );
+    let material = sample_material(materials, textures, texels, surface.material, surface.uv);
+    (surface, material)
 }
 
 /// Material `material` at texture coordinate `uv`; the default material when out of range.
