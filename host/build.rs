@@ -5,6 +5,9 @@ use spirv_builder::{Capability, ModuleResult, SpirvBuilder, SpirvMetadata};
 use std::path::PathBuf;
 use std::str::FromStr;
 
+/// Where the third-party scenes are, from this package's directory.
+const THIRD_PARTY_SCENES: &str = "../../shared/scenes/third-party";
+
 struct Variant {
     env: &'static str,
     target_dir: &'static str,
@@ -31,6 +34,14 @@ const VARIANTS: &[Variant] = &[
 ];
 
 fn main() {
+    // Third-party scenes stay beside the repository, in ../shared: tests and benchmarks that
+    // read them are ignored, saying why, where it is absent (a user's clone).
+    let third_party = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(THIRD_PARTY_SCENES);
+    println!("cargo::rustc-check-cfg=cfg(third_party_scenes)");
+    println!("cargo::rerun-if-changed={}", third_party.display());
+    if third_party.is_dir() {
+        println!("cargo::rustc-cfg=third_party_scenes");
+    }
     let kernels = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../kernels");
     for v in VARIANTS {
         let mut b = SpirvBuilder::new(&kernels, "spirv-unknown-vulkan1.2")

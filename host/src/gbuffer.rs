@@ -212,12 +212,7 @@ impl GBufferPass {
         let kernel = Kernel::new(ctx, &module, "gbuffer::gbuffer", &bindings, 0);
         module.destroy(ctx);
         let kernel = kernel?;
-        match Buffer::from_slice(
-            ctx,
-            "G-buffer camera",
-            &[CameraParams::default()],
-            vk::BufferUsageFlags::empty(),
-        ) {
+        match Buffer::parameters(ctx, "G-buffer camera", &[CameraParams::default()]) {
             Ok(camera) => Ok(Self { kernel, camera }),
             Err(e) => {
                 kernel.destroy(ctx);

@@ -34,7 +34,7 @@ pub fn run(ctx: &Context, invocations: u32) -> Result<SmokeReport> {
     );
     module.destroy(ctx);
     let kernel = kernel?;
-    let mut out = Buffer::zeroed::<u32>(ctx, "smoke output", invocations as usize)?;
+    let out = Buffer::device_zeroed::<u32>(ctx, "smoke output", invocations as usize)?;
     let dispatched = submit_timed(ctx, "smoke", |cmd| {
         kernel.dispatch(
             ctx,
@@ -44,7 +44,7 @@ pub fn run(ctx: &Context, invocations: u32) -> Result<SmokeReport> {
             [invocations.div_ceil(WORKGROUP_SIZE), 1, 1],
         )
     });
-    let result = dispatched.and_then(|ms| Ok((ms, out.read::<u32>()?)));
+    let result = dispatched.and_then(|ms| Ok((ms, out.read_back::<u32>(ctx)?)));
     out.destroy(ctx);
     kernel.destroy(ctx);
     let (gpu_ms, values) = result?;

@@ -39,9 +39,9 @@ impl TraceRays {
         geometry: &SceneGeometry,
         rays: &[Ray],
     ) -> Result<TraceResult> {
-        let ray_buf = Buffer::from_slice(ctx, "rays", rays, Default::default())?;
-        let hit_buf = Buffer::zeroed::<HitRecord>(ctx, "hits", rays.len());
-        let mut hit_buf = match hit_buf {
+        let ray_buf = Buffer::device_local(ctx, "rays", rays, Default::default())?;
+        let hit_buf = Buffer::device_zeroed::<HitRecord>(ctx, "hits", rays.len());
+        let hit_buf = match hit_buf {
             Ok(b) => b,
             Err(e) => {
                 ray_buf.destroy(ctx);
@@ -56,7 +56,7 @@ impl TraceRays {
                 .dispatch(ctx, cmd, &resources, &[], [groups, 1, 1])
         });
         drop(resources);
-        let result = dispatched.and_then(|ms| Ok((ms, hit_buf.read::<HitRecord>()?)));
+        let result = dispatched.and_then(|ms| Ok((ms, hit_buf.read_back::<HitRecord>(ctx)?)));
         ray_buf.destroy(ctx);
         hit_buf.destroy(ctx);
         let (gpu_ms, hits) = result?;

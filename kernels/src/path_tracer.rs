@@ -5,8 +5,8 @@
 //!
 //! Set 0 after the scene's geometry (1 binding with ray queries, 2 in software): the camera
 //! (`CameraParams`), the shading data (instances, meshes, vertices, triangles, materials, texture
-//! table, texels), the lights (`GpuLight`), the environment image (`[f32; 4]` texels), the
-//! accumulation buffer. Push constants:
+//! table, texels), the lights (`GpuLight`), the triangle→light table (`u32`), the environment
+//! image (`[f32; 4]` texels) and its distribution (`f32`), the accumulation buffer. Push constants:
 //! `PathTracerParams`. Workgroups of 8 × 8 pixels.
 
 use crate::trace;
@@ -52,8 +52,10 @@ pub fn path_tracer(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] textures: &[GpuTexture],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] texels: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] lights: &[GpuLight],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] environment: &[[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] accumulation: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] light_table: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] environment: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] environment_cdf: &[f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] accumulation: &mut [[f32; 4]],
 ) {
     let pixel = UVec2::new(id.x, id.y);
     if !in_image(camera, pixel) {
@@ -75,7 +77,9 @@ pub fn path_tracer(
             textures,
             texels,
             lights,
+            light_table,
             environment,
+            environment_cdf,
         );
         if path.shadow_pending && !trace::any_hit(tlas, &path.shadow_ray) {
             path.radiance += path.shadow_radiance;
@@ -107,8 +111,10 @@ pub fn path_tracer(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] textures: &[GpuTexture],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] texels: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] lights: &[GpuLight],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] environment: &[[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] accumulation: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] light_table: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] environment: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] environment_cdf: &[f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] accumulation: &mut [[f32; 4]],
 ) {
     let pixel = UVec2::new(id.x, id.y);
     if !in_image(camera, pixel) {
@@ -130,7 +136,9 @@ pub fn path_tracer(
             textures,
             texels,
             lights,
+            light_table,
             environment,
+            environment_cdf,
         );
         if path.shadow_pending && !trace::any_hit(nodes, bvh_triangles, &path.shadow_ray) {
             path.radiance += path.shadow_radiance;

@@ -8,8 +8,9 @@
 
 use gi_shared::ray::{HitRecord, Ray};
 
+/// The BVH buffers as the kernels bind them: rows of 16 bytes, one vector load each.
 #[cfg(not(feature = "ray-query"))]
-pub use gi_shared::bvh::{BvhNode, BvhTriangle};
+pub use gi_shared::bvh::{BvhNodeRows as BvhNode, BvhTriangleRows as BvhTriangle};
 #[cfg(feature = "ray-query")]
 pub use spirv_std::ray_tracing::AccelerationStructure;
 

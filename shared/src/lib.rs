@@ -11,6 +11,7 @@ pub mod bvh;
 pub mod camera;
 pub mod color;
 pub mod difftest;
+pub mod environment;
 pub mod gbuffer;
 pub mod hash;
 pub mod hash_cells;

@@ -1,19 +1,21 @@
-//! Lights for next-event estimation: punctual lights (glTF `KHR_lights_punctual` semantics) and
-//! emissive triangles, all in one buffer of [`GpuLight`]s, with the sampling and evaluation the
-//! path tracer needs on the CPU and the GPU.
+//! Lights for next-event estimation: punctual lights (glTF `KHR_lights_punctual` semantics),
+//! emissive triangles and the environment image, all in one buffer of [`GpuLight`]s, with the
+//! sampling and evaluation the path tracer needs on the CPU and the GPU.
 //!
 //! # Light selection
 //!
-//! Uniform: each next-event estimate picks one light of the buffer with probability `1 / count`
-//! ([`select_light`]). Power-proportional selection samples better in scenes whose lights differ
-//! much in power, but it needs the selection probability of any emissive triangle a BSDF-sampled
-//! ray hits (for MIS), that is a map from (instance, primitive) to light; uniform selection needs
-//! only the count. Punctual lights and triangles share the buffer so that one choice covers both.
+//! In proportion to power: each light carries its selection probability
+//! ([`GpuLight::select_pmf`]) and one column of a Walker/Vose alias table
+//! ([`GpuLight::alias`], [`GpuLight::alias_threshold`]), built on the host, so that
+//! [`select_light`] costs two uniforms and two reads whatever the light count. MIS needs the
+//! selection probability of an emissive triangle that a BSDF-sampled ray hits: the host's
+//! triangle→light table ([`light_of_triangle`]) maps (instance, primitive) to its light.
 //!
 //! # Conventions
 //!
-//! Sampling a triangle ignores which side faces the shading point; whether that side emits (the
-//! front face, or both for a double-sided material) is the path tracer's business. Punctual lights ignore glTF's `range` (a culling hint; the
+//! Sampling a triangle ignores which side faces the shading point; [`GpuLight::emit_sides`] says
+//! which sides emit (the front face, or both for a double-sided material), and the path tracer
+//! checks it against the material. Punctual lights ignore glTF's `range` (a culling hint; the
 //! falloff is inverse-square without a window).
 
 use bytemuck::{Pod, Zeroable};
@@ -31,8 +33,19 @@ pub const LIGHT_DIRECTIONAL: u32 = 2;
 /// An emissive triangle: vertices `p0`, `p1`, `p2` in world space, `intensity` its emitted
 /// radiance (W/(sr·m²), before any emissive texture).
 pub const LIGHT_TRIANGLE: u32 = 3;
+/// The environment image (see [`crate::environment`]); at most one per buffer, found by
+/// `PathTracerParams::environment_light`.
+pub const LIGHT_ENVIRONMENT: u32 = 4;
 
-/// One light (80 bytes). Which fields mean what depends on `kind`.
+/// [`GpuLight::emit_sides`]: the side toward which `(p1 − p0) × (p2 − p0)` points emits.
+pub const EMIT_FRONT: u32 = 1;
+/// [`GpuLight::emit_sides`]: the other side emits.
+pub const EMIT_BACK: u32 = 2;
+
+/// Most light candidates one next-event estimate resamples (`PathTracerParams::light_candidates`).
+pub const MAX_LIGHT_CANDIDATES: u32 = 64;
+
+/// One light (96 bytes). Which fields mean what depends on `kind`.
 ///
 /// | offset | field        | point / spot | directional | triangle   |
 /// |--------|--------------|--------------|-------------|------------|
@@ -46,9 +59,14 @@ pub const LIGHT_TRIANGLE: u32 = 3;
 /// | 60     | `area`       | unused       | unused      | m²         |
 /// | 64     | `cos_inner`  | spot only    | unused      | unused     |
 /// | 68     | `cos_outer`  | spot only    | unused      | unused     |
-/// | 72     | `_pad`       |              |             |            |
+/// | 72     | `select_pmf` | all kinds    |             |            |
+/// | 76     | `alias`      | all kinds    |             |            |
+/// | 80     | `alias_threshold` | all kinds |            |            |
+/// | 84     | `emit_sides` | unused       | unused      | triangle   |
+/// | 88     | `_pad`       |              |             |            |
 ///
-/// `direction` is the unit direction the light shines in.
+/// `direction` is the unit direction the light shines in. The environment light uses only the
+/// selection fields.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuLight {
@@ -72,6 +90,15 @@ pub struct GpuLight {
     pub cos_inner: f32,
     /// Spot: cosine of the angle where the light ends.
     pub cos_outer: f32,
+    /// Probability that [`select_light`] picks this light.
+    pub select_pmf: f32,
+    /// Alias-table column of this light's index: the light picked when the second uniform is at
+    /// or above `alias_threshold`.
+    pub alias: u32,
+    /// Alias-table column: below this the column's own light is picked.
+    pub alias_threshold: f32,
+    /// Triangle: [`EMIT_FRONT`] and/or [`EMIT_BACK`].
+    pub emit_sides: u32,
     /// Explicit padding.
     pub _pad: [u32; 2],
 }
@@ -89,6 +116,10 @@ impl GpuLight {
         area: 0.0,
         cos_inner: 0.0,
         cos_outer: 0.0,
+        select_pmf: 0.0,
+        alias: 0,
+        alias_threshold: 0.0,
+        emit_sides: 0,
         _pad: [0; 2],
     };
 
@@ -131,8 +162,15 @@ impl GpuLight {
     }
 
     /// Emissive triangle `primitive` of `instance` with world-space `vertices` and radiance
-    /// `radiance`; the area is computed from the vertices.
-    pub fn triangle(instance: u32, primitive: u32, vertices: [Vec3; 3], radiance: Vec3) -> Self {
+    /// `radiance`, emitting toward `emit_sides` ([`EMIT_FRONT`], [`EMIT_BACK`]); the area is
+    /// computed from the vertices.
+    pub fn triangle(
+        instance: u32,
+        primitive: u32,
+        vertices: [Vec3; 3],
+        radiance: Vec3,
+        emit_sides: u32,
+    ) -> Self {
         let [a, b, c] = vertices;
         Self {
             kind: LIGHT_TRIANGLE,
@@ -143,18 +181,74 @@ impl GpuLight {
             primitive,
             intensity: radiance.to_array(),
             area: 0.5 * (b - a).cross(c - a).length(),
+            emit_sides,
             ..Self::ZERO
         }
     }
+
+    /// The environment image as a light: only its selection fields matter.
+    pub const ENVIRONMENT: Self = Self {
+        kind: LIGHT_ENVIRONMENT,
+        ..Self::ZERO
+    };
+
+    /// Whether a triangle light emits toward `direction` (pointing away from the triangle), by
+    /// its world-space winding and [`GpuLight::emit_sides`].
+    #[inline]
+    pub fn emits_toward(&self, direction: Vec3) -> bool {
+        let (p0, p1, p2) = (
+            Vec3::from_array(self.p0),
+            Vec3::from_array(self.p1),
+            Vec3::from_array(self.p2),
+        );
+        let c = (p1 - p0).cross(p2 - p0).dot(direction);
+        (c > 0.0 && self.emit_sides & EMIT_FRONT != 0)
+            || (c < 0.0 && self.emit_sides & EMIT_BACK != 0)
+    }
 }
 
-/// Uniform light selection: the index of the light that `u` in `[0, 1)` picks among `count`
-/// (0 when `count` is 0; the caller checks the count first). Its probability is `1 / count`.
+/// Power-proportional light selection by the alias method: the index of the light that `u`
+/// (uniform in `[0, 1)²`) picks among the first `count` of `lights`, with probability
+/// [`GpuLight::select_pmf`]. 0 when `count` is 0 (the caller checks the count first); an
+/// out-of-range alias reads as the column's own light.
 #[inline]
-pub fn select_light(count: u32, u: f32) -> u32 {
-    let last = if count > 0 { count - 1 } else { 0 };
-    let i = to_u32_clamped(u * count as f32);
-    if i > last { last } else { i }
+pub fn select_light(lights: &[GpuLight], count: u32, u: Vec2) -> u32 {
+    let count = if (count as usize) < lights.len() {
+        count
+    } else {
+        lights.len() as u32
+    };
+    if count == 0 {
+        return 0;
+    }
+    let i = to_u32_clamped(u.x * count as f32);
+    let i = if i >= count { count - 1 } else { i };
+    let column = &lights[i as usize];
+    if u.y < column.alias_threshold || column.alias >= count {
+        i
+    } else {
+        column.alias
+    }
+}
+
+/// The light index of triangle `primitive` of `instance` in the triangle→light `table`, or
+/// [`crate::scene_data::NONE`] when it is not a light (or the table does not know it).
+///
+/// Layout: `table[instance]` is the offset of the instance's run (one entry per triangle of its
+/// mesh) or `NONE` for an instance without emissive triangles; `table[offset + primitive]` is
+/// the light index or `NONE`.
+#[inline]
+pub fn light_of_triangle(table: &[u32], instance: u32, primitive: u32) -> u32 {
+    let none = crate::scene_data::NONE;
+    if (instance as usize) >= table.len() {
+        return none;
+    }
+    let offset = table[instance as usize];
+    if offset == none {
+        return none;
+    }
+    let i = offset as usize + primitive as usize;
+    if i < table.len() { table[i] } else { none }
 }
 
 /// A point sampled on an emissive triangle, seen from a shading point.
@@ -182,7 +276,9 @@ pub fn sample_triangle_light(light: &GpuLight, from: Vec3, u: Vec2) -> TriangleS
         Vec3::from_array(light.p1),
         Vec3::from_array(light.p2),
     );
-    let point = p0 * b.x + p1 * b.y + p2 * b.z;
+    // Relative to p0, as hit points are: rounding then depends on the triangle's size, not on
+    // how far from the origin it lies.
+    let point = p0 + (p1 - p0) * b.y + (p2 - p0) * b.z;
     let to = point - from;
     let distance_squared = to.length_squared();
     let distance = crate::math::sqrt(distance_squared);
@@ -273,12 +369,19 @@ pub fn punctual_incidence(light: &GpuLight, point: Vec3) -> PunctualIncidence {
 }
 
 /// Veach's power heuristic (β = 2): the MIS weight of a sample drawn with density `pdf` when
-/// `other_pdf` could also have drawn it. 0 when both are 0 or not finite.
+/// `other_pdf` could also have drawn it. 0 when `pdf` is 0 or NaN; an infinite `pdf` (a
+/// technique that cannot miss) against a finite other gets 1, and the reverse 0.
 #[inline]
 pub fn power_heuristic(pdf: f32, other_pdf: f32) -> f32 {
-    let a = pdf * pdf;
-    let b = other_pdf * other_pdf;
-    let w = a / (a + b);
+    if pdf.is_nan() || pdf <= 0.0 {
+        return 0.0;
+    }
+    if other_pdf.is_nan() || other_pdf <= 0.0 {
+        return 1.0;
+    }
+    // The ratio keeps squares of large densities from overflowing to ∞/∞.
+    let r = other_pdf / pdf;
+    let w = 1.0 / (1.0 + r * r);
     if w.is_finite() {
         clamp(w, 0.0, 1.0)
     } else {
@@ -302,7 +405,7 @@ mod tests {
 
     #[test]
     fn layout() {
-        assert_eq!(size_of::<GpuLight>(), 80);
+        assert_eq!(size_of::<GpuLight>(), 96);
         assert_eq!(offset_of!(GpuLight, p0), 0);
         assert_eq!(offset_of!(GpuLight, kind), 12);
         assert_eq!(offset_of!(GpuLight, p1), 16);
@@ -313,24 +416,120 @@ mod tests {
         assert_eq!(offset_of!(GpuLight, area), 60);
         assert_eq!(offset_of!(GpuLight, cos_inner), 64);
         assert_eq!(offset_of!(GpuLight, cos_outer), 68);
-        assert_eq!(offset_of!(GpuLight, _pad), 72);
+        assert_eq!(offset_of!(GpuLight, select_pmf), 72);
+        assert_eq!(offset_of!(GpuLight, alias), 76);
+        assert_eq!(offset_of!(GpuLight, alias_threshold), 80);
+        assert_eq!(offset_of!(GpuLight, emit_sides), 84);
+        assert_eq!(offset_of!(GpuLight, _pad), 88);
+    }
+
+    /// The alias table of probabilities (1/2, 1/4, 1/4), written by hand (the host builds them):
+    /// columns 1 and 2 give half their mass to light 0.
+    #[test]
+    fn alias_selection_follows_the_table() {
+        let column = |pmf: f32, alias: u32, threshold: f32| GpuLight {
+            select_pmf: pmf,
+            alias,
+            alias_threshold: threshold,
+            ..GpuLight::ZERO
+        };
+        let lights = [
+            column(0.5, 0, 1.0),
+            column(0.25, 0, 0.75),
+            column(0.25, 0, 0.75),
+        ];
+        assert_eq!(select_light(&lights, 0, Vec2::splat(0.5)), 0);
+        assert_eq!(select_light(&lights, 3, Vec2::new(0.999_999_9, 0.1)), 2);
+        assert_eq!(select_light(&lights, 3, Vec2::new(1.0, 0.1)), 2);
+        assert_eq!(select_light(&lights, 3, Vec2::new(0.5, 0.9)), 0);
+        assert_eq!(select_light(&lights, 3, Vec2::splat(f32::NAN)), 0);
+        // A count past the buffer is clamped to it.
+        assert!(select_light(&lights, 9, Vec2::new(0.99, 0.1)) < 3);
+        let mut counts = [0u32; 3];
+        let mut rng = Random::new(1, 0);
+        let n = 200_000;
+        for _ in 0..n {
+            counts[select_light(&lights, 3, rng.next_vec2()) as usize] += 1;
+        }
+        for (c, l) in counts.iter().zip(&lights) {
+            let p = l.select_pmf;
+            let got = *c as f32 / n as f32;
+            assert!(
+                (got - p).abs() < 4.0 * (p * (1.0 - p) / n as f32).sqrt(),
+                "{counts:?}"
+            );
+        }
     }
 
     #[test]
-    fn selection_is_uniform_and_in_range() {
-        assert_eq!(select_light(0, 0.5), 0);
-        assert_eq!(select_light(4, 0.0), 0);
-        assert_eq!(select_light(4, 0.999_999_9), 3);
-        assert_eq!(select_light(4, 1.0), 3);
-        assert_eq!(select_light(4, f32::NAN), 0);
-        let mut counts = [0u32; 5];
-        let mut rng = Random::new(1, 0);
-        for _ in 0..100_000 {
-            counts[select_light(5, rng.next_f32()) as usize] += 1;
+    fn the_triangle_table_maps_instances_and_primitives_to_lights() {
+        let none = crate::scene_data::NONE;
+        // Instance 0 has no light; instance 1's mesh has three triangles, the last two lights.
+        let table = [none, 2, none, 7, 8];
+        assert_eq!(light_of_triangle(&table, 0, 0), none);
+        assert_eq!(light_of_triangle(&table, 1, 0), none);
+        assert_eq!(light_of_triangle(&table, 1, 1), 7);
+        assert_eq!(light_of_triangle(&table, 1, 2), 8);
+        assert_eq!(light_of_triangle(&table, 1, 3), none);
+        assert_eq!(light_of_triangle(&table, 5, 0), none);
+        assert_eq!(light_of_triangle(&[], 0, 0), none);
+    }
+
+    #[test]
+    fn triangle_lights_emit_from_their_sides() {
+        let v = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let front = GpuLight::triangle(0, 0, v, Vec3::ONE, EMIT_FRONT);
+        let back = GpuLight::triangle(0, 0, v, Vec3::ONE, EMIT_BACK);
+        let both = GpuLight::triangle(0, 0, v, Vec3::ONE, EMIT_FRONT | EMIT_BACK);
+        assert!(front.emits_toward(Vec3::Z) && !front.emits_toward(Vec3::NEG_Z));
+        assert!(!back.emits_toward(Vec3::Z) && back.emits_toward(Vec3::NEG_Z));
+        assert!(both.emits_toward(Vec3::Z) && both.emits_toward(Vec3::NEG_Z));
+        assert!(!both.emits_toward(Vec3::X));
+    }
+
+    /// Irradiance at the origin (normal +Z) from a unit-radiance polygon: Lambert's formula,
+    /// `½ Σ θ_i (n · γ_i)`, in f64, independent of the sampling code.
+    fn polygon_irradiance(vertices: &[Vec3]) -> f64 {
+        let mut e = 0.0f64;
+        for i in 0..vertices.len() {
+            let a = vertices[i].as_dvec3().normalize();
+            let b = vertices[(i + 1) % vertices.len()].as_dvec3().normalize();
+            let theta = a.dot(b).clamp(-1.0, 1.0).acos();
+            let gamma = a.cross(b).normalize();
+            e += theta * gamma.z;
         }
-        for c in counts {
-            assert!((c as f32 / 20_000.0 - 1.0).abs() < 0.03, "{counts:?}");
+        0.5 * e.abs()
+    }
+
+    /// Light sampling of a large, tilted triangle close to the receiver estimates its irradiance
+    /// (the analytic polygon form factor). Swapping the receiver's and the light's cosines, or
+    /// dropping the distance, would fail here.
+    #[test]
+    fn triangle_sampling_matches_the_polygon_form_factor() {
+        let vertices = [
+            Vec3::new(-0.8, -0.5, 0.3),
+            Vec3::new(1.2, -0.2, 0.9),
+            Vec3::new(-0.1, 1.1, 0.2),
+        ];
+        let light = GpuLight::triangle(0, 0, vertices, Vec3::ONE, EMIT_FRONT | EMIT_BACK);
+        let mut rng = Random::new(7, 0);
+        let n = 400_000;
+        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let s = sample_triangle_light(&light, Vec3::ZERO, rng.next_vec2());
+            let x = if s.pdf > 0.0 {
+                f64::from(s.direction.z / s.pdf)
+            } else {
+                0.0
+            };
+            sum += x;
+            sum2 += x * x;
         }
+        let mean = sum / n as f64;
+        let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+        let exact = polygon_irradiance(&vertices);
+        assert!((mean - exact).abs() < 4.0 * se, "{mean} ± {se} vs {exact}");
+        assert!(se < 0.01 * exact, "{se}");
     }
 
     /// Integrating the cosine-weighted radiance of a triangle by light sampling gives the
@@ -347,6 +546,7 @@ mod tests {
                 Vec3::new(0.0, 0.05, 10.0),
             ],
             Vec3::ONE,
+            EMIT_FRONT,
         );
         assert!((light.area - 0.005).abs() < 1e-7);
         let mut rng = Random::new(2, 0);
@@ -409,7 +609,11 @@ mod tests {
         assert!((power_heuristic(3.0, 1.0) + power_heuristic(1.0, 3.0) - 1.0).abs() < 1e-6);
         assert_eq!(power_heuristic(1.0, 0.0), 1.0);
         assert_eq!(power_heuristic(0.0, 0.0), 0.0);
-        assert_eq!(power_heuristic(f32::INFINITY, 1.0), 0.0);
+        assert_eq!(power_heuristic(f32::INFINITY, 1.0), 1.0);
+        assert_eq!(power_heuristic(1.0, f32::INFINITY), 0.0);
+        assert_eq!(power_heuristic(f32::NAN, 1.0), 0.0);
+        // Large densities do not overflow to ∞/∞.
+        assert!((power_heuristic(3e30, 1e30) - 0.9).abs() < 1e-6);
         assert_eq!(russian_roulette_survival(Vec3::new(0.1, 0.5, 0.2)), 0.5);
         assert_eq!(russian_roulette_survival(Vec3::splat(4.0)), 0.95);
         assert_eq!(russian_roulette_survival(Vec3::splat(f32::NAN)), 0.0);

@@ -24,12 +24,35 @@
 //! ignored. Both sides of every surface are shaded (the normals are flipped toward the incoming
 //! ray). Surfaces emit from their front (counter-clockwise) face, and from both faces when the
 //! material is double-sided: a one-sided ceiling light must not light the ceiling behind it.
-//! Next-event estimation picks one light uniformly (see [`crate::lights`]): an emissive triangle
-//! is combined with BSDF sampling by multiple importance sampling (power heuristic); punctual
-//! lights are sampled by NEE only (no ray can hit them). The sky is a constant radiance or an
-//! equirectangular environment image ([`sky_radiance`]), seen by rays that escape and found by
-//! BSDF sampling only (no importance sampling of the environment yet). Russian
-//! roulette starts after [`ROULETTE_START`] bounces.
+//!
+//! Next-event estimation resamples [`PathTracerParams::light_candidates`] lights drawn in
+//! proportion to power ([`crate::lights`]) with the unshadowed contribution as target (resampled
+//! importance sampling, Talbot et al. 2005; [`crate::reservoir`]); one candidate means plain
+//! power-proportional selection. Emissive triangles and the environment image are combined with
+//! BSDF sampling by multiple importance sampling (power heuristic) with the candidate's source
+//! density (selection probability × sample density), which both sides evaluate alike, so the
+//! weights sum to one; punctual lights are sampled by NEE only (no ray can hit them). A
+//! constant sky is found by BSDF sampling only. Russian roulette starts after
+//! [`ROULETTE_START`] bounces.
+//!
+//! # Shading normals
+//!
+//! Interpolated normals change the shading, not the energy balance. The BSDF is the cosine lobe
+//! around the shading normal `ns` *folded* about the geometric surface: the part of the lobe
+//! below the geometric plane is mirrored above it (the reflection that Keller et al., "The Iray
+//! Light Transport Simulation and Rendering System", 2017, apply to directions that end up below
+//! the surface). Its cosine-weighted value is `albedo/π · (⟨ns·ω⟩ + ⟨ns·R(ω)⟩)` for `ω` above the
+//! geometric surface, `R` the mirror about it: it integrates to `albedo` exactly, is sampled
+//! exactly (a cosine sample, mirrored when below), and NEE evaluates the same function. A white
+//! furnace therefore stays exact whatever the normals (`tests/tests/path_tracer.rs`); killing
+//! directions below the surface lost 9% there.
+//!
+//! # Self-intersection
+//!
+//! Hit points come from the barycentrics, relative to a vertex ([`Surface::position`]); rays
+//! leave them by [`offset_ray_origin`], a few ULPs along the geometric normal, and shadow rays to
+//! an emissive triangle end at the sampled point offset the same way toward the shading point.
+//! Neither depends on the scene's scale.
 //!
 //! `max_bounces` counts reflections: 0 shows only what the camera sees emit, 1 adds direct
 //! lighting, and so on.
@@ -38,17 +61,21 @@ use bytemuck::{Pod, Zeroable};
 use glam::{UVec2, Vec2, Vec3};
 
 use crate::camera::{CameraParams, primary_ray};
+use crate::color::luminance;
+use crate::environment::{environment_pdf, sample_environment, texel_of};
 use crate::hash::pcg_chain;
 use crate::lights::{
-    GpuLight, LIGHT_TRIANGLE, power_heuristic, punctual_incidence, russian_roulette_survival,
-    sample_triangle_light, select_light, triangle_light_pdf,
+    GpuLight, LIGHT_ENVIRONMENT, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, light_of_triangle,
+    power_heuristic, punctual_incidence, russian_roulette_survival, sample_triangle_light,
+    select_light, triangle_light_pdf,
 };
-use crate::math::{INV_PI, abs, acos, atan2, clamp, max, min_u32, to_u32_clamped};
+use crate::math::{INV_PI, max, min_u32};
 use crate::random::Random;
-use crate::ray::{HitRecord, Ray};
+use crate::ray::{HitRecord, Ray, offset_ray_origin};
+use crate::reservoir::Reservoir;
 use crate::sampling::{sample_cosine_hemisphere, tangent_to_world};
 use crate::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, fetch_surface,
+    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, Surface, fetch_surface,
     hit_surface, sample_material,
 };
 
@@ -59,7 +86,16 @@ pub const ROULETTE_START: u32 = 3;
 /// Workgroup size of the kernel, both directions.
 pub const PATH_TRACER_TILE: u32 = 8;
 
-/// The kernel's push constants (48 bytes).
+/// [`PathTracerParams::strategy`]: light sampling and BSDF sampling combined by MIS.
+pub const STRATEGY_MIS: u32 = 0;
+/// Light sampling alone finds the lights it can sample (BSDF-sampled rays that hit them count
+/// nothing): for tests and comparisons.
+pub const STRATEGY_LIGHTS_ONLY: u32 = 1;
+/// BSDF sampling alone (no next-event estimation): for tests and comparisons. Punctual lights
+/// are then invisible.
+pub const STRATEGY_BSDF_ONLY: u32 = 2;
+
+/// The kernel's push constants (64 bytes).
 ///
 /// | offset | field                 |
 /// |--------|-----------------------|
@@ -70,7 +106,10 @@ pub const PATH_TRACER_TILE: u32 = 8;
 /// | 24     | `light_count`         |
 /// | 28     | `seed`                |
 /// | 32     | `environment_size`    |
-/// | 40     | `_pad`                |
+/// | 40     | `environment_light`   |
+/// | 44     | `light_candidates`    |
+/// | 48     | `strategy`            |
+/// | 52     | `_pad`                |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PathTracerParams {
@@ -89,26 +128,28 @@ pub struct PathTracerParams {
     /// Width and height of the equirectangular environment image; zero for none (the sky is then
     /// the constant `sky`).
     pub environment_size: [u32; 2],
+    /// Index of the environment's [`LIGHT_ENVIRONMENT`] light, or [`crate::scene_data::NONE`]
+    /// when the environment is not importance-sampled.
+    pub environment_light: u32,
+    /// Lights resampled per next-event estimate, 1 to [`MAX_LIGHT_CANDIDATES`].
+    pub light_candidates: u32,
+    /// [`STRATEGY_MIS`], [`STRATEGY_LIGHTS_ONLY`] or [`STRATEGY_BSDF_ONLY`].
+    pub strategy: u32,
     /// Explicit padding.
-    pub _pad: [u32; 2],
+    pub _pad: [u32; 3],
 }
 
 /// Radiance arriving from the sky along the unit `direction` (pointing away from the scene): the
-/// environment image's texel when there is one, else the constant `params.sky`.
-///
-/// The environment is equirectangular in glTF's frame (+Y up): row 0 is straight up, the middle
-/// column looks along -Z, u grows toward +X; `environment` holds its texels row by row (RGB, the
-/// fourth channel unused). Nearest texel; a too-short buffer reads as black.
+/// environment image's texel when there is one ([`crate::environment`] gives the mapping), else
+/// the constant `params.sky`. `environment` holds its texels row by row (RGB, the fourth
+/// channel unused); a too-short buffer reads as black.
 pub fn sky_radiance(params: &PathTracerParams, environment: &[[f32; 4]], direction: Vec3) -> Vec3 {
     let [w, h] = params.environment_size;
     if w == 0 || h == 0 {
         return Vec3::from_array(params.sky);
     }
-    let u = 0.5 + atan2(direction.x, -direction.z) * (0.5 * INV_PI);
-    let v = acos(clamp(direction.y, -1.0, 1.0)) * INV_PI;
-    let x = min_u32(to_u32_clamped(u * w as f32), w - 1);
-    let y = min_u32(to_u32_clamped(v * h as f32), h - 1);
-    let i = y as usize * w as usize + x as usize;
+    let t = texel_of(UVec2::new(w, h), direction);
+    let i = t.y as usize * w as usize + t.x as usize;
     if i < environment.len() {
         let t = environment[i];
         Vec3::new(t[0], t[1], t[2])
@@ -196,14 +237,174 @@ pub fn emits_toward(
     double_sided || front_normal.dot(outgoing) > 0.0
 }
 
-/// Offset of a ray origin off a surface at `p`, scaled to the position's magnitude.
+/// The folded cosine of the [module](self)'s BSDF: `⟨ns·ω⟩ + ⟨ns·R(ω)⟩` for the unit `omega`
+/// above the geometric surface of unit normal `ng` (`R` the mirror about it), 0 below. The
+/// BSDF's cosine-weighted value is `albedo/π` times this, and its sampling density `1/π` times it.
 #[inline]
-fn ray_epsilon(p: Vec3) -> f32 {
-    1e-4 * max(1.0, p.abs().max_element())
+pub fn folded_cosine(ns: Vec3, ng: Vec3, omega: Vec3) -> f32 {
+    let d = ng.dot(omega);
+    if d.is_nan() || d <= 0.0 {
+        return 0.0;
+    }
+    let mirrored = omega - ng * (2.0 * d);
+    max(ns.dot(omega), 0.0) + max(ns.dot(mirrored), 0.0)
+}
+
+/// A direction drawn from the folded cosine lobe (`u` uniform in `[0, 1)²`): a cosine sample
+/// around `ns`, mirrored about the geometric surface when it falls below it. Zero when it lies in
+/// the surface.
+#[inline]
+pub fn sample_folded_cosine(ns: Vec3, ng: Vec3, u: Vec2) -> Vec3 {
+    let omega = tangent_to_world(sample_cosine_hemisphere(u), ns).normalize_or_zero();
+    let d = ng.dot(omega);
+    if d < 0.0 {
+        (omega - ng * (2.0 * d)).normalize_or_zero()
+    } else if d > 0.0 {
+        omega
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// One light sample offered to next-event estimation's resampling.
+#[derive(Clone, Copy)]
+struct LightCandidate {
+    /// BSDF × folded cosine × MIS weight (× nothing else): multiply by the radiance or
+    /// irradiance to get the contribution.
+    weight: Vec3,
+    /// Radiance (or irradiance, for punctual lights) before emissive textures.
+    radiance: Vec3,
+    /// Source density: selection probability × the sample's density.
+    pdf: f32,
+    /// The shadow ray.
+    ray: Ray,
+    /// Index of the light.
+    light: u32,
+    /// Where on a triangle light (its barycentrics), for the emissive texture.
+    barycentrics: Vec2,
+}
+
+impl LightCandidate {
+    const NONE: Self = Self {
+        weight: Vec3::ZERO,
+        radiance: Vec3::ZERO,
+        pdf: 0.0,
+        ray: Ray {
+            origin: [0.0; 3],
+            t_min: 0.0,
+            direction: [0.0; 3],
+            t_max: 0.0,
+        },
+        light: 0,
+        barycentrics: Vec2::ZERO,
+    };
+}
+
+/// The shading point's frame, as next-event estimation needs it.
+#[derive(Clone, Copy)]
+struct ShadingFrame {
+    origin: Vec3,
+    ns: Vec3,
+    ng: Vec3,
+    brdf: Vec3,
+}
+
+/// Samples light `index` from `frame` (`u` uniform in `[0, 1)²`).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
+#[inline]
+fn light_candidate(
+    frame: &ShadingFrame,
+    lights: &[GpuLight],
+    index: u32,
+    params: &PathTracerParams,
+    environment: &[[f32; 4]],
+    environment_cdf: &[f32],
+    u: Vec2,
+) -> LightCandidate {
+    let light = if (index as usize) < lights.len() {
+        lights[index as usize]
+    } else {
+        GpuLight::ZERO
+    };
+    let mut c = LightCandidate::NONE;
+    c.light = index;
+    let mis = |pdf: f32, cosine: f32| {
+        if params.strategy == STRATEGY_LIGHTS_ONLY {
+            1.0
+        } else {
+            power_heuristic(pdf, cosine * INV_PI)
+        }
+    };
+    if light.kind == LIGHT_TRIANGLE {
+        let s = sample_triangle_light(&light, frame.origin, u);
+        let cosine = folded_cosine(frame.ns, frame.ng, s.direction);
+        let pdf = s.pdf * light.select_pmf;
+        if pdf > 0.0 && cosine > 0.0 && light.emits_toward(-s.direction) {
+            let (p0, p1, p2) = (
+                Vec3::from_array(light.p0),
+                Vec3::from_array(light.p1),
+                Vec3::from_array(light.p2),
+            );
+            let (e1, e2) = (p1 - p0, p2 - p0);
+            let mut n = e1.cross(e2).normalize_or_zero();
+            if n.dot(s.direction) > 0.0 {
+                n = -n;
+            }
+            let size = e1.abs().max(e2.abs()).max((p2 - p1).abs()).max_element();
+            let end = offset_ray_origin(s.point, n, size);
+            c.weight = frame.brdf * (cosine * mis(pdf, cosine));
+            c.radiance = Vec3::from_array(light.intensity) * params.emissive_multiplier;
+            c.pdf = pdf;
+            c.barycentrics = s.barycentrics;
+            c.ray = Ray {
+                origin: frame.origin.to_array(),
+                t_min: 0.0,
+                direction: (end - frame.origin).to_array(),
+                t_max: 1.0,
+            };
+        }
+    } else if light.kind == LIGHT_ENVIRONMENT {
+        let [w, h] = params.environment_size;
+        let s = sample_environment(UVec2::new(w, h), environment_cdf, u);
+        let cosine = folded_cosine(frame.ns, frame.ng, s.direction);
+        let pdf = s.pdf * light.select_pmf;
+        if pdf > 0.0 && cosine > 0.0 {
+            c.weight = frame.brdf * (cosine * mis(pdf, cosine));
+            c.radiance = sky_radiance(params, environment, s.direction);
+            c.pdf = pdf;
+            c.ray = Ray {
+                origin: frame.origin.to_array(),
+                t_min: 0.0,
+                direction: s.direction.to_array(),
+                t_max: f32::INFINITY,
+            };
+        }
+    } else {
+        let incidence = punctual_incidence(&light, frame.origin);
+        let cosine = folded_cosine(frame.ns, frame.ng, incidence.direction);
+        if light.select_pmf > 0.0 && cosine > 0.0 {
+            c.weight = frame.brdf * cosine;
+            c.radiance = incidence.irradiance;
+            c.pdf = light.select_pmf;
+            c.ray = Ray {
+                origin: frame.origin.to_array(),
+                t_min: 0.0,
+                direction: incidence.direction.to_array(),
+                t_max: incidence.distance,
+            };
+        }
+    }
+    c
 }
 
 /// Shades the hit `hit` of `path.ray`: adds emission (MIS-weighted) or sky, prepares a shadow ray
 /// for next-event estimation, and samples the next ray, or ends the path.
+///
+/// `light_table` is the triangle→light table ([`light_of_triangle`]); `environment_cdf` the
+/// environment's distribution ([`crate::environment`]).
 #[allow(
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
@@ -220,26 +421,47 @@ pub fn shade(
     textures: &[GpuTexture],
     texels: &[u32],
     lights: &[GpuLight],
+    light_table: &[u32],
     environment: &[[f32; 4]],
+    environment_cdf: &[f32],
 ) {
     path.shadow_pending = false;
+    let light_count = min_u32(params.light_count, lights.len() as u32);
+    let bsdf_pdf = path.bsdf_pdf;
+    // BSDF sampling's MIS weight against light sampling, which would have drawn this sample
+    // with density `light_pdf` (0: it cannot).
+    let bsdf_weight = |light_pdf: f32| {
+        if bsdf_pdf > 0.0 && light_pdf > 0.0 {
+            if params.strategy == STRATEGY_BSDF_ONLY {
+                1.0
+            } else if params.strategy == STRATEGY_LIGHTS_ONLY {
+                0.0
+            } else {
+                power_heuristic(bsdf_pdf, light_pdf)
+            }
+        } else {
+            1.0
+        }
+    };
+    let ray_direction = Vec3::from_array(path.ray.direction);
+    let direction = ray_direction.normalize_or_zero();
     if !hit.is_hit() {
-        let direction = Vec3::from_array(path.ray.direction).normalize_or_zero();
-        path.radiance += path.throughput * sky_radiance(params, environment, direction);
+        let [w, h] = params.environment_size;
+        let env = params.environment_light;
+        let light_pdf = if env < light_count && w > 0 && h > 0 {
+            lights[env as usize].select_pmf
+                * environment_pdf(UVec2::new(w, h), environment_cdf, direction)
+        } else {
+            0.0
+        };
+        path.radiance +=
+            path.throughput * sky_radiance(params, environment, direction) * bsdf_weight(light_pdf);
         path.active = false;
         return;
     }
-    let light_count = if (params.light_count as usize) < lights.len() {
-        params.light_count
-    } else {
-        lights.len() as u32
-    };
     let (surface, material) = hit_surface(
         instances, meshes, vertices, triangles, materials, textures, texels, hit,
     );
-    let ray_direction = Vec3::from_array(path.ray.direction);
-    let direction = ray_direction.normalize_or_zero();
-    let position = Vec3::from_array(path.ray.origin) + ray_direction * hit.t;
     let mut ng = surface.geometric_normal;
     let mut ns = surface.shading_normal;
     if ng.dot(direction) > 0.0 {
@@ -264,16 +486,15 @@ pub fn shade(
             -direction,
         )
     {
-        let weight = if path.bsdf_pdf > 0.0 && light_count > 0 {
+        let light = light_of_triangle(light_table, hit.instance, hit.primitive);
+        let light_pdf = if light < light_count {
             let distance = hit.t * ray_direction.length();
-            let light_pdf =
-                triangle_light_pdf(surface.area, distance * distance, ng.dot(direction))
-                    / light_count as f32;
-            power_heuristic(path.bsdf_pdf, light_pdf)
+            lights[light as usize].select_pmf
+                * triangle_light_pdf(surface.area, distance * distance, ng.dot(direction))
         } else {
-            1.0
+            0.0
         };
-        path.radiance += path.throughput * emission * weight;
+        path.radiance += path.throughput * emission * bsdf_weight(light_pdf);
     }
 
     if path.bounce >= params.max_bounces || path.bounce >= MAX_BOUNCES {
@@ -281,81 +502,36 @@ pub fn shade(
         return;
     }
     let albedo = material.base_color.truncate();
-    let brdf = albedo * INV_PI;
-    let origin = position + ng * ray_epsilon(position);
+    let frame = ShadingFrame {
+        origin: offset_ray_origin(surface.position, ng, surface.size),
+        ns,
+        ng,
+        brdf: albedo * INV_PI,
+    };
 
-    // Next-event estimation: one light, chosen uniformly.
-    if light_count > 0 {
-        let index = select_light(light_count, path.rng.next_f32()) as usize;
-        let light = if index < lights.len() {
-            lights[index]
-        } else {
-            GpuLight::ZERO
-        };
-        let select_pdf = 1.0 / light_count as f32;
-        let u = path.rng.next_vec2();
-        if light.kind == LIGHT_TRIANGLE {
-            let s = sample_triangle_light(&light, origin, u);
-            let cos_surface = ns.dot(s.direction);
-            let light_pdf = s.pdf * select_pdf;
-            if light_pdf > 0.0 && cos_surface > 0.0 && ng.dot(s.direction) > 0.0 {
-                let light_surface = fetch_surface(
-                    instances,
-                    meshes,
-                    vertices,
-                    triangles,
-                    light.instance,
-                    light.primitive,
-                    s.barycentrics,
-                );
-                let emits = emits_toward(
-                    materials,
-                    light_surface.material,
-                    light_surface.geometric_normal,
-                    -s.direction,
-                );
-                let radiance = sample_material(
-                    materials,
-                    textures,
-                    texels,
-                    light_surface.material,
-                    light_surface.uv,
-                )
-                .emissive
-                    * params.emissive_multiplier;
-                let weight = power_heuristic(light_pdf, cos_surface * INV_PI);
-                path.shadow_radiance =
-                    path.throughput * brdf * radiance * (cos_surface * weight / light_pdf);
-                path.shadow_ray = Ray {
-                    origin: origin.to_array(),
-                    t_min: 0.0,
-                    direction: s.direction.to_array(),
-                    t_max: s.distance * (1.0 - 1e-3),
-                };
-                path.shadow_pending = emits && path.shadow_radiance.max_element() > 0.0;
-            }
-        } else {
-            let incidence = punctual_incidence(&light, origin);
-            let cos_surface = ns.dot(incidence.direction);
-            if cos_surface > 0.0 && ng.dot(incidence.direction) > 0.0 {
-                path.shadow_radiance =
-                    path.throughput * brdf * incidence.irradiance * (cos_surface / select_pdf);
-                path.shadow_ray = Ray {
-                    origin: origin.to_array(),
-                    t_min: 0.0,
-                    direction: incidence.direction.to_array(),
-                    t_max: incidence.distance,
-                };
-                path.shadow_pending = path.shadow_radiance.max_element() > 0.0;
-            }
-        }
+    if light_count > 0 && params.strategy != STRATEGY_BSDF_ONLY {
+        next_event_estimation(
+            path,
+            &frame,
+            params,
+            light_count,
+            instances,
+            meshes,
+            vertices,
+            triangles,
+            materials,
+            textures,
+            texels,
+            lights,
+            environment,
+            environment_cdf,
+        );
     }
 
-    // BSDF sampling: cosine-weighted, so throughput × f × cos / pdf = throughput × albedo.
-    let local = sample_cosine_hemisphere(path.rng.next_vec2());
-    let next = tangent_to_world(local, ns).normalize_or_zero();
-    let cos_next = ns.dot(next);
-    if cos_next <= 0.0 || ng.dot(next) <= 0.0 {
+    // BSDF sampling of the folded lobe: throughput × f × cos / pdf = throughput × albedo.
+    let next = sample_folded_cosine(ns, ng, path.rng.next_vec2());
+    let cosine = folded_cosine(ns, ng, next);
+    if cosine.is_nan() || cosine <= 0.0 {
         path.active = false;
         return;
     }
@@ -369,13 +545,90 @@ pub fn shade(
         }
         path.throughput /= survival;
     }
-    path.bsdf_pdf = abs(cos_next) * INV_PI;
+    path.bsdf_pdf = cosine * INV_PI;
     path.ray = Ray {
-        origin: origin.to_array(),
+        origin: frame.origin.to_array(),
         t_min: 0.0,
         direction: next.to_array(),
         t_max: f32::INFINITY,
     };
+}
+
+/// Next-event estimation by resampling `params.light_candidates` light samples (see the
+/// [module](self)): leaves the shadow ray of the chosen one in `path`.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
+#[inline]
+fn next_event_estimation(
+    path: &mut PathState,
+    frame: &ShadingFrame,
+    params: &PathTracerParams,
+    light_count: u32,
+    instances: &[GpuInstance],
+    meshes: &[GpuMesh],
+    vertices: &[GpuVertex],
+    triangles: &[GpuTriangle],
+    materials: &[GpuMaterial],
+    textures: &[GpuTexture],
+    texels: &[u32],
+    lights: &[GpuLight],
+    environment: &[[f32; 4]],
+    environment_cdf: &[f32],
+) {
+    let candidates = if params.light_candidates == 0 {
+        1
+    } else {
+        min_u32(params.light_candidates, MAX_LIGHT_CANDIDATES)
+    };
+    let mut reservoir = Reservoir::EMPTY;
+    let mut chosen = LightCandidate::NONE;
+    let mut target = 0.0;
+    let mut i = 0;
+    while i < candidates {
+        let index = select_light(lights, light_count, path.rng.next_vec2());
+        let c = light_candidate(
+            frame,
+            lights,
+            index,
+            params,
+            environment,
+            environment_cdf,
+            path.rng.next_vec2(),
+        );
+        let p_hat = luminance(c.weight * c.radiance);
+        let w = if c.pdf > 0.0 { p_hat / c.pdf } else { 0.0 };
+        if reservoir.update(index, w, path.rng.next_f32()) {
+            chosen = c;
+            target = p_hat;
+        }
+        i += 1;
+    }
+    reservoir.finalize(target);
+    if reservoir.ucw <= 0.0 {
+        return;
+    }
+    // The target used the light's radiance without its emissive texture: the contribution uses
+    // the texture (the target only steers the choice; RIS stays unbiased).
+    let mut radiance = chosen.radiance;
+    let light = lights[chosen.light as usize];
+    if light.kind == LIGHT_TRIANGLE {
+        let s: Surface = fetch_surface(
+            instances,
+            meshes,
+            vertices,
+            triangles,
+            light.instance,
+            light.primitive,
+            chosen.barycentrics,
+        );
+        radiance = sample_material(materials, textures, texels, s.material, s.uv).emissive
+            * params.emissive_multiplier;
+    }
+    path.shadow_radiance = path.throughput * chosen.weight * radiance * reservoir.ucw;
+    path.shadow_ray = chosen.ray;
+    path.shadow_pending = path.shadow_radiance.max_element() > 0.0;
 }
 
 #[cfg(test)]
@@ -385,7 +638,7 @@ mod tests {
 
     #[test]
     fn layout() {
-        assert_eq!(size_of::<PathTracerParams>(), 48);
+        assert_eq!(size_of::<PathTracerParams>(), 64);
         assert_eq!(offset_of!(PathTracerParams, sky), 0);
         assert_eq!(offset_of!(PathTracerParams, sample_index), 12);
         assert_eq!(offset_of!(PathTracerParams, max_bounces), 16);
@@ -393,7 +646,10 @@ mod tests {
         assert_eq!(offset_of!(PathTracerParams, light_count), 24);
         assert_eq!(offset_of!(PathTracerParams, seed), 28);
         assert_eq!(offset_of!(PathTracerParams, environment_size), 32);
-        assert_eq!(offset_of!(PathTracerParams, _pad), 40);
+        assert_eq!(offset_of!(PathTracerParams, environment_light), 40);
+        assert_eq!(offset_of!(PathTracerParams, light_candidates), 44);
+        assert_eq!(offset_of!(PathTracerParams, strategy), 48);
+        assert_eq!(offset_of!(PathTracerParams, _pad), 52);
     }
 
     #[test]
@@ -423,6 +679,38 @@ mod tests {
         };
         assert_eq!(sky_radiance(&none, &env, Vec3::Y), Vec3::splat(9.0));
         assert_eq!(sky_radiance(&params, &env[..3], Vec3::NEG_Y), Vec3::ZERO);
+    }
+
+    /// The folded lobe integrates to one over the upper geometric hemisphere for any shading
+    /// normal, and its sampling follows its density.
+    #[test]
+    fn the_folded_lobe_keeps_its_energy() {
+        let ng = Vec3::Z;
+        let mut rng = Random::new(9, 0);
+        for tilt in [0.0f32, 0.5, 0.96, 1.3] {
+            let ns = Vec3::new(crate::math::sin(tilt), 0.0, crate::math::cos(tilt));
+            // ∫ folded/π dω by uniform hemisphere sampling.
+            let n = 200_000;
+            let mut sum = 0.0f64;
+            let mut mean_z_sampled = 0.0f64;
+            let mut mean_z_weighted = 0.0f64;
+            for _ in 0..n {
+                let d = crate::sampling::sample_uniform_sphere(rng.next_vec2());
+                let d = Vec3::new(d.x, d.y, d.z.abs());
+                let f = f64::from(folded_cosine(ns, ng, d) * INV_PI) * 2.0 * core::f64::consts::PI;
+                sum += f;
+                mean_z_weighted += f * f64::from(d.z);
+                let s = sample_folded_cosine(ns, ng, rng.next_vec2());
+                assert!(s.z > 0.0 && (s.length() - 1.0).abs() < 1e-5);
+                mean_z_sampled += f64::from(s.z);
+            }
+            let integral = sum / n as f64;
+            assert!((integral - 1.0).abs() < 0.01, "tilt {tilt}: {integral}");
+            // The sampled directions have the moments of the density.
+            let (a, b) = (mean_z_sampled / n as f64, mean_z_weighted / n as f64);
+            assert!((a - b).abs() < 0.01, "tilt {tilt}: {a} vs {b}");
+        }
+        assert_eq!(folded_cosine(Vec3::Z, Vec3::Z, Vec3::NEG_Z), 0.0);
     }
 
     #[test]
@@ -471,6 +759,8 @@ mod tests {
             &mut path,
             &HitRecord::miss(),
             &params,
+            &[],
+            &[],
             &[],
             &[],
             &[],

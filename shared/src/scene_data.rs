@@ -270,6 +270,9 @@ pub struct Surface {
     pub material: u32,
     /// World-space area of the triangle.
     pub area: f32,
+    /// The triangle's size: its largest edge coordinate, in world space (see
+    /// [`crate::ray::offset_ray_origin`]).
+    pub size: f32,
 }
 
 /// The vertex `index` of `mesh`, or a zero vertex when out of range.
@@ -322,7 +325,8 @@ pub fn fetch_surface(
     let pa = inst.transform_point(Vec3::from_array(a.position));
     let pb = inst.transform_point(Vec3::from_array(b.position));
     let pc = inst.transform_point(Vec3::from_array(c.position));
-    let cross = (pb - pa).cross(pc - pa);
+    let (e1, e2) = (pb - pa, pc - pa);
+    let cross = e1.cross(e2);
     let geometric_normal = (cross * inst.winding).normalize_or_zero();
 
     let n = Vec3::from_array(a.normal) * w0
@@ -335,12 +339,15 @@ pub fn fetch_surface(
         Vec2::ZERO
     };
     Surface {
-        position: pa * w0 + pb * w1 + pc * w2,
+        // Relative to a vertex: rounding then depends on the triangle's size, not on how far from
+        // the origin it lies.
+        position: pa + e1 * w1 + e2 * w2,
         geometric_normal,
         shading_normal,
         uv,
         material: tri.material,
         area: 0.5 * cross.length(),
+        size: e1.abs().max(e2.abs()).max((pc - pb).abs()).max_element(),
     }
 }
 

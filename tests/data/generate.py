@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Writes the small glTF files of tests/tests/scene_loading.rs (Python 3 standard library only).
+"""Writes the small glTF files of host/tests/scene_loading.rs and tests/tests/tracing.rs (Python 3
+standard library only).
 
     python3 tests/data/generate.py
 
@@ -80,7 +81,63 @@ def write(name, doc):
             f.write("\n")
 
 
+def mirrored_scene():
+    """Instances whose transforms mirror (negative determinant) beside ones that do not: a closed
+    cube and an open, asymmetric fan, for the tracing agreement test (front faces of mirrored
+    instances) in tests/tests/tracing.rs."""
+    cube = [(x, y, z) for z in (-1.0, 1.0) for y in (-1.0, 1.0) for x in (-1.0, 1.0)]
+    quads = [(0, 4, 6, 2), (1, 3, 7, 5), (0, 1, 5, 4), (2, 6, 7, 3), (0, 2, 3, 1), (4, 5, 7, 6)]
+    cube_indices = [i for a, b, c, d in quads for i in (a, b, c, a, c, d)]
+    fan = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.2), (0.8, 0.9, -0.3), (-0.2, 1.2, 0.4), (-1.1, 0.3, 0.1)]
+    fan_indices = [0, 1, 2, 0, 2, 3, 0, 3, 4]
+    data = b""
+    views, accessors = [], []
+    for positions, indices in ((cube, cube_indices), (fan, fan_indices)):
+        p = struct.pack("<%df" % (3 * len(positions)), *[c for v in positions for c in v])
+        i = struct.pack("<%dH" % len(indices), *indices)
+        i += b"\0" * (-len(i) % 4)
+        views.append({"buffer": 0, "byteOffset": len(data), "byteLength": len(p)})
+        accessors.append({"bufferView": len(views) - 1, "componentType": FLOAT,
+                          "count": len(positions), "type": "VEC3",
+                          "min": [min(v[k] for v in positions) for k in range(3)],
+                          "max": [max(v[k] for v in positions) for k in range(3)]})
+        data += p
+        views.append({"buffer": 0, "byteOffset": len(data), "byteLength": 2 * len(indices)})
+        accessors.append({"bufferView": len(views) - 1, "componentType": USHORT,
+                          "count": len(indices), "type": "SCALAR"})
+        data += i
+    s = math.sqrt(0.5)
+    nodes = [
+        {"name": "cube", "mesh": 0, "translation": [-3, 0, 0]},
+        {"name": "cube mirrored in x", "mesh": 0, "translation": [0, 0, 0], "scale": [-1, 1, 1]},
+        {"name": "cube mirrored in y, turned", "mesh": 0, "translation": [3, 0, 0],
+         "rotation": [0, 0, s, s], "scale": [1, -1.5, 1]},
+        {"name": "cube mirrored in all three", "mesh": 0, "translation": [0, 3, 0],
+         "scale": [-1, -1, -1]},
+        {"name": "cube mirrored twice", "mesh": 0, "translation": [0, -3, 0],
+         "scale": [-1, -1, 1]},
+        {"name": "fan", "mesh": 1, "translation": [-2, 2, 2], "scale": [2, 2, 2]},
+        {"name": "fan mirrored in z", "mesh": 1, "translation": [2, -2, 2], "scale": [2, 2, -2]},
+        {"name": "fan under a mirrored parent", "scale": [1, 1, -1], "translation": [0, 0, -2],
+         "children": [8]},
+        {"name": "fan child", "mesh": 1, "rotation": [s, 0, 0, s], "scale": [3, 3, 3]},
+    ]
+    return {
+        "asset": {"version": "2.0", "generator": "gi tests/data/generate.py"},
+        "scene": 0,
+        "scenes": [{"name": "scene", "nodes": [0, 1, 2, 3, 4, 5, 6, 7]}],
+        "nodes": nodes,
+        "meshes": [{"name": "cube", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]},
+                   {"name": "fan", "primitives": [{"attributes": {"POSITION": 2}, "indices": 3}]}],
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"byteLength": len(data), "uri": data_uri(data)}],
+    }
+
+
 def main():
+    write("mirrored.gltf", mirrored_scene())
+
     # Positive: a hierarchy whose vertex (1, 0, 0) lands at known world positions.
     doc = document(TRIANGLE, [0, 1, 2])
     s = math.sqrt(0.5)

@@ -1,7 +1,7 @@
-//! Support for the integration tests: contexts with validation on, and the check that it stayed
-//! silent.
+//! Support for the integration tests: contexts with validation on, the check that it stayed
+//! silent, and the check that long-lived buffers are device-local.
 
-use gi_host::vulkan::{Context, ContextOptions};
+use gi_host::vulkan::{BufferInfo, Context, ContextOptions, MemoryLocation};
 use gi_host::{KernelVariant, TraceMode};
 
 /// A context on the test device with the validation layer on, running `variant`.
@@ -36,4 +36,31 @@ pub fn scene_path(file: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../scenes")
         .join(file)
+}
+
+/// Path of a file under `../shared/scenes/third-party/` beside the repository (never copied into
+/// it). Tests that use it carry
+/// `#[cfg_attr(not(third_party_scenes), ignore = "...")]` (set by `tests/build.rs`).
+pub fn third_party_scene_path(file: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/scenes/third-party")
+        .join(file)
+}
+
+/// Fails unless every buffer of `live` (a [`Context::live_buffers`] snapshot) asked for
+/// device-local memory, except the small parameter and staging buffers named in
+/// `host_visible`. The message lists every offender with its size and location.
+pub fn assert_device_local_except(live: &[BufferInfo], host_visible: &[&str]) {
+    let offenders: Vec<String> = live
+        .iter()
+        .filter(|b| {
+            b.location != MemoryLocation::GpuOnly && !host_visible.contains(&b.name.as_str())
+        })
+        .map(|b| format!("{:?}: {} bytes in {:?}", b.name, b.bytes, b.location))
+        .collect();
+    assert!(
+        offenders.is_empty(),
+        "buffers in host-visible memory that are not parameters or staging:\n{}",
+        offenders.join("\n")
+    );
 }

@@ -122,8 +122,8 @@ fn ray_queries_hit_the_expected_triangles() {
         (9, 1, 0.5, 1),
         (7, 0, 1.0, 0),
     ];
-    let ray_buf = Buffer::from_slice(&ctx, "rays", &rays, Default::default()).unwrap();
-    let mut hit_buf = Buffer::zeroed::<HitRecord>(&ctx, "hits", rays.len()).unwrap();
+    let ray_buf = Buffer::device_local(&ctx, "rays", &rays, Default::default()).unwrap();
+    let hit_buf = Buffer::device_zeroed::<HitRecord>(&ctx, "hits", rays.len()).unwrap();
     let module = KernelModule::new(&ctx).unwrap();
     let kernel = Kernel::new(
         &ctx,
@@ -155,7 +155,7 @@ fn ray_queries_hit_the_expected_triangles() {
         gi_host::vulkan::compute_barrier(&ctx, cmd);
     })
     .unwrap();
-    let hits = hit_buf.read::<HitRecord>().unwrap();
+    let hits = hit_buf.read_back::<HitRecord>(&ctx).unwrap();
     for (i, (hit, (instance, primitive, t, front))) in hits.iter().zip(expected).enumerate() {
         assert_eq!(
             (hit.instance, hit.primitive),

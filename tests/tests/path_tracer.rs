@@ -11,10 +11,10 @@ use gi_host::KernelVariant;
 use gi_host::gbuffer::scene_camera;
 use gi_host::image_io::HdrImage;
 use gi_host::path_tracer::{
-    Environment, PathTracerPass, PathTracerSettings, Render, render_on_cpu,
+    MAX_SAMPLES_PER_SUBMIT, PathTracerPass, PathTracerSettings, Render, Strategy, render_on_cpu,
 };
 use gi_host::scene::gpu_data::{GpuShadingData, ShadingData};
-use gi_host::scene::lights::{GpuLights, gpu_lights};
+use gi_host::scene::lights::{Environment, GpuLights, LightSet};
 use gi_host::scene::upload::{SceneGeometry, build_bvh};
 use gi_host::scene::{Aabb, Instance, Light, LightKind, Material, Mesh, Scene};
 use gi_shared::camera::{CameraParams, primary_ray};
@@ -32,14 +32,28 @@ fn render_gpu(
     camera: &CameraParams,
     settings: &PathTracerSettings,
 ) -> Render {
+    render_gpu_lit(
+        variant,
+        scene,
+        &LightSet::new(scene, None, false),
+        camera,
+        settings,
+    )
+}
+
+/// Renders `scene` lit by `lights` from `camera` on the device with `variant`.
+fn render_gpu_lit(
+    variant: KernelVariant,
+    scene: &Scene,
+    set: &LightSet,
+    camera: &CameraParams,
+    settings: &PathTracerSettings,
+) -> Render {
     let ctx = context(variant);
     let geometry = SceneGeometry::new(&ctx, scene, None).unwrap();
     let shading = GpuShadingData::new(&ctx, &ShadingData::new(scene).unwrap()).unwrap();
-    let lights = GpuLights::new(&ctx, &gpu_lights(scene)).unwrap();
-    assert_eq!(
-        lights.count() as usize,
-        scene.lights.len() + scene.emissive_triangles.len()
-    );
+    let lights = GpuLights::new(&ctx, set).unwrap();
+    assert_eq!(lights.count() as usize, set.lights.len());
     let mut pass = PathTracerPass::new(&ctx, &geometry).unwrap();
     let mut reports = vec![];
     let render = pass
@@ -76,8 +90,7 @@ fn render_cpu(scene: &Scene, camera: &CameraParams, settings: &PathTracerSetting
     let bvh = build_bvh(scene).unwrap();
     render_on_cpu(
         &shading,
-        &gpu_lights(scene),
-        &Environment::default(),
+        &LightSet::new(scene, None, false),
         &bvh,
         camera,
         settings,
@@ -206,11 +219,66 @@ fn white_furnace_converges_to_the_geometric_series() {
             "furnace {variant}: mean {m:.5}, expected {expected}, error {:.3}%",
             error * 100.0
         );
-        assert!(error < 0.01, "{variant}: {m} vs {expected}");
+        assert!(error < FURNACE_BOUND, "{variant}: {m} vs {expected}");
     }
     let cpu = mean(&render_cpu(&scene, &camera, &settings));
     println!("furnace CPU: mean {cpu:.5}");
-    assert!((cpu - f64::from(expected)).abs() / f64::from(expected) < 0.01);
+    assert!((cpu - f64::from(expected)).abs() / f64::from(expected) < FURNACE_BOUND);
+}
+
+/// The README's claim for the white furnace is 0.1%; the tests allow twice that for the noise
+/// of 64 samples on 16 × 16 pixels.
+const FURNACE_BOUND: f64 = 0.002;
+
+/// The furnace with smooth normals as DCC tools export them: each vertex's normal points along
+/// the cube's diagonal through it, so normals tilt from 0° at a face's centre to 54.7° at its
+/// corners. The answer does not depend on the normals: interpolated normals must change the
+/// shading, not the energy (killing the directions below the geometric surface lost 9% here).
+#[test]
+fn white_furnace_with_tilted_normals_keeps_its_energy() {
+    let (albedo, emission) = (0.5, 1.0);
+    let expected = f64::from(emission / (1.0 - albedo));
+    let mut scene = furnace(albedo, emission);
+    let mesh = &mut scene.meshes[0];
+    for (p, n) in mesh.positions.iter().zip(mesh.normals.iter_mut()) {
+        let diagonal = p.normalize();
+        *n = if diagonal.dot(*n) > 0.0 {
+            diagonal
+        } else {
+            -diagonal
+        };
+    }
+    let tilt = mesh
+        .normals
+        .iter()
+        .zip(mesh.positions.chunks(4).flat_map(|q| {
+            let f = (q[1] - q[0]).cross(q[3] - q[0]).normalize();
+            [f; 4]
+        }))
+        .map(|(n, f)| n.dot(f).acos().to_degrees())
+        .fold(0.0, f32::max);
+    assert!((tilt - 54.7).abs() < 0.1, "{tilt}");
+    let camera = CameraParams::new(
+        Vec3::new(0.2, 0.1, 0.3),
+        Vec3::new(-1.0, -0.3, -1.0),
+        Vec3::Y,
+        1.2,
+        16,
+        16,
+    );
+    let settings = PathTracerSettings {
+        samples: 256,
+        ..Default::default()
+    };
+    for variant in VARIANTS {
+        let m = mean(&render_gpu(variant, &scene, &camera, &settings).image);
+        let error = (m - expected).abs() / expected;
+        println!(
+            "tilted-normal furnace {variant}: mean {m:.5}, expected {expected}, error {:.3}%",
+            error * 100.0
+        );
+        assert!(error < FURNACE_BOUND, "{variant}: {m} vs {expected}");
+    }
 }
 
 /// Where `camera`'s ray of `pixel` with sub-pixel offset `jitter` meets the plane z = 0.
@@ -250,8 +318,8 @@ fn analytic_irradiance(light: &Light, p: Vec3) -> f32 {
 /// `albedo / π · E` with `E = I cos θ / d²` (times the cone falloff) or the directional light's
 /// irradiance times `cos θ`. Direct lighting from one punctual light involves no random choice but
 /// the pixel jitter, which the test replays from the path's random stream: each pixel must match
-/// the mean of the analytic radiance at its samples' points within 1% (of the brightest pixel,
-/// for pixels outside a spot's cone).
+/// the mean of the analytic radiance at its samples' points within 1e-4 (1e-3 for the spot, whose
+/// falloff ramp amplifies rounding; relative to the brightest pixel for pixels outside its cone).
 #[test]
 fn punctual_lights_over_a_plane_match_the_analytic_irradiance() {
     let albedo = 0.8;
@@ -284,13 +352,10 @@ fn punctual_lights_over_a_plane_match_the_analytic_irradiance() {
     };
     for light in lights {
         let name = light.name.clone();
+        // Just larger than the view: the hit point's rounding scales with the triangle's size.
         let scene = quad_scene(
             "plane",
-            &[[
-                Vec3::new(-50.0, -50.0, 0.0),
-                Vec3::X * 100.0,
-                Vec3::Y * 100.0,
-            ]],
+            &[[Vec3::new(-2.0, -2.0, 0.0), Vec3::X * 4.0, Vec3::Y * 4.0]],
             vec![lambertian(albedo, 0.0)],
             vec![light.clone()],
         );
@@ -299,7 +364,8 @@ fn punctual_lights_over_a_plane_match_the_analytic_irradiance() {
                 let pixel = UVec2::new(i % 16, i / 16);
                 (0..settings.samples)
                     .map(|sample| {
-                        let params = settings.params(1, sample, [0; 2]);
+                        let params =
+                            settings.params(&LightSet::new(&scene, None, false).params(), sample);
                         let jitter = path_random(&params, pixel).next_vec2() - Vec2::splat(0.5);
                         let p = plane_hit(&camera, pixel, jitter);
                         albedo / PI * analytic_irradiance(&light, p)
@@ -321,7 +387,10 @@ fn punctual_lights_over_a_plane_match_the_analytic_irradiance() {
                 "{name} light {variant}: worst pixel error {:.3}%",
                 worst * 100.0
             );
-            assert!(worst < 0.01, "{name} {variant}: {worst}");
+            // The spot's ramp multiplies the device's rounding of the light direction (a few
+            // ULPs for sqrt and division on Vulkan) by 2 / (cos_inner − cos_outer) ≈ 25.
+            let bound = if name == "spot" { 1e-3 } else { 1e-4 };
+            assert!(worst < bound, "{name} {variant}: {worst}");
         }
     }
 }
@@ -456,15 +525,18 @@ fn an_environment_image_lights_a_plane() {
         vec![lambertian(albedo, 0.0)],
         vec![],
     );
-    let environment = Environment {
-        size: [8, 4],
-        texels: (0..32)
+    let environment = Environment::new(
+        [8, 4],
+        (0..32)
             .map(|i| {
                 let c = if i < 16 { a } else { b };
                 [c[0], c[1], c[2], 0.0]
             })
             .collect(),
-    };
+    )
+    .unwrap();
+    // Not importance-sampled: BSDF sampling alone makes every sample exact here.
+    let set = LightSet::new(&scene, Some(environment), false);
     let position = Vec3::new(0.0, 1.0, 49.0);
     let camera = CameraParams::new(
         position,
@@ -481,15 +553,14 @@ fn an_environment_image_lights_a_plane() {
     };
     let shading = ShadingData::new(&scene).unwrap();
     let bvh = build_bvh(&scene).unwrap();
-    let cpu = render_on_cpu(&shading, &[], &environment, &bvh, &camera, &settings).unwrap();
+    let cpu = render_on_cpu(&shading, &set, &bvh, &camera, &settings).unwrap();
     for variant in VARIANTS {
         let ctx = context(variant);
         let geometry = SceneGeometry::new(&ctx, &scene, None).unwrap();
         let gpu_shading = GpuShadingData::new(&ctx, &shading).unwrap();
-        let lights = GpuLights::new(&ctx, &[]).unwrap();
+        let lights = GpuLights::new(&ctx, &set).unwrap();
         assert_eq!(lights.count(), 0);
         let mut pass = PathTracerPass::new(&ctx, &geometry).unwrap();
-        pass.set_environment(&ctx, Some(&environment)).unwrap();
         let image = pass
             .render(
                 &ctx,
@@ -533,4 +604,292 @@ fn an_environment_image_lights_a_plane() {
         println!("environment {variant}: RMSE to the CPU {d:.2e}");
         assert!(d < 1e-5, "{variant}: {d}");
     }
+}
+
+/// Irradiance at `p` (normal +Z) from a unit-radiance polygon: Lambert's formula
+/// `½ Σ θ_i (n · γ_i)`, in f64, independent of the path tracer's code.
+fn polygon_irradiance(vertices: &[Vec3], p: Vec3) -> f64 {
+    let mut e = 0.0f64;
+    for i in 0..vertices.len() {
+        let a = (vertices[i] - p).as_dvec3().normalize();
+        let b = (vertices[(i + 1) % vertices.len()] - p)
+            .as_dvec3()
+            .normalize();
+        let theta = a.dot(b).clamp(-1.0, 1.0).acos();
+        e += theta * a.cross(b).normalize().z;
+    }
+    0.5 * e.abs()
+}
+
+/// Mean and standard error of the mean of `values`.
+fn mean_and_error(values: &[f64]) -> (f64, f64) {
+    let n = values.len() as f64;
+    let m = values.iter().sum::<f64>() / n;
+    let var = values.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0);
+    (m, (var / n).sqrt())
+}
+
+/// A one-sided square light facing down over a diffuse plane, direct light only
+/// (`max_bounces` 1): each pixel's expected radiance is `albedo/π · L ·` the polygon form factor
+/// at its samples' points (replayed from the path's random stream). The residuals must average
+/// to zero within 4 standard errors, and the error must be small enough to mean something.
+#[test]
+fn a_quad_light_over_a_plane_matches_the_form_factor() {
+    let (albedo, radiance, height) = (0.7, 5.0, 1.0);
+    let corner = Vec3::new(-0.2, -0.4, height);
+    // Wound so that its front (u × v) faces down, toward the plane.
+    let (u, v) = (Vec3::Y * 0.8, Vec3::X * 0.6);
+    let scene = quad_scene(
+        "quad light",
+        &[
+            [
+                Vec3::new(-50.0, -50.0, 0.0),
+                Vec3::X * 100.0,
+                Vec3::Y * 100.0,
+            ],
+            [corner, u, v],
+        ],
+        vec![lambertian(albedo, 0.0), lambertian(0.0, radiance)],
+        vec![],
+    );
+    let quad = [corner, corner + u, corner + u + v, corner + v];
+    let camera = CameraParams::new(Vec3::new(0.0, 0.0, 0.6), Vec3::NEG_Z, Vec3::Y, 2.0, 16, 16);
+    let settings = PathTracerSettings {
+        samples: 64,
+        max_bounces: 1,
+        ..Default::default()
+    };
+    let set = LightSet::new(&scene, None, false);
+    let expected: Vec<f64> = (0..16 * 16)
+        .map(|i| {
+            let pixel = UVec2::new(i % 16, i / 16);
+            (0..settings.samples)
+                .map(|sample| {
+                    let params = settings.params(&set.params(), sample);
+                    let jitter = path_random(&params, pixel).next_vec2() - Vec2::splat(0.5);
+                    let p = plane_hit(&camera, pixel, jitter);
+                    f64::from(albedo) / std::f64::consts::PI
+                        * f64::from(radiance)
+                        * polygon_irradiance(&quad, p)
+                })
+                .sum::<f64>()
+                / f64::from(settings.samples)
+        })
+        .collect();
+    let peak = expected.iter().copied().fold(0.0, f64::max);
+    for variant in VARIANTS {
+        let image = render_gpu(variant, &scene, &camera, &settings).image;
+        let residuals: Vec<f64> = image
+            .pixels()
+            .iter()
+            .zip(&expected)
+            .map(|(got, &e)| f64::from(got[0]) - e)
+            .collect();
+        let (bias, error) = mean_and_error(&residuals);
+        println!("quad light {variant}: mean residual {bias:.2e} ± {error:.2e} (peak {peak:.4})");
+        assert!(bias.abs() <= 4.0 * error, "{variant}: {bias} ± {error}");
+        assert!(
+            error < 2e-3 * peak,
+            "{variant}: error {error} too large to test"
+        );
+    }
+}
+
+/// Light sampling alone, BSDF sampling alone and their MIS combination estimate the same image:
+/// the Cornell box's means agree within 4 standard errors (estimated from a second seed).
+#[test]
+fn nee_bsdf_and_mis_agree_in_the_mean() {
+    let (scene, _) = Scene::load(scene_path("cornell-box.gltf")).unwrap();
+    let camera = scene_camera(&scene, 16, 16);
+    let mut results = vec![];
+    for strategy in [Strategy::Mis, Strategy::LightsOnly, Strategy::BsdfOnly] {
+        let render = |seed| {
+            let settings = PathTracerSettings {
+                samples: 64,
+                max_bounces: 4,
+                seed,
+                strategy,
+                ..Default::default()
+            };
+            render_gpu(KernelVariant::Software, &scene, &camera, &settings).image
+        };
+        let (a, b) = (render(0), render(1));
+        // Per-pixel variance of one render from the two seeds' differences.
+        let n = a.pixels().len() as f64 * 3.0;
+        let var = rmse(&a, &b).powi(2) / 2.0;
+        let m = (mean(&a) + mean(&b)) / 2.0;
+        let error = (var / n / 2.0).sqrt();
+        println!("{strategy:?}: mean {m:.5} ± {error:.5}");
+        results.push((strategy, m, error));
+    }
+    for (s, m, e) in &results {
+        for (t, n, f) in &results {
+            let bound = 4.0 * (e * e + f * f).sqrt();
+            assert!(
+                (m - n).abs() <= bound,
+                "{s:?} {m} vs {t:?} {n}: bound {bound}"
+            );
+        }
+    }
+    // MIS is as good as light sampling alone here (a small light), and far better than BSDF
+    // sampling alone.
+    assert!(results[0].2 <= 1.1 * results[1].2 && 2.0 * results[0].2 < results[2].2);
+}
+
+/// The Cornell box scaled by 1e-3, 1 and 1e3, and translated by 1e5, renders the same image:
+/// radiance does not depend on units, and ray offsets must not either. The means agree within 4
+/// standard errors of the noise at this sample count.
+#[test]
+fn the_cornell_box_renders_the_same_at_any_scale_and_offset() {
+    let (original, _) = Scene::load(scene_path("cornell-box.gltf")).unwrap();
+    let settings = PathTracerSettings {
+        samples: 64,
+        max_bounces: 8,
+        ..Default::default()
+    };
+    let place = |scale: f32, offset: Vec3| {
+        let mut scene = original.clone();
+        let m = Mat4::from_translation(offset) * Mat4::from_scale(Vec3::splat(scale));
+        for i in &mut scene.instances {
+            i.transform = m * i.transform;
+        }
+        scene.update_derived();
+        // The file's camera: (0, 1, 3.9) looking at (0, 1, 0), 39.3° vertical field of view.
+        let camera = CameraParams::new(
+            m.transform_point3(Vec3::new(0.0, 1.0, 3.9)),
+            Vec3::NEG_Z,
+            Vec3::Y,
+            39.3f32.to_radians(),
+            24,
+            24,
+        );
+        (scene, camera)
+    };
+    for variant in VARIANTS {
+        let (scene, camera) = place(1.0, Vec3::ZERO);
+        let reference = render_gpu(variant, &scene, &camera, &settings).image;
+        let other_seed = render_gpu(
+            variant,
+            &scene,
+            &camera,
+            &PathTracerSettings {
+                seed: 1,
+                ..settings
+            },
+        )
+        .image;
+        let n = reference.pixels().len() as f64 * 3.0;
+        let error = (rmse(&reference, &other_seed).powi(2) / n).sqrt();
+        let m = mean(&reference);
+        for (scale, offset) in [
+            (1e-3, Vec3::ZERO),
+            (1e3, Vec3::ZERO),
+            (1.0, Vec3::splat(1e5)),
+        ] {
+            let (scene, camera) = place(scale, offset);
+            let image = render_gpu(variant, &scene, &camera, &settings).image;
+            let d = mean(&image) - m;
+            println!(
+                "{variant}: scale {scale:e}, offset {:e}: mean {:.5} vs {m:.5} ({:+.3}%, {:.2} \
+                 standard errors)",
+                offset.x,
+                mean(&image),
+                100.0 * d / m,
+                d.abs() / error
+            );
+            assert!(
+                d.abs() <= 4.0 * error,
+                "{variant} x{scale} +{offset}: {d} vs {error}"
+            );
+        }
+    }
+}
+
+/// A small, bright sun in an environment image over a plane: importance-sampling the
+/// environment converges at least 10× faster (relMSE at equal samples) than BSDF sampling alone.
+#[test]
+fn a_sampled_environment_sun_converges_ten_times_faster() {
+    let (w, h) = (64u32, 32u32);
+    let sun = (40u32, 9u32);
+    let texels: Vec<[f32; 4]> = (0..w * h)
+        .map(|i| {
+            if (i % w, i / w) == sun {
+                [2000.0, 1800.0, 1500.0, 0.0]
+            } else {
+                [0.05, 0.07, 0.1, 0.0]
+            }
+        })
+        .collect();
+    let environment = Environment::new([w, h], texels).unwrap();
+    let scene = quad_scene(
+        "plane under a sun",
+        &[[
+            Vec3::new(-200.0, 0.0, -200.0),
+            Vec3::Z * 400.0,
+            Vec3::X * 400.0,
+        ]],
+        vec![lambertian(0.5, 0.0)],
+        vec![],
+    );
+    let position = Vec3::new(0.0, 2.0, 3.0);
+    let camera = CameraParams::new(position, -position, Vec3::Y, 0.5, 12, 12);
+    let render = |sample: bool, samples: u32| {
+        let set = LightSet::new(&scene, Some(environment.clone()), sample);
+        let settings = PathTracerSettings {
+            samples,
+            max_bounces: 1,
+            seed: samples,
+            ..Default::default()
+        };
+        render_gpu_lit(KernelVariant::Software, &scene, &set, &camera, &settings).image
+    };
+    let reference = render(true, 2048);
+    let rel_mse = |image: &HdrImage| {
+        let sum: f64 = image
+            .pixels()
+            .iter()
+            .zip(reference.pixels())
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c], b[c])))
+            .map(|(a, b)| f64::from(a - b).powi(2) / (f64::from(b).powi(2) + 1e-4))
+            .sum();
+        sum / (3 * image.pixels().len()) as f64
+    };
+    let sampled = rel_mse(&render(true, 16));
+    let bsdf = rel_mse(&render(false, 16));
+    println!(
+        "environment sun, 16 spp: relMSE {sampled:.3e} sampled, {bsdf:.3e} BSDF only: {:.0}x",
+        bsdf / sampled
+    );
+    assert!(bsdf >= 10.0 * sampled, "{sampled} vs {bsdf}");
+}
+
+/// 65 536 samples of a constant sky lose no precision: each submission sums at most
+/// `MAX_SAMPLES_PER_SUBMIT` samples in f32 and the host adds them in f64, so the error stays
+/// within that batch's rounding, where one f32 running sum drifts by up to N·ε/2 (4e-3 here).
+#[test]
+fn accumulation_loses_no_precision_at_64k_samples() {
+    let sky = 0.1f32;
+    // One small triangle behind the camera: everything the camera sees is sky.
+    let scene = quad_scene(
+        "sky",
+        &[[Vec3::new(0.0, 0.0, 5.0), Vec3::X * 0.01, Vec3::Y * 0.01]],
+        vec![lambertian(0.5, 0.0)],
+        vec![],
+    );
+    let camera = CameraParams::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 1.0, 4, 4);
+    let settings = PathTracerSettings {
+        samples: 1 << 16,
+        sky: Vec3::splat(sky),
+        ..Default::default()
+    };
+    let image = render_gpu(KernelVariant::Software, &scene, &camera, &settings).image;
+    let worst = image
+        .pixels()
+        .iter()
+        .flatten()
+        .map(|&c| (f64::from(c) - f64::from(sky)).abs() / f64::from(sky))
+        .fold(0.0, f64::max);
+    let bound = f64::from(MAX_SAMPLES_PER_SUBMIT - 1) * f64::from(f32::EPSILON) / 2.0;
+    println!("64k samples of sky {sky}: worst relative error {worst:.2e} (bound {bound:.2e})");
+    assert!(worst <= bound, "{worst}");
 }

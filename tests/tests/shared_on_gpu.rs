@@ -107,11 +107,11 @@ fn run_on_gpu(ctx: &Context, cases: &[DiffCase]) -> Vec<Vec<DiffOutput>> {
     )
     .unwrap();
     module.destroy(ctx);
-    let input = Buffer::from_slice(ctx, "difftest cases", cases, Default::default()).unwrap();
+    let input = Buffer::device_local(ctx, "difftest cases", cases, Default::default()).unwrap();
     let mut results = vec![];
     for function in 0..FUNCTIONS.len() as u32 {
-        let mut output =
-            Buffer::zeroed::<DiffOutput>(ctx, "difftest outputs", cases.len()).unwrap();
+        let output =
+            Buffer::device_zeroed::<DiffOutput>(ctx, "difftest outputs", cases.len()).unwrap();
         let push = DiffPush {
             function,
             count: cases.len() as u32,
@@ -130,7 +130,7 @@ fn run_on_gpu(ctx: &Context, cases: &[DiffCase]) -> Vec<Vec<DiffOutput>> {
             gi_host::vulkan::compute_barrier(ctx, cmd);
         })
         .unwrap();
-        results.push(output.read::<DiffOutput>().unwrap());
+        results.push(output.read_back::<DiffOutput>(ctx).unwrap());
         output.destroy(ctx);
     }
     input.destroy(ctx);

@@ -4,10 +4,10 @@ use clap::{Parser, Subcommand};
 use gi_host::gbuffer::{GBufferData, GBufferImages, GBufferPass, scene_camera, write_debug_pngs};
 use gi_host::image_io::{HdrImage, ToneMap};
 use gi_host::metrics::{self, CompareSettings};
-use gi_host::path_tracer::{Environment, PathTracerPass, PathTracerSettings, Render};
+use gi_host::path_tracer::{PathTracerPass, PathTracerSettings, Render, Strategy};
 use gi_host::scene::Scene;
 use gi_host::scene::gpu_data::{GpuShadingData, ShadingData};
-use gi_host::scene::lights::{GpuLights, gpu_lights};
+use gi_host::scene::lights::{Environment, GpuLights, LightSet};
 use gi_host::scene::upload::{SceneGeometry, build_bvh};
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
@@ -107,6 +107,18 @@ enum Command {
         /// Vertical field of view in degrees, with --camera-position.
         #[arg(long, default_value_t = 45.0)]
         fov: f32,
+        /// Light samples resampled per next-event estimate: 1 is power-proportional selection;
+        /// more choose by each light's unshadowed contribution (cheap: no extra rays).
+        #[arg(long, default_value_t = PathTracerSettings::default().light_candidates,
+              value_parser = clap::value_parser!(u32).range(1..=gi_shared::lights::MAX_LIGHT_CANDIDATES as i64))]
+        light_candidates: u32,
+        /// How light sampling and BSDF sampling combine: mis (the reference), lights or bsdf
+        /// (one technique alone, for comparisons).
+        #[arg(long, default_value = "mis", value_parser = parse_strategy)]
+        strategy: Strategy,
+        /// Do not importance-sample the environment image (BSDF sampling alone finds it).
+        #[arg(long, requires = "environment")]
+        no_environment_sampling: bool,
     },
     /// Measure the path tracer's speed: paths per second for each scene in each tracing variant
     /// the device has (ignores --trace).
@@ -217,6 +229,9 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         camera_position,
         camera_target,
         fov,
+        light_candidates,
+        strategy,
+        no_environment_sampling,
     }) = &cli.command
     {
         let settings = PathTracerSettings {
@@ -225,13 +240,15 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             emissive_multiplier: *emissive_multiplier,
             sky: sky.unwrap_or(Vec3::ZERO),
             seed: *seed,
+            light_candidates: *light_candidates,
+            strategy: *strategy,
         };
         let view = camera_position
             .zip(*camera_target)
             .map(|(p, t)| (p, t, *fov));
         let environment = environment
             .as_ref()
-            .map(|p| HdrImage::read(p).map(|i| Environment::from_image(&i)))
+            .map(|p| HdrImage::read(p).and_then(|i| Environment::from_image(&i)))
             .transpose()?;
         let output = Output {
             path: out,
@@ -239,7 +256,11 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             height: *height,
             exposure: *exposure,
         };
-        render(&ctx, scene, &output, view, environment.as_ref(), &settings)?;
+        let sky = Sky {
+            environment,
+            sample: !*no_environment_sampling,
+        };
+        render(&ctx, scene, &output, view, sky, &settings)?;
     }
     check_validation(&ctx)
 }
@@ -381,6 +402,21 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
+fn parse_strategy(s: &str) -> Result<Strategy, String> {
+    match s {
+        "mis" => Ok(Strategy::Mis),
+        "lights" => Ok(Strategy::LightsOnly),
+        "bsdf" => Ok(Strategy::BsdfOnly),
+        _ => Err(format!("{s:?} is not one of mis, lights, bsdf")),
+    }
+}
+
+/// The environment image lighting a render, and whether it is importance-sampled.
+struct Sky {
+    environment: Option<Environment>,
+    sample: bool,
+}
+
 /// A scene on the device, ready for the path tracer.
 struct Uploaded {
     geometry: SceneGeometry,
@@ -389,7 +425,7 @@ struct Uploaded {
 }
 
 impl Uploaded {
-    fn new(ctx: &Context, scene: &Scene) -> gi_host::Result<Self> {
+    fn new(ctx: &Context, scene: &Scene, sky: Sky) -> gi_host::Result<Self> {
         let shading_data = ShadingData::new(scene)?;
         let geometry = SceneGeometry::new(ctx, scene, None)?;
         let shading = match GpuShadingData::new(ctx, &shading_data) {
@@ -399,7 +435,8 @@ impl Uploaded {
                 return Err(e);
             }
         };
-        match GpuLights::new(ctx, &gpu_lights(scene)) {
+        let set = LightSet::new(scene, sky.environment, sky.sample);
+        match GpuLights::new(ctx, &set) {
             Ok(lights) => Ok(Self {
                 geometry,
                 shading,
@@ -418,22 +455,19 @@ impl Uploaded {
         &self,
         ctx: &Context,
         camera: &CameraParams,
-        environment: Option<&Environment>,
         settings: &PathTracerSettings,
         progress: impl FnMut(u32, u32),
     ) -> gi_host::Result<Render> {
         let mut pass = PathTracerPass::new(ctx, &self.geometry)?;
-        let result = pass.set_environment(ctx, environment).and_then(|()| {
-            pass.render(
-                ctx,
-                &self.geometry,
-                &self.shading,
-                &self.lights,
-                camera,
-                settings,
-                progress,
-            )
-        });
+        let result = pass.render(
+            ctx,
+            &self.geometry,
+            &self.shading,
+            &self.lights,
+            camera,
+            settings,
+            progress,
+        );
         pass.destroy(ctx);
         result
     }
@@ -466,7 +500,7 @@ fn render(
     path: &Path,
     output: &Output<'_>,
     view: Option<(Vec3, Vec3, f32)>,
-    environment: Option<&Environment>,
+    sky: Sky,
     settings: &PathTracerSettings,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let Output {
@@ -495,12 +529,12 @@ fn render(
         ),
         None => scene_camera(&scene, width, height),
     };
-    let uploaded = Uploaded::new(ctx, &scene)?;
+    let uploaded = Uploaded::new(ctx, &scene, sky)?;
     let bar = ProgressBar::new(u64::from(settings.samples)).with_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} spp, eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let rendered = uploaded.render(ctx, &camera, environment, settings, |done, _| {
+    let rendered = uploaded.render(ctx, &camera, settings, |done, _| {
         bar.set_position(u64::from(done))
     });
     bar.finish_and_clear();
@@ -566,15 +600,19 @@ fn benchmark(
         };
         for (name, scene) in &loaded {
             let camera = scene_camera(scene, width, height);
-            let uploaded = Uploaded::new(&ctx, scene)?;
+            let sky = Sky {
+                environment: None,
+                sample: false,
+            };
+            let uploaded = Uploaded::new(&ctx, scene, sky)?;
             // A first small render compiles the pipeline and warms the caches.
             let warm = PathTracerSettings {
                 samples: 1,
                 ..*settings
             };
             let result = uploaded
-                .render(&ctx, &camera, None, &warm, |_, _| {})
-                .and_then(|_| uploaded.render(&ctx, &camera, None, settings, |_, _| {}));
+                .render(&ctx, &camera, &warm, |_, _| {})
+                .and_then(|_| uploaded.render(&ctx, &camera, settings, |_, _| {}));
             uploaded.destroy(&ctx);
             let ms = result?.gpu_ms.unwrap_or(f64::NAN);
             let paths = f64::from(width) * f64::from(height) * f64::from(settings.samples);

@@ -7,13 +7,22 @@
 //! would leave a child too deep to finish within [`BVH_MAX_DEPTH`], the node splits at the
 //! object median instead, which bounds the depth of the whole tree (see [`Bvh::build`]).
 //!
+//! The build runs on all cores (`rayon`): the two subtrees of a node of at least
+//! [`PARALLEL_SUBTREE`] triangles are built in parallel, and nodes of at least
+//! [`PARALLEL_BINNING`] triangles also gather their bounds and bins in parallel. The result does
+//! not depend on the number of threads.
+//!
 //! Degenerate and NaN triangles are kept (the loader filters them; here they only must not break
 //! anything): bounds skip NaN coordinates, NaN centroids land in the first bin, and the traversal
 //! never reports a hit on them.
 
-use gi_shared::bvh::{BVH_MAX_DEPTH, BvhNode, BvhTriangle, any_hit, closest_hit};
+use gi_shared::bvh::{
+    BVH_MAX_DEPTH, BVH_MAX_INDEX, BVH_MAX_LEAF_TRIANGLES, BVH_TRIANGLE_MIRRORED, BvhChild, BvhNode,
+    BvhTriangle, any_hit, closest_hit,
+};
 use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
 use gi_shared::ray::{HitRecord, Ray};
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
@@ -25,27 +34,38 @@ pub const MAX_LEAF_TRIANGLES: usize = 4;
 pub const SAH_NODE_COST: f32 = 1.0;
 /// SAH cost of one ray/triangle test.
 pub const SAH_TRIANGLE_COST: f32 = 1.0;
+/// Nodes of at least this many triangles build their two subtrees in parallel.
+pub const PARALLEL_SUBTREE: usize = 1 << 12;
+/// Nodes of at least this many triangles gather bounds and SAH bins in parallel.
+pub const PARALLEL_BINNING: usize = 1 << 15;
 
-/// Which instance and which of its mesh's triangles a triangle is; reported in the hit record.
+const _: () = assert!(MAX_LEAF_TRIANGLES as u32 <= BVH_MAX_LEAF_TRIANGLES);
+
+/// Which instance and which of its mesh's triangles a triangle is (reported in the hit record),
+/// and whether the instance mirrors.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct TriangleId {
     /// Instance index.
     pub instance: u32,
     /// Triangle index within the instance's mesh.
     pub primitive: u32,
+    /// Whether the instance's transform mirrors (`Instance::is_mirrored`): the traversal then
+    /// reports the other face as the front one, as ray queries do.
+    pub mirrored: bool,
 }
 
 /// What a build produced.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BvhStats {
-    /// Nodes, interior and leaves.
+    /// Nodes ([`BvhNode`]s, each holding two children).
     pub nodes: u32,
     /// Leaves.
     pub leaves: u32,
-    /// Depth of the deepest leaf, the root being at depth 0; at most [`BVH_MAX_DEPTH`].
+    /// Depth of the deepest leaf, the root node being at depth 0 and a leaf directly under it at
+    /// depth 1 (a tree of a single leaf has depth 0); at most [`BVH_MAX_DEPTH`].
     pub max_depth: u32,
-    /// Expected cost of a ray through the root: the sum over nodes of their surface area
-    /// relative to the root's, times [`SAH_NODE_COST`] for interior nodes and
+    /// Expected cost of a ray through the root: the sum over subtrees of their surface area
+    /// relative to the root's, times [`SAH_NODE_COST`] for interior ones and
     /// [`SAH_TRIANGLE_COST`] per triangle for leaves. Areas count as 1 when the root's area is
     /// zero or not finite.
     pub sah_cost: f32,
@@ -92,6 +112,12 @@ impl Aabb {
         }
     }
 
+    #[inline]
+    fn union(mut self, b: &Aabb) -> Self {
+        self.grow(b);
+        self
+    }
+
     /// Surface area; 0 for an empty box. Infinite for unbounded ones.
     #[inline]
     fn area(&self) -> f32 {
@@ -114,18 +140,30 @@ struct Item {
     centroid: [f32; 3],
 }
 
-/// How a node's triangle range `[start, end)` was split: the left child takes `[start, mid)`.
+/// How a node's triangle range was split: the left child takes `range[..mid]`.
 struct Split {
     mid: usize,
     cost: f32,
 }
 
-/// A node waiting to be built.
-struct Task {
-    node: usize,
-    start: usize,
-    end: usize,
-    depth: u32,
+/// A built subtree before it is laid out.
+enum Subtree {
+    /// Triangles `start .. start + count` in leaf order.
+    Leaf { start: u32, count: u32 },
+    /// An interior node with its two children.
+    Interior(Box<[(Aabb, Subtree); 2]>),
+}
+
+/// A subtree with its bounds and what the statistics need from it.
+struct Built {
+    bounds: Aabb,
+    tree: Subtree,
+    leaves: u32,
+    /// Depth of its deepest leaf, counted from the root of the whole tree.
+    max_depth: u32,
+    /// Sum of the areas of its interior nodes, and of its leaves' areas times their counts.
+    area_interior: f64,
+    area_leaves: f64,
 }
 
 /// Levels below a node of `n` triangles when every split is at the object median:
@@ -185,7 +223,7 @@ impl Bvh {
             });
         }
         let triangle_bytes = triangles.len() * size_of::<BvhTriangle>();
-        if triangle_bytes > max_buffer_bytes {
+        if triangle_bytes > max_buffer_bytes || triangles.len() >= BVH_MAX_INDEX as usize {
             return Err(too_big(
                 "triangles",
                 triangles.len(),
@@ -198,7 +236,7 @@ impl Bvh {
         }
 
         let items: Vec<Item> = triangles
-            .iter()
+            .par_iter()
             .map(|v| {
                 let mut bounds = Aabb::EMPTY;
                 for p in v {
@@ -210,112 +248,57 @@ impl Bvh {
             .collect();
         // `order[i]` is the input index of the triangle at leaf position `i`.
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-        let mut nodes = Vec::with_capacity(triangles.len());
-        nodes.push(BvhNode::default());
-        let mut stats = BvhStats::default();
-        let mut root_area = 0.0;
-        let mut area_sum_interior = 0.0f64;
-        let mut area_sum_leaves = 0.0f64;
-
-        let mut tasks = vec![Task {
-            node: 0,
-            start: 0,
-            end: triangles.len(),
-            depth: 0,
-        }];
-        while let Some(Task {
-            node,
-            start,
-            end,
-            depth,
-        }) = tasks.pop()
-        {
-            let range = &mut order[start..end];
-            let mut bounds = Aabb::EMPTY;
-            let mut centroids = Aabb::EMPTY;
-            for &i in range.iter() {
-                let item = &items[i as usize];
-                bounds.grow(&item.bounds);
-                centroids.grow_point(item.centroid);
-            }
-            nodes[node].min = bounds.min;
-            nodes[node].max = bounds.max;
-            let area = bounds.area();
-            if node == 0 {
-                root_area = area;
-            }
-            let n = end - start;
-            let leaf_cost = SAH_TRIANGLE_COST * n as f32;
-
-            let sah = sah_split(&items, range, &centroids, area);
-            let split = match sah {
-                // The depth invariant: each child can still finish with median splits.
-                Some(s) if depth + 1 + median_levels((s.mid).max(n - s.mid)) <= max_depth => {
-                    (n > MAX_LEAF_TRIANGLES || s.cost < leaf_cost).then_some(s.mid)
-                }
-                _ => (n > MAX_LEAF_TRIANGLES).then(|| {
-                    median_split(&items, range, &centroids);
-                    n / 2
-                }),
-            };
-
-            match split {
-                None => {
-                    nodes[node].index = start as u32;
-                    nodes[node].count = n as u32;
-                    stats.leaves += 1;
-                    stats.max_depth = stats.max_depth.max(depth);
-                    area_sum_leaves += f64::from(area) * n as f64;
-                }
-                Some(mid) => {
-                    let left = nodes.len();
-                    nodes[node].index = left as u32;
-                    nodes[node].count = 0;
-                    nodes.push(BvhNode::default());
-                    nodes.push(BvhNode::default());
-                    area_sum_interior += f64::from(area);
-                    // Right first so the left subtree is built (and laid out) first.
-                    tasks.push(Task {
-                        node: left + 1,
-                        start: start + mid,
-                        end,
-                        depth: depth + 1,
-                    });
-                    tasks.push(Task {
-                        node: left,
-                        start,
-                        end: start + mid,
-                        depth: depth + 1,
-                    });
-                }
+        let builder = Builder {
+            items: &items,
+            max_depth,
+        };
+        let root = builder.build(&mut order, 0, 0);
+        assert!(
+            root.max_depth <= max_depth,
+            "BVH depth {} exceeds the limit {max_depth}",
+            root.max_depth
+        );
+        let root_area = root.bounds.area();
+        let mut nodes = Vec::new();
+        match root.tree {
+            Subtree::Leaf { start, count } => nodes.push(BvhNode {
+                left: child(&root.bounds, start, count),
+                right: BvhChild::EMPTY,
+            }),
+            Subtree::Interior(children) => {
+                lay_out(&children, &mut nodes);
             }
         }
-        assert!(
-            stats.max_depth <= max_depth,
-            "BVH depth {} exceeds the limit {max_depth}",
-            stats.max_depth
-        );
-
         let node_bytes = nodes.len() * size_of::<BvhNode>();
-        if node_bytes > max_buffer_bytes {
+        if node_bytes > max_buffer_bytes || nodes.len() >= BVH_MAX_INDEX as usize {
             return Err(too_big("nodes", nodes.len(), node_bytes, max_buffer_bytes));
         }
-        stats.nodes = nodes.len() as u32;
+        let mut stats = BvhStats {
+            nodes: nodes.len() as u32,
+            leaves: root.leaves,
+            max_depth: root.max_depth,
+            sah_cost: 0.0,
+        };
         stats.sah_cost = if root_area > 0.0 && root_area.is_finite() {
-            ((f64::from(SAH_NODE_COST) * area_sum_interior
-                + f64::from(SAH_TRIANGLE_COST) * area_sum_leaves)
+            ((f64::from(SAH_NODE_COST) * root.area_interior
+                + f64::from(SAH_TRIANGLE_COST) * root.area_leaves)
                 / f64::from(root_area)) as f32
         } else {
-            // Without a usable root area every node weighs 1.
-            let interior = f64::from(stats.nodes - stats.leaves);
+            // Without a usable root area every subtree weighs 1.
+            let interior = f64::from(stats.leaves - 1);
             (f64::from(SAH_NODE_COST) * interior
                 + f64::from(SAH_TRIANGLE_COST) * triangles.len() as f64) as f32
         };
         let triangles = order
-            .iter()
+            .par_iter()
             .map(|&i| {
                 let id = ids[i as usize];
-                BvhTriangle::new(triangles[i as usize], id.instance, id.primitive)
+                let flags = if id.mirrored {
+                    BVH_TRIANGLE_MIRRORED
+                } else {
+                    0
+                };
+                BvhTriangle::new(triangles[i as usize], id.instance, id.primitive, flags)
             })
             .collect();
         Ok(Self {
@@ -324,6 +307,32 @@ impl Bvh {
             stats,
         })
     }
+}
+
+/// A child record of `bounds` with its reference.
+fn child(bounds: &Aabb, index: u32, count: u32) -> BvhChild {
+    BvhChild {
+        min: bounds.min,
+        index,
+        max: bounds.max,
+        count,
+    }
+}
+
+/// Appends the node of `children` and then its subtrees, depth first (the left subtree right
+/// after its parent); returns the node's index.
+fn lay_out(children: &[(Aabb, Subtree); 2], nodes: &mut Vec<BvhNode>) -> u32 {
+    let me = nodes.len();
+    nodes.push(BvhNode::default());
+    let [left, right] = children.each_ref().map(|(bounds, tree)| match tree {
+        Subtree::Leaf { start, count } => child(bounds, *start, *count),
+        Subtree::Interior(grand) => {
+            let index = lay_out(grand, nodes);
+            child(bounds, index, 0)
+        }
+    });
+    nodes[me] = BvhNode { left, right };
+    me as u32
 }
 
 fn too_big(name: &'static str, count: usize, bytes: usize, limit: usize) -> Error {
@@ -336,74 +345,193 @@ fn too_big(name: &'static str, count: usize, bytes: usize, limit: usize) -> Erro
     }
 }
 
-/// The cheapest binned SAH split of `range` over the three axes, partitioning `range` so that
-/// the left child is `range[..mid]`. `None` when no bin boundary separates the centroids (or
-/// every cost is NaN, from unbounded geometry); `range` is then untouched.
-fn sah_split(items: &[Item], range: &mut [u32], centroids: &Aabb, area: f32) -> Option<Split> {
-    #[derive(Clone, Copy)]
-    struct Bin {
-        bounds: Aabb,
-        count: u32,
+/// The recursive build over one set of triangles.
+struct Builder<'a> {
+    items: &'a [Item],
+    max_depth: u32,
+}
+
+impl Builder<'_> {
+    /// Builds the subtree of `range` (leaf positions `start ..`) at depth `depth`, reordering
+    /// `range` into leaf order.
+    fn build(&self, range: &mut [u32], start: usize, depth: u32) -> Built {
+        let (bounds, centroids) = self.bounds(range);
+        let area = bounds.area();
+        let n = range.len();
+        let leaf_cost = SAH_TRIANGLE_COST * n as f32;
+        let split = match self.sah_split(range, &centroids, area) {
+            // The depth invariant: each child can still finish with median splits.
+            Some(s) if depth + 1 + median_levels(s.mid.max(n - s.mid)) <= self.max_depth => {
+                (n > MAX_LEAF_TRIANGLES || s.cost < leaf_cost).then_some(s.mid)
+            }
+            _ => (n > MAX_LEAF_TRIANGLES).then(|| {
+                median_split(self.items, range, &centroids);
+                n / 2
+            }),
+        };
+        let Some(mid) = split else {
+            return Built {
+                bounds,
+                tree: Subtree::Leaf {
+                    start: start as u32,
+                    count: n as u32,
+                },
+                leaves: 1,
+                max_depth: depth,
+                area_interior: 0.0,
+                area_leaves: f64::from(area) * n as f64,
+            };
+        };
+        let (left, right) = range.split_at_mut(mid);
+        let (l, r) = if n >= PARALLEL_SUBTREE {
+            rayon::join(
+                || self.build(left, start, depth + 1),
+                || self.build(right, start + mid, depth + 1),
+            )
+        } else {
+            (
+                self.build(left, start, depth + 1),
+                self.build(right, start + mid, depth + 1),
+            )
+        };
+        Built {
+            bounds,
+            leaves: l.leaves + r.leaves,
+            max_depth: l.max_depth.max(r.max_depth),
+            area_interior: f64::from(area) + l.area_interior + r.area_interior,
+            area_leaves: l.area_leaves + r.area_leaves,
+            tree: Subtree::Interior(Box::new([(l.bounds, l.tree), (r.bounds, r.tree)])),
+        }
     }
-    let empty = Bin {
+
+    /// Bounds of the triangles of `range`, and of their centroids.
+    fn bounds(&self, range: &[u32]) -> (Aabb, Aabb) {
+        let gather = |chunk: &[u32]| {
+            let mut b = (Aabb::EMPTY, Aabb::EMPTY);
+            for &i in chunk {
+                let item = &self.items[i as usize];
+                b.0.grow(&item.bounds);
+                b.1.grow_point(item.centroid);
+            }
+            b
+        };
+        if range.len() >= PARALLEL_BINNING {
+            range.par_chunks(PARALLEL_BINNING / 4).map(gather).reduce(
+                || (Aabb::EMPTY, Aabb::EMPTY),
+                |a, b| (a.0.union(&b.0), a.1.union(&b.1)),
+            )
+        } else {
+            gather(range)
+        }
+    }
+
+    /// The cheapest binned SAH split of `range` over the three axes, partitioning `range` so
+    /// that the left child is `range[..mid]`. `None` when no bin boundary separates the
+    /// centroids (or every cost is NaN, from unbounded geometry); `range` is then untouched.
+    fn sah_split(&self, range: &mut [u32], centroids: &Aabb, area: f32) -> Option<Split> {
+        let mut scales = [0.0f32; 3];
+        for (axis, scale) in scales.iter_mut().enumerate() {
+            let extent = centroids.max[axis] - centroids.min[axis];
+            if extent > 0.0 && extent.is_finite() {
+                *scale = SAH_BINS as f32 / extent;
+            }
+        }
+        if scales == [0.0; 3] {
+            return None;
+        }
+        let bins = if range.len() >= PARALLEL_BINNING {
+            range
+                .par_chunks(PARALLEL_BINNING / 4)
+                .map(|chunk| self.bin(chunk, centroids, &scales))
+                .reduce(|| [[Bin::EMPTY; SAH_BINS]; 3], merge_bins)
+        } else {
+            self.bin(range, centroids, &scales)
+        };
+        // Best (cost, axis, first bin of the right child).
+        let mut best: Option<(f32, usize, usize)> = None;
+        for axis in 0..3 {
+            if scales[axis] == 0.0 {
+                continue;
+            }
+            let bins = &bins[axis];
+            // Sweep from the right: the area and count of bins `b..` for each boundary `b`.
+            let mut right_area = [0.0f32; SAH_BINS];
+            let mut right_count = [0u32; SAH_BINS];
+            let mut acc = Bin::EMPTY;
+            for b in (1..SAH_BINS).rev() {
+                acc.bounds.grow(&bins[b].bounds);
+                acc.count += bins[b].count;
+                right_area[b] = acc.bounds.area();
+                right_count[b] = acc.count;
+            }
+            let mut left = Bin::EMPTY;
+            for b in 1..SAH_BINS {
+                left.bounds.grow(&bins[b - 1].bounds);
+                left.count += bins[b - 1].count;
+                if left.count == 0 || right_count[b] == 0 {
+                    continue;
+                }
+                let cost = SAH_NODE_COST
+                    + SAH_TRIANGLE_COST
+                        * (left.bounds.area() * left.count as f32
+                            + right_area[b] * right_count[b] as f32)
+                        / area;
+                // `!(cost >= best)` would admit NaN; only a strictly lower number wins.
+                if best.is_none_or(|(c, _, _)| cost < c) {
+                    best = Some((cost, axis, b));
+                }
+            }
+        }
+        let (cost, axis, boundary) = best?;
+        if cost.is_nan() {
+            return None;
+        }
+        let lo = centroids.min[axis];
+        let scale = scales[axis];
+        let mid = partition(range, |i| {
+            bin_of(self.items[i as usize].centroid[axis], lo, scale) < boundary
+        });
+        Some(Split { mid, cost })
+    }
+
+    /// The SAH bins of `chunk` on each axis with a non-zero `scales` entry.
+    fn bin(&self, chunk: &[u32], centroids: &Aabb, scales: &[f32; 3]) -> [[Bin; SAH_BINS]; 3] {
+        let mut bins = [[Bin::EMPTY; SAH_BINS]; 3];
+        for &i in chunk {
+            let item = &self.items[i as usize];
+            for axis in 0..3 {
+                if scales[axis] != 0.0 {
+                    let b = bin_of(item.centroid[axis], centroids.min[axis], scales[axis]);
+                    let bin = &mut bins[axis][b];
+                    bin.bounds.grow(&item.bounds);
+                    bin.count += 1;
+                }
+            }
+        }
+        bins
+    }
+}
+
+/// One SAH bin: the bounds and number of the triangles whose centroid falls in it.
+#[derive(Clone, Copy)]
+struct Bin {
+    bounds: Aabb,
+    count: u32,
+}
+
+impl Bin {
+    const EMPTY: Self = Self {
         bounds: Aabb::EMPTY,
         count: 0,
     };
-    // Best (cost, axis, first bin of the right child).
-    let mut best: Option<(f32, usize, usize)> = None;
-    let mut scales = [0.0f32; 3];
-    for axis in 0..3 {
-        let extent = centroids.max[axis] - centroids.min[axis];
-        if !(extent > 0.0 && extent.is_finite()) {
-            continue;
-        }
-        let scale = SAH_BINS as f32 / extent;
-        scales[axis] = scale;
-        let mut bins = [empty; SAH_BINS];
-        for &i in range.iter() {
-            let item = &items[i as usize];
-            let b = &mut bins[bin_of(item.centroid[axis], centroids.min[axis], scale)];
-            b.bounds.grow(&item.bounds);
-            b.count += 1;
-        }
-        // Sweep from the right: the area and count of bins `b..` for each boundary `b`.
-        let mut right_area = [0.0f32; SAH_BINS];
-        let mut right_count = [0u32; SAH_BINS];
-        let mut acc = empty;
-        for b in (1..SAH_BINS).rev() {
-            acc.bounds.grow(&bins[b].bounds);
-            acc.count += bins[b].count;
-            right_area[b] = acc.bounds.area();
-            right_count[b] = acc.count;
-        }
-        let mut left = empty;
-        for b in 1..SAH_BINS {
-            left.bounds.grow(&bins[b - 1].bounds);
-            left.count += bins[b - 1].count;
-            if left.count == 0 || right_count[b] == 0 {
-                continue;
-            }
-            let cost = SAH_NODE_COST
-                + SAH_TRIANGLE_COST
-                    * (left.bounds.area() * left.count as f32
-                        + right_area[b] * right_count[b] as f32)
-                    / area;
-            // `!(cost >= best)` would admit NaN; only a strictly lower number wins.
-            if best.is_none_or(|(c, _, _)| cost < c) {
-                best = Some((cost, axis, b));
-            }
-        }
+}
+
+fn merge_bins(mut a: [[Bin; SAH_BINS]; 3], b: [[Bin; SAH_BINS]; 3]) -> [[Bin; SAH_BINS]; 3] {
+    for (a, b) in a.iter_mut().flatten().zip(b.iter().flatten()) {
+        a.bounds.grow(&b.bounds);
+        a.count += b.count;
     }
-    let (cost, axis, boundary) = best?;
-    if cost.is_nan() {
-        return None;
-    }
-    let lo = centroids.min[axis];
-    let scale = scales[axis];
-    let mid = partition(range, |i| {
-        bin_of(items[i as usize].centroid[axis], lo, scale) < boundary
-    });
-    Some(Split { mid, cost })
+    a
 }
 
 /// Reorders `range` so that the elements satisfying `left` come first; returns their count.
@@ -468,6 +596,7 @@ mod tests {
             .map(|i| TriangleId {
                 instance: i % 5,
                 primitive: i,
+                mirrored: i % 5 == 3,
             })
             .collect()
     }
@@ -538,10 +667,10 @@ mod tests {
         hits
     }
 
-    /// The structural invariants: layout, bounds, leaf sizes, depth, each triangle once, and
-    /// statistics that match the tree.
+    /// The structural invariants: layout, bounds, leaf sizes, depth, each triangle once with its
+    /// ids and flags, and statistics that match the tree.
     fn assert_well_formed(bvh: &Bvh, input: &[[[f32; 3]; 3]], ids: &[TriangleId]) {
-        let contains = |outer: &BvhNode, min: [f32; 3], max: [f32; 3]| {
+        let contains = |outer: &BvhChild, min: [f32; 3], max: [f32; 3]| {
             (0..3).all(|a| {
                 // Empty (all-NaN) children have no extent to contain.
                 min[a] > max[a] || (outer.min[a] <= min[a] && max[a] <= outer.max[a])
@@ -549,38 +678,50 @@ mod tests {
         };
         let mut seen = vec![0u32; bvh.triangles.len()];
         let (mut leaves, mut max_depth) = (0, 0);
+        let single_leaf = bvh.nodes.len() == 1 && bvh.nodes[0].right == BvhChild::EMPTY;
+        if single_leaf {
+            assert!(bvh.nodes[0].left.is_leaf());
+        }
         let mut stack = vec![(0usize, 0u32)];
         while let Some((i, depth)) = stack.pop() {
             let node = &bvh.nodes[i];
-            if node.is_leaf() {
-                leaves += 1;
-                max_depth = max_depth.max(depth);
-                assert!(node.count as usize <= MAX_LEAF_TRIANGLES);
-                for t in node.index..node.index + node.count {
-                    seen[t as usize] += 1;
-                    let tri = &bvh.triangles[t as usize];
-                    let original = input[tri.primitive as usize];
-                    assert_eq!(ids[tri.primitive as usize].instance, tri.instance);
-                    for v in original {
-                        for a in 0..3 {
-                            let c = v[a];
-                            assert!(
-                                c.is_nan() || (node.min[a] <= c && c <= node.max[a]),
-                                "leaf {i} {node:?} misses vertex {v:?}"
-                            );
+            for c in [&node.left, &node.right] {
+                if single_leaf && c == &BvhChild::EMPTY {
+                    continue;
+                }
+                if c.is_leaf() {
+                    leaves += 1;
+                    max_depth = max_depth.max(if single_leaf { 0 } else { depth + 1 });
+                    assert!(c.count as usize <= MAX_LEAF_TRIANGLES);
+                    for t in c.index..c.index + c.count {
+                        seen[t as usize] += 1;
+                        let tri = &bvh.triangles[t as usize];
+                        let original = input[tri.primitive as usize];
+                        let id = ids[tri.primitive as usize];
+                        assert_eq!(id.instance, tri.instance);
+                        assert_eq!(u32::from(id.mirrored) * BVH_TRIANGLE_MIRRORED, tri.flags);
+                        // Vertices bit for bit, in the input's order.
+                        assert_eq!(
+                            [tri.v0, tri.v1, tri.v2].map(|v| v.map(f32::to_bits)),
+                            original.map(|v| v.map(f32::to_bits))
+                        );
+                        for v in original {
+                            for a in 0..3 {
+                                let x = v[a];
+                                assert!(
+                                    x.is_nan() || (c.min[a] <= x && x <= c.max[a]),
+                                    "leaf {c:?} of node {i} misses vertex {v:?}"
+                                );
+                            }
                         }
                     }
-                }
-            } else {
-                let left = node.index as usize;
-                assert!(left > i && left + 1 < bvh.nodes.len());
-                for child in [left, left + 1] {
-                    let c = &bvh.nodes[child];
-                    assert!(
-                        contains(node, c.min, c.max),
-                        "{node:?} does not contain {c:?}"
-                    );
-                    stack.push((child, depth + 1));
+                } else {
+                    let n = c.index as usize;
+                    assert!(n > i && n < bvh.nodes.len());
+                    for g in [&bvh.nodes[n].left, &bvh.nodes[n].right] {
+                        assert!(contains(c, g.min, g.max), "{c:?} does not contain {g:?}");
+                    }
+                    stack.push((n, depth + 1));
                 }
             }
         }
@@ -729,7 +870,7 @@ mod tests {
             matches!(err, Error::InvalidArgument { name: "ids", .. }),
             "{err}"
         );
-        // 100 triangles are 4800 bytes; their ≥ 51 nodes 1632 or more.
+        // 100 triangles are 4800 bytes.
         let err = Bvh::build_with_limits(&input, &ids(100), BVH_MAX_DEPTH, 4799).unwrap_err();
         assert!(
             matches!(
@@ -741,7 +882,18 @@ mod tests {
             ),
             "{err}"
         );
-        let err = Bvh::build_with_limits(&input, &ids(100), BVH_MAX_DEPTH, 4800).unwrap_err();
+        // Tiny triangles far apart: the SAH splits down to single triangles, so 99 nodes of 64
+        // bytes outgrow the triangles.
+        let sparse: Vec<[[f32; 3]; 3]> = (0..100)
+            .map(|i| {
+                let x = 10.0 * i as f32;
+                [[x, 0.0, 0.0], [x + 0.01, 0.0, 0.0], [x, 0.01, 0.0]]
+            })
+            .collect();
+        let bvh = Bvh::build(&sparse, &ids(100)).unwrap();
+        assert_well_formed(&bvh, &sparse, &ids(100));
+        assert_eq!((bvh.stats.nodes, bvh.stats.leaves), (99, 100));
+        let err = Bvh::build_with_limits(&sparse, &ids(100), BVH_MAX_DEPTH, 4800).unwrap_err();
         assert!(
             matches!(err, Error::InvalidArgument { name: "nodes", .. }),
             "{err}"
@@ -779,3 +931,6 @@ mod tests {
         assert_agrees_with_brute_force(&bvh, &input, &mut rng, 200);
     }
 }
+
+#[cfg(test)]
+mod watertight;

@@ -192,7 +192,7 @@ pub struct GpuShadingData {
 }
 
 impl GpuShadingData {
-    /// Uploads `data` to host-visible storage buffers.
+    /// Uploads `data` to device-local storage buffers.
     pub fn new(ctx: &Context, data: &ShadingData) -> Result<Self> {
         let contents: [&[u8]; 7] = [
             bytemuck::cast_slice(&data.instances),
@@ -215,7 +215,7 @@ impl GpuShadingData {
             if bytes.is_empty() {
                 continue;
             }
-            match Buffer::from_slice(ctx, name, bytes, vk::BufferUsageFlags::empty()) {
+            match Buffer::device_local(ctx, name, bytes, vk::BufferUsageFlags::empty()) {
                 Ok(b) => *slot = Some(b),
                 Err(e) => {
                     uploaded.destroy(ctx);
@@ -224,7 +224,7 @@ impl GpuShadingData {
             }
         }
         if uploaded.buffers.iter().any(Option::is_none) {
-            match Buffer::zeroed::<[u32; 4]>(ctx, "shading data placeholder", 1) {
+            match Buffer::device_zeroed::<[u32; 4]>(ctx, "shading data placeholder", 1) {
                 Ok(b) => uploaded.placeholder = Some(b),
                 Err(e) => {
                     uploaded.destroy(ctx);

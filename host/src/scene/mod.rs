@@ -55,6 +55,7 @@ mod geometry;
 pub mod gpu_data;
 pub mod lights;
 mod loader;
+pub mod procedural;
 pub mod upload;
 
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};

@@ -28,7 +28,8 @@ pub enum SceneGeometry {
     },
 }
 
-/// Flattens every instance's triangles to world space for the software BVH.
+/// Flattens every instance's triangles to world space for the software BVH, flagging those of
+/// mirroring instances so that both tracing variants agree on the front face.
 pub fn build_bvh(scene: &Scene) -> Result<Bvh> {
     let (tris, ids): (Vec<[[f32; 3]; 3]>, Vec<TriangleId>) = scene
         .world_triangles()
@@ -38,6 +39,10 @@ pub fn build_bvh(scene: &Scene) -> Result<Bvh> {
                 TriangleId {
                     instance: t.instance,
                     primitive: t.primitive,
+                    mirrored: scene
+                        .instances
+                        .get(t.instance as usize)
+                        .is_some_and(|i| i.is_mirrored()),
                 },
             )
         })
@@ -94,8 +99,8 @@ impl SceneGeometry {
                     }
                 };
                 let usage = vk::BufferUsageFlags::empty();
-                let nodes = Buffer::from_slice(ctx, "bvh nodes", &bvh.nodes, usage)?;
-                match Buffer::from_slice(ctx, "bvh triangles", &bvh.triangles, usage) {
+                let nodes = Buffer::device_local(ctx, "bvh nodes", &bvh.nodes, usage)?;
+                match Buffer::device_local(ctx, "bvh triangles", &bvh.triangles, usage) {
                     Ok(triangles) => Ok(Self::Software { nodes, triangles }),
                     Err(e) => {
                         nodes.destroy(ctx);

@@ -53,8 +53,14 @@ impl AccelerationStructure {
                 why: format!("index {bad} out of range of {} vertices", vertices.len()),
             });
         }
-        let vb = Buffer::from_slice(ctx, "blas vertices", vertices, BUILD_INPUT)?;
-        let ib = Buffer::from_slice(ctx, "blas indices", indices, BUILD_INPUT)?;
+        let vb = Buffer::device_local(ctx, "blas vertices", vertices, BUILD_INPUT)?;
+        let ib = match Buffer::device_local(ctx, "blas indices", indices, BUILD_INPUT) {
+            Ok(b) => b,
+            Err(e) => {
+                vb.destroy(ctx);
+                return Err(e);
+            }
+        };
         let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
             .vertex_format(vk::Format::R32G32B32_SFLOAT)
             .vertex_data(vk::DeviceOrHostAddressConstKHR {
@@ -116,7 +122,7 @@ impl AccelerationStructure {
                 std::mem::size_of_val(raw.as_slice()),
             )
         };
-        let ib = Buffer::from_slice(ctx, "tlas instances", bytes, BUILD_INPUT)?;
+        let ib = Buffer::device_local(ctx, "tlas instances", bytes, BUILD_INPUT)?;
         let data = vk::AccelerationStructureGeometryInstancesDataKHR::default().data(
             vk::DeviceOrHostAddressConstKHR {
                 device_address: ib.device_address(ctx),

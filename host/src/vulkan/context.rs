@@ -2,6 +2,7 @@
 //! the memory allocator and one-shot submissions.
 
 use super::capabilities::{Capabilities, FeatureChain};
+use super::memory::{BufferInfo, BufferRegistry};
 use super::validation::ValidationLog;
 use crate::error::{Error, Result, VkContext};
 use crate::kernels::{KernelVariant, TraceMode};
@@ -51,6 +52,7 @@ pub struct Context {
     command_pool: vk::CommandPool,
     capabilities: Capabilities,
     variant: KernelVariant,
+    pub(crate) buffers: BufferRegistry,
 }
 
 fn device_rank(t: vk::PhysicalDeviceType) -> u32 {
@@ -267,6 +269,7 @@ impl Context {
             command_pool,
             capabilities,
             variant,
+            buffers: BufferRegistry::default(),
         })
     }
 
@@ -283,6 +286,12 @@ impl Context {
     /// The raw `ash` device, for engine teams that record their own commands around ours.
     pub fn device(&self) -> &ash::Device {
         &self.device
+    }
+
+    /// Every buffer alive on this context, in creation order: its name, size and the memory
+    /// location it asked for. Tests use it to check that long-lived data is device-local.
+    pub fn live_buffers(&self) -> Vec<BufferInfo> {
+        self.buffers.snapshot()
     }
 
     /// Validation messages (warnings and errors) seen so far; `None` when validation is off.

@@ -200,12 +200,10 @@ impl Image {
     /// Copies the image to the host: texels row by row from the top, tightly packed, in the
     /// image's format. Waits for all earlier submitted work that wrote it from a compute shader.
     pub fn read_back(&self, ctx: &Context) -> Result<Vec<u8>> {
-        let mut staging = Buffer::new(
+        let mut staging = Buffer::readback::<u8>(
             ctx,
             &format!("{} read-back", self.name),
-            self.byte_size(),
-            vk::BufferUsageFlags::empty(),
-            MemoryLocation::GpuToCpu,
+            self.byte_size() as usize,
         )?;
         let copied = ctx.submit(|cmd| unsafe {
             // Earlier submissions are in this barrier's first scope (submission order). Copies

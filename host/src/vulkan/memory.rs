@@ -1,10 +1,18 @@
-//! Buffers, allocated through `gpu-allocator`, with typed upload and read-back.
+//! Buffers, allocated through `gpu-allocator`, and where their memory lives.
+//!
+//! Long-lived data (scene, BVH, accumulation, kernel outputs) lives in device-local memory
+//! ([`MemoryLocation::GpuOnly`]): [`Buffer::device_local`] uploads it through a staging buffer,
+//! [`Buffer::device_zeroed`] clears it on the device, and [`Buffer::read_back`] copies it out.
+//! Host-visible memory is only for small parameters rewritten between submissions
+//! ([`Buffer::parameters`]) and for read-back staging ([`Buffer::readback`]). Every live buffer is
+//! listed by [`Context::live_buffers`], so tests can check where each one landed.
 
 use super::context::Context;
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
-use gpu_allocator::MemoryLocation;
+pub use gpu_allocator::MemoryLocation;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use std::sync::Mutex;
 
 /// Allocates memory for a resource named `name` (named in errors and allocator reports).
 pub(crate) fn allocate(
@@ -32,6 +40,45 @@ pub(crate) fn allocate(
         })
 }
 
+/// One live buffer, as listed by [`Context::live_buffers`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BufferInfo {
+    /// The name it was created with.
+    pub name: String,
+    /// Its size in bytes.
+    pub bytes: u64,
+    /// The memory location it asked the allocator for (what the code chose, whatever the device
+    /// made of it: on a CPU device every location is both device-local and host-visible).
+    pub location: MemoryLocation,
+}
+
+/// The buffers alive on a context, in creation order, keyed by their handle.
+#[derive(Default)]
+pub(crate) struct BufferRegistry(Mutex<Vec<(vk::Buffer, BufferInfo)>>);
+
+impl BufferRegistry {
+    fn entries(&self) -> std::sync::MutexGuard<'_, Vec<(vk::Buffer, BufferInfo)>> {
+        // The list stays consistent even if a panic poisoned the lock: every edit is one push or
+        // one removal.
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn add(&self, handle: vk::Buffer, info: BufferInfo) {
+        self.entries().push((handle, info));
+    }
+
+    fn remove(&self, handle: vk::Buffer) {
+        let mut entries = self.entries();
+        if let Some(i) = entries.iter().position(|(h, _)| *h == handle) {
+            entries.remove(i);
+        }
+    }
+
+    pub(crate) fn snapshot(&self) -> Vec<BufferInfo> {
+        self.entries().iter().map(|(_, i)| i.clone()).collect()
+    }
+}
+
 /// A storage buffer and its memory. Destroy it with [`Buffer::destroy`] before the context goes.
 pub struct Buffer {
     /// The Vulkan handle.
@@ -40,6 +87,7 @@ pub struct Buffer {
     pub size: u64,
     allocation: Option<Allocation>,
     name: String,
+    location: MemoryLocation,
 }
 
 /// Usage flags every storage buffer gets: kernels read and write it, copies fill and drain it.
@@ -50,7 +98,9 @@ const STORAGE_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
 );
 
 impl Buffer {
-    /// Creates a buffer of `size` bytes. `extra` usage flags are added to storage and transfer.
+    /// Creates a buffer of `size` bytes in `location`, contents undefined. `extra` usage flags
+    /// are added to storage and transfer. Prefer the constructors below, which say what the
+    /// memory is for.
     pub fn new(
         ctx: &Context,
         name: &str,
@@ -89,63 +139,158 @@ impl Buffer {
                 result,
             });
         }
+        ctx.buffers.add(
+            handle,
+            BufferInfo {
+                name: name.to_string(),
+                bytes: size,
+                location,
+            },
+        );
         Ok(Self {
             handle,
             size,
             allocation: Some(allocation),
             name: name.to_string(),
+            location,
         })
     }
 
-    /// Creates a host-visible buffer holding `data`.
-    pub fn from_slice<T: bytemuck::Pod>(
+    /// Creates a device-local buffer holding `data`, for data kernels read many times (scene,
+    /// BVH, lights, kernel inputs). Uploads through a host-visible staging buffer and one
+    /// submission that waits (at most [`super::SUBMIT_TIMEOUT`]) and ends with a barrier that
+    /// makes the copy visible to every later command; the staging buffer is freed before
+    /// returning. `extra` usage flags are added to storage and transfer.
+    pub fn device_local<T: bytemuck::Pod>(
         ctx: &Context,
         name: &str,
         data: &[T],
         extra: vk::BufferUsageFlags,
     ) -> Result<Self> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
-        let mut buffer = Self::new(
+        let size = bytes.len() as u64;
+        let buffer = Self::new(ctx, name, size, extra, MemoryLocation::GpuOnly)?;
+        let staging = Self::new(
             ctx,
-            name,
-            bytes.len() as u64,
-            extra,
+            &format!("{name} staging"),
+            size,
+            vk::BufferUsageFlags::empty(),
             MemoryLocation::CpuToGpu,
-        )?;
-        buffer.write(bytes)?;
-        Ok(buffer)
+        );
+        let uploaded = staging.and_then(|mut staging| {
+            let copied = staging.write(bytes).and_then(|()| {
+                ctx.submit(|cmd| {
+                    staging.record_copy_to(ctx, cmd, &buffer)?;
+                    transfer_barrier(ctx, cmd);
+                    Ok(())
+                })?
+            });
+            staging.destroy(ctx);
+            copied
+        });
+        match uploaded {
+            Ok(()) => Ok(buffer),
+            Err(e) => {
+                buffer.destroy(ctx);
+                Err(e)
+            }
+        }
     }
 
-    /// Creates a host-visible buffer of `count` zeroed elements of `T`, for kernels to write and
-    /// the CPU to read back.
-    pub fn zeroed<T: bytemuck::Pod>(ctx: &Context, name: &str, count: usize) -> Result<Self> {
+    /// Creates a device-local buffer of `count` elements of `T`, zeroed on the device with one
+    /// submission that waits, for kernels to write (outputs, accumulation).
+    pub fn device_zeroed<T: bytemuck::Pod>(
+        ctx: &Context,
+        name: &str,
+        count: usize,
+    ) -> Result<Self> {
         let size = (count * std::mem::size_of::<T>()) as u64;
-        let mut buffer = Self::new(
+        let buffer = Self::new(
             ctx,
             name,
             size,
             vk::BufferUsageFlags::empty(),
-            MemoryLocation::GpuToCpu,
+            MemoryLocation::GpuOnly,
         )?;
-        buffer.write(&vec![0u8; size as usize])?;
-        Ok(buffer)
+        let cleared = ctx.submit(|cmd| {
+            buffer.record_fill_zero(ctx, cmd);
+            transfer_barrier(ctx, cmd);
+        });
+        match cleared {
+            Ok(()) => Ok(buffer),
+            Err(e) => {
+                buffer.destroy(ctx);
+                Err(e)
+            }
+        }
     }
 
-    fn mapped(&mut self) -> Result<&mut [u8]> {
-        let name = self.name.clone();
-        self.allocation
-            .as_mut()
-            .and_then(|a| a.mapped_slice_mut())
-            .ok_or(Error::InvalidArgument {
-                name: "buffer",
-                why: format!("buffer {name:?} is not host-visible"),
-            })
+    /// Creates a small host-visible buffer holding `data`: parameters the host rewrites with
+    /// [`Buffer::write`] between submissions (a camera). Not for anything large or long-lived:
+    /// on a discrete GPU kernels would read it over the bus.
+    pub fn parameters<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) -> Result<Self> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let mut buffer = Self::new(
+            ctx,
+            name,
+            bytes.len() as u64,
+            vk::BufferUsageFlags::empty(),
+            MemoryLocation::CpuToGpu,
+        )?;
+        match buffer.write(bytes) {
+            Ok(()) => Ok(buffer),
+            Err(e) => {
+                buffer.destroy(ctx);
+                Err(e)
+            }
+        }
     }
 
-    /// Copies `bytes` to the start of a host-visible buffer.
+    /// Creates a host-readable staging buffer for `count` elements of `T`, contents undefined:
+    /// the destination of [`Buffer::record_copy_to`], read with [`Buffer::read`] once the
+    /// submission finished.
+    pub fn readback<T: bytemuck::Pod>(ctx: &Context, name: &str, count: usize) -> Result<Self> {
+        Self::new(
+            ctx,
+            name,
+            (count * std::mem::size_of::<T>()) as u64,
+            vk::BufferUsageFlags::empty(),
+            MemoryLocation::GpuToCpu,
+        )
+    }
+
+    /// The name it was created with.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The memory location it asked for.
+    pub fn location(&self) -> MemoryLocation {
+        self.location
+    }
+
+    /// The mapped memory of a buffer created host-visible. A device-local buffer is refused even
+    /// where the device happens to map it (CPU devices), so that code which works there also
+    /// works on a discrete GPU.
+    fn host_bytes(&mut self) -> Result<&mut [u8]> {
+        let mapped = match self.location {
+            MemoryLocation::GpuOnly => None,
+            _ => self.allocation.as_mut().and_then(|a| a.mapped_slice_mut()),
+        };
+        mapped.ok_or_else(|| Error::InvalidArgument {
+            name: "buffer",
+            why: format!(
+                "buffer {:?} is not host-visible ({:?}): use Buffer::read_back",
+                self.name, self.location
+            ),
+        })
+    }
+
+    /// Copies `bytes` to the start of a host-visible buffer ([`Buffer::parameters`]). No
+    /// submission may be using the buffer.
     pub fn write(&mut self, bytes: &[u8]) -> Result<()> {
         let name = self.name.clone();
-        let dst = self.mapped()?;
+        let dst = self.host_bytes()?;
         if bytes.len() > dst.len() {
             return Err(Error::InvalidArgument {
                 name: "buffer write",
@@ -160,15 +305,82 @@ impl Buffer {
         Ok(())
     }
 
-    /// Reads a host-visible buffer back as a vector of `T`.
+    /// Reads a host-visible buffer ([`Buffer::readback`]) as a vector of `T`. The submission that
+    /// filled it must have finished and ended with [`transfer_barrier`] (or
+    /// [`super::compute_barrier`] when a kernel wrote it).
     pub fn read<T: bytemuck::Pod>(&mut self) -> Result<Vec<T>> {
-        let size = self.size as usize;
-        let src = self.mapped()?;
-        let n = size / std::mem::size_of::<T>();
+        let n = self.size as usize / std::mem::size_of::<T>();
+        let src = self.host_bytes()?;
         let mut out = vec![T::zeroed(); n];
         bytemuck::cast_slice_mut::<T, u8>(&mut out)
             .copy_from_slice(&src[..n * std::mem::size_of::<T>()]);
         Ok(out)
+    }
+
+    /// Copies the buffer, wherever it lives, to the host as a vector of `T`: one submission that
+    /// waits for everything submitted before (kernel or copy writes), copies into a temporary
+    /// [`Buffer::readback`] buffer, and waits at most [`super::SUBMIT_TIMEOUT`].
+    pub fn read_back<T: bytemuck::Pod>(&self, ctx: &Context) -> Result<Vec<T>> {
+        let mut staging =
+            Self::readback::<u8>(ctx, &format!("{} read-back", self.name), self.size as usize)?;
+        let copied = ctx.submit(|cmd| {
+            let before = [vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::TRANSFER_READ)];
+            unsafe {
+                ctx.device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::DependencyFlags::empty(),
+                    &before,
+                    &[],
+                    &[],
+                )
+            };
+            self.record_copy_to(ctx, cmd, &staging)?;
+            transfer_barrier(ctx, cmd);
+            Ok(())
+        });
+        let values = copied.and_then(|r| r).and_then(|()| staging.read::<T>());
+        staging.destroy(ctx);
+        values
+    }
+
+    /// Records a fill of the whole buffer with zero bytes. Follow it with [`transfer_barrier`]
+    /// before a kernel or the host uses the buffer.
+    pub fn record_fill_zero(&self, ctx: &Context, cmd: vk::CommandBuffer) {
+        unsafe {
+            ctx.device
+                .cmd_fill_buffer(cmd, self.handle, 0, vk::WHOLE_SIZE, 0)
+        };
+    }
+
+    /// Records a copy of the whole buffer to the start of `dst`. If a kernel wrote this buffer
+    /// in the same command buffer, record [`super::compute_barrier`] first; follow the copy with
+    /// [`transfer_barrier`] before the host reads `dst` or a kernel uses it. Errors, recording
+    /// nothing, when `dst` is smaller.
+    pub fn record_copy_to(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        dst: &Buffer,
+    ) -> Result<()> {
+        if dst.size < self.size {
+            return Err(Error::InvalidArgument {
+                name: "buffer copy",
+                why: format!(
+                    "buffer {:?} of {} bytes does not fit in {:?} of {}",
+                    self.name, self.size, dst.name, dst.size
+                ),
+            });
+        }
+        let region = [vk::BufferCopy::default().size(self.size)];
+        unsafe {
+            ctx.device
+                .cmd_copy_buffer(cmd, self.handle, dst.handle, &region)
+        };
+        Ok(())
     }
 
     /// The buffer's device address (needs `bufferDeviceAddress`, enabled with ray queries).
@@ -179,9 +391,34 @@ impl Buffer {
 
     /// Frees the buffer and its memory.
     pub fn destroy(mut self, ctx: &Context) {
+        ctx.buffers.remove(self.handle);
         unsafe { ctx.device.destroy_buffer(self.handle, None) };
         if let (Some(a), Ok(mut alloc)) = (self.allocation.take(), ctx.allocator.lock()) {
             alloc.free(a).ok();
         }
     }
+}
+
+/// Records a barrier that makes transfer writes (fills and copies recorded before it) visible to
+/// every later command (kernels, copies, acceleration-structure builds) and to the host once the
+/// submission's fence signalled.
+pub fn transfer_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+        .dst_access_mask(
+            vk::AccessFlags::MEMORY_READ
+                | vk::AccessFlags::MEMORY_WRITE
+                | vk::AccessFlags::HOST_READ,
+        )];
+    unsafe {
+        ctx.device.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::ALL_COMMANDS | vk::PipelineStageFlags::HOST,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        )
+    };
 }

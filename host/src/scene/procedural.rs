@@ -1,0 +1,305 @@
+//! Geometry made in code: closed meshes (a cube, an icosphere), scenes built from them, and rays
+//! aimed exactly at their shared vertices and edges, which a watertight tracer never lets
+//! through. Used by the tracing tests and the tracing benchmark.
+
+use super::{Aabb, Instance, Material, Mesh, Scene};
+use gi_shared::random::Random;
+use gi_shared::ray::Ray;
+use glam::{Mat4, Vec3};
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+/// Radius of a ball around the origin that [`cube`] and [`icosphere`] both contain with room to
+/// spare: where [`ray_at_shared_feature`] starts its rays from inside.
+pub const INTERIOR_RADIUS: f32 = 0.7;
+
+/// The cube `[-1, 1]³` (12 triangles), counter-clockwise seen from outside, with face normals
+/// at its (shared) vertices averaged.
+pub fn cube() -> Mesh {
+    let positions: Vec<Vec3> = (0..8)
+        .map(|i| {
+            Vec3::new(
+                if i & 1 == 0 { -1.0 } else { 1.0 },
+                if i & 2 == 0 { -1.0 } else { 1.0 },
+                if i & 4 == 0 { -1.0 } else { 1.0 },
+            )
+        })
+        .collect();
+    // Per face: a quad counter-clockwise from outside, -x, +x, -y, +y, -z, +z.
+    let quads = [
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+    ];
+    let triangles = quads
+        .iter()
+        .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+        .collect();
+    mesh("cube", positions, triangles)
+}
+
+/// The icosahedron subdivided `levels` times (`20·4^levels` triangles) on the unit sphere,
+/// counter-clockwise seen from outside; neighbouring triangles share their vertices.
+pub fn icosphere(levels: u32) -> Mesh {
+    let t = (1.0 + 5.0f32.sqrt()) / 2.0;
+    let mut positions: Vec<Vec3> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .iter()
+    .map(|&p| Vec3::from(p).normalize())
+    .collect();
+    let mut triangles: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut midpoint = |a: u32, b: u32, positions: &mut Vec<Vec3>| {
+            *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                positions.push((positions[a as usize] + positions[b as usize]).normalize());
+                positions.len() as u32 - 1
+            })
+        };
+        triangles = triangles
+            .iter()
+            .flat_map(|&[a, b, c]| {
+                let ab = midpoint(a, b, &mut positions);
+                let bc = midpoint(b, c, &mut positions);
+                let ca = midpoint(c, a, &mut positions);
+                [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
+            })
+            .collect();
+    }
+    mesh("icosphere", positions, triangles)
+}
+
+fn mesh(name: &str, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+    let mut normals = vec![Vec3::ZERO; positions.len()];
+    for t in &triangles {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let n = (b - a).cross(c - a);
+        t.iter().for_each(|&i| normals[i as usize] += n);
+    }
+    Mesh {
+        name: name.to_owned(),
+        normals: normals.iter().map(|n| n.normalize()).collect(),
+        positions,
+        uvs: None,
+        materials: vec![0; triangles.len()],
+        triangles,
+    }
+}
+
+/// `mesh` with its positions moved by `transform` (and its normals turned with it), the way
+/// [`Scene::world_triangles`] moves an instance's: the same vertex values, for a scene whose
+/// instances have the identity transform.
+pub fn transformed(mesh: &Mesh, transform: Mat4) -> Mesh {
+    let normal = Instance {
+        name: String::new(),
+        node: 0,
+        mesh: 0,
+        transform,
+    }
+    .normal_matrix();
+    Mesh {
+        positions: mesh
+            .positions
+            .iter()
+            .map(|&p| transform.transform_point3(p))
+            .collect(),
+        normals: mesh
+            .normals
+            .iter()
+            .map(|&n| (normal * n).normalize())
+            .collect(),
+        ..mesh.clone()
+    }
+}
+
+/// A scene of `meshes` placed by `instances` (mesh index, object-to-world transform), all with
+/// glTF's default material, no lights and no camera. Returns `None` when an instance names a
+/// mesh that does not exist, has a singular transform, or a mesh has no triangles.
+pub fn scene(meshes: Vec<Mesh>, instances: &[(u32, Mat4)]) -> Option<Scene> {
+    let valid = |&(m, t): &(u32, Mat4)| (m as usize) < meshes.len() && t.determinant() != 0.0;
+    if instances.is_empty()
+        || !instances.iter().all(valid)
+        || meshes.iter().any(|m| m.triangles.is_empty())
+    {
+        return None;
+    }
+    let mut scene = Scene {
+        source: PathBuf::from("<procedural>"),
+        instances: instances
+            .iter()
+            .enumerate()
+            .map(|(i, &(mesh, transform))| Instance {
+                name: format!("instance {i}"),
+                node: i as u32,
+                mesh,
+                transform,
+            })
+            .collect(),
+        meshes,
+        materials: vec![Material::default()],
+        textures: Vec::new(),
+        lights: Vec::new(),
+        cameras: Vec::new(),
+        emissive_triangles: Vec::new(),
+        bounds: Aabb::EMPTY,
+    };
+    scene.update_derived();
+    Some(scene)
+}
+
+/// `transform` followed by a move of 32 times its scale along (1, 1, 1): a [`cube`] or
+/// [`icosphere`] placed by it, and the outside origins of [`ray_at_shared_feature`], then lie
+/// away from the coordinate planes, every coordinate of a ray within a factor 2 of its target's.
+pub fn clear_of_the_axes(transform: Mat4) -> Mat4 {
+    let size = transform.x_axis.truncate().length();
+    Mat4::from_translation(Vec3::splat(32.0 * size)) * transform
+}
+
+/// A ray aimed exactly at a shared feature of the closed `mesh` ([`cube`] or [`icosphere`])
+/// placed by `transform` (a similarity): half the time a vertex, half the time a point of an
+/// edge (its midpoint, or a random point away from its ends), each as the scene computes it.
+/// Returns the ray and its target, which it reaches at `t = 1`.
+///
+/// From `inside`, the ray starts at a random point within [`INTERIOR_RADIUS`] of the centre and
+/// must hit the mesh. From outside, it comes along the outward direction of the target with a
+/// random tilt that stays within the normals of the triangles around it, from 0.2 to 4 sizes
+/// away; for its line to pass exactly through the target, place the mesh with
+/// [`clear_of_the_axes`] (the direction `target - origin` is then exact, which this checks:
+/// `None` otherwise, or for a mesh without triangles).
+pub fn ray_at_shared_feature(
+    mesh: &Mesh,
+    transform: Mat4,
+    rng: &mut Random,
+    inside: bool,
+) -> Option<(Ray, Vec3)> {
+    let n = mesh.triangles.len() as u32;
+    let tri = mesh.triangles.get((rng.next_u32() % n.max(1)) as usize)?;
+    let corner = (rng.next_u32() % 3) as usize;
+    let world = |i: u32| {
+        mesh.positions
+            .get(i as usize)
+            .map(|&p| transform.transform_point3(p))
+    };
+    let (a, b) = (world(tri[corner])?, world(tri[(corner + 1) % 3])?);
+    let target = if rng.next_u32().is_multiple_of(2) {
+        a
+    } else {
+        // Not within 1% of an end: a point rounded off its edge there could lie outside both
+        // triangles of the edge, yet inside neither of the others around the vertex.
+        let s = if rng.next_u32().is_multiple_of(4) {
+            0.5
+        } else {
+            rng.next_in(0.01, 0.99)
+        };
+        a + (b - a) * s
+    };
+    let centre = transform.transform_point3(Vec3::ZERO);
+    let size = transform.x_axis.truncate().length();
+    let origin = if inside {
+        let p = loop {
+            let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
+            if p.length() < 1.0 {
+                break p * INTERIOR_RADIUS;
+            }
+        };
+        transform.transform_point3(p)
+    } else {
+        // Both meshes are convex and centred: around any point of their surface, every
+        // triangle's normal is within 55° of the outward direction from the centre, so a tilt
+        // of less than 35° enters all of them.
+        let out = (target - centre).normalize();
+        let tilt = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.6 - 0.3;
+        let u = (out + tilt - out * tilt.dot(out)).normalize();
+        let origin = target + u * (size * rng.next_in(0.2, 4.0));
+        let exact = (0..3).all(|k| {
+            f64::from(target[k] - origin[k]) == f64::from(target[k]) - f64::from(origin[k])
+        });
+        if !exact {
+            return None;
+        }
+        origin
+    };
+    let ray = Ray {
+        origin: origin.to_array(),
+        t_min: 0.0,
+        direction: (target - origin).to_array(),
+        t_max: f32::INFINITY,
+    };
+    Some((ray, target))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Both meshes are closed (every edge has exactly two triangles, in opposite directions)
+    /// and counter-clockwise seen from outside.
+    #[test]
+    fn meshes_are_closed_and_face_outward() {
+        for (mesh, count) in [(cube(), 12), (icosphere(2), 320)] {
+            assert_eq!(mesh.triangles.len(), count);
+            let mut edges: HashMap<(u32, u32), i32> = HashMap::new();
+            for t in &mesh.triangles {
+                for k in 0..3 {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    *edges.entry((a.min(b), a.max(b))).or_default() += if a < b { 1 } else { -1 };
+                }
+                let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+                assert!((b - a).cross(c - a).dot(a + b + c) > 0.0);
+            }
+            assert!(edges.values().all(|&v| v == 0));
+            let inradius = mesh
+                .triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+                    (b - a).cross(c - a).normalize().dot(a)
+                })
+                .fold(f32::INFINITY, f32::min);
+            assert!(inradius > INTERIOR_RADIUS + 0.05, "{inradius}");
+        }
+        let scene = scene(
+            vec![cube(), icosphere(1)],
+            &[(0, Mat4::IDENTITY), (1, Mat4::IDENTITY)],
+        );
+        assert_eq!(scene.map(|s| s.triangle_count()), Some(12 + 80));
+        assert!(super::scene(vec![cube()], &[(1, Mat4::IDENTITY)]).is_none());
+        assert!(super::scene(vec![cube()], &[(0, Mat4::ZERO)]).is_none());
+    }
+}

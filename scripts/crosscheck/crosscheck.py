@@ -1,0 +1,560 @@
+"""Cross-check of the reference path tracer (`gi render`) against Mitsuba 3.
+
+Run it by hand from the repository root (not in CI): `bash scripts/crosscheck/run.sh [options]`
+(that sets up the Python environment, then runs this file; `--help` lists the options).
+
+For each scene it converts the glTF file into a Mitsuba scene built in Python (gltf_scene.py reads
+the file the way the project's loader does), renders the same view with Mitsuba's `path`
+integrator and with `gi render`, and compares the two: the ratio of the mean radiance
+(ours / Mitsuba, per channel and for the luminance) with its standard error, and the relative MSE
+of host/src/metrics.rs (Mitsuba as the reference), next to the relMSE that the noise of both
+images alone would give. It prints a Markdown table and writes it to `<out>/table.md`; the images
+go to `<out>/<scene>-gi.exr` and `<out>/<scene>-mitsuba.exr`.
+
+The Mitsuba scene follows what our renderer does:
+* every surface two-sided Lambert (`twosided` + `diffuse`); reflectance = baseColorFactor x the
+  sRGB-decoded base colour texture (bilinear, no mipmaps, the sampler's wrap mode), handed over as
+  linear floats; metallic and roughness ignored;
+* emission (`area`) = emissiveFactor x KHR_materials_emissive_strength (x the emissive texture),
+  from the counter-clockwise face only, unless the material is doubleSided (then a second,
+  reversed copy of its triangles emits from the other face). Mitsuba's area emitter emits toward
+  the interpolated vertex normal; ours toward the geometric (winding) normal. So emissive
+  primitives get no vertex normals in Mitsuba, and the script says so if that drops tilted ones;
+* punctual lights with the loader's units (candela and lux / 683); glTF's spot falloff (square of
+  the linear ramp in the cosine) through a projected texture on a hard-edged Mitsuba `spot`,
+  since Mitsuba's own falloff is linear in the angle; `range` ignored;
+* the camera of `gi render` (`gbuffer::scene_camera`), with a box pixel filter as our renderer's
+  uniform jitter; no environment; max_depth = max-bounces + 1 (Mitsuba counts segments).
+
+Our renderer is built once through `scripts/run.sh` and its binary copied to `<out>`, so that every
+scene is rendered by the same build even while others edit and rebuild the tree. Its samples are
+split into four runs with different seeds and Mitsuba's into passes of 256, which gives the
+standard errors.
+
+`--flat-normals` drops the vertex normals in both renderers' inputs (for ours, a copy of the scene
+without NORMAL attributes and without shared vertices is written to a temporary directory).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import gltf_scene
+
+REPO = Path(__file__).resolve().parents[2]
+SCENES = [
+    "scenes/cornell-box.gltf",
+    "scenes/indirect-room.gltf",
+    "scenes/many-lights.gltf",
+    "scenes/textured.gltf",
+    "../shared/scenes/third-party/cornell-box-vinc3r/cornellBox-2.80-Eevee-gltf.gltf",
+]
+OUR_RUNS = 4
+"""`gi render` runs per scene, with seeds 0..3: their spread gives our standard error."""
+MITSUBA_PASS_SPP = 256
+"""Samples per pixel of one Mitsuba pass (memory of the LLVM wavefront); passes use new seeds."""
+RELATIVE_MSE_EPSILON = 1e-2
+"""As in host/src/metrics.rs."""
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+"""Rec. 709 luminance of linear sRGB primaries."""
+SPOT_TEXTURE_SIZE = 1024
+WRAP_MODES = {33071: "clamp", 33648: "mirror", 10497: "repeat"}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "scenes", nargs="*", default=SCENES, help="glTF scenes (default: the five of issue 8)"
+    )
+    parser.add_argument("--spp", type=int, default=1024, help="gi render's samples per pixel (default 1024)")
+    parser.add_argument(
+        "--mitsuba-spp", type=int, default=4096, help="Mitsuba's samples per pixel (default 4096)"
+    )
+    parser.add_argument(
+        "--width", type=int, default=160, help="image width; the height follows the camera's aspect ratio"
+    )
+    parser.add_argument(
+        "--max-bounces", type=int, default=30, help="reflections per path in both (default 30)"
+    )
+    parser.add_argument(
+        "--flat-normals", action="store_true", help="drop the vertex normals in both renderers' inputs"
+    )
+    parser.add_argument(
+        "--out", type=Path, default=REPO / "out/crosscheck", help="images and table.md go here"
+    )
+    parser.add_argument(
+        "--mitsuba-bsdf",
+        choices=["diffuse", "folded"],
+        default="diffuse",
+        help="Mitsuba's `twosided` `diffuse` (default), or our folded cosine lobe as a Python BSDF",
+    )
+    parser.add_argument(
+        "--gi", type=Path, help="a built gi binary to use instead of building one with scripts/run.sh"
+    )
+    parser.add_argument(
+        "--variant", default="llvm_ad_rgb", help="Mitsuba variant; scalar_rgb if it fails to load"
+    )
+    args = parser.parse_args()
+    if args.spp % OUR_RUNS or args.mitsuba_spp % MITSUBA_PASS_SPP or args.mitsuba_spp < 2 * MITSUBA_PASS_SPP:
+        parser.error(
+            f"--spp must be a multiple of {OUR_RUNS}, --mitsuba-spp of {MITSUBA_PASS_SPP} (at least two)"
+        )
+
+    mi = load_mitsuba(args.variant)
+    register_folded_lambert(mi)
+    args.out.mkdir(parents=True, exist_ok=True)
+    gi = args.gi.resolve() if args.gi else snapshot_gi(args.out)
+    rows, notes = [], []
+    started = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix="gi-crosscheck-") as tmp:
+        for name in args.scenes:
+            path = (REPO / name).resolve()
+            if not path.exists():
+                message = f"{name}: skipped, {path} is absent (../shared is not on this machine)"
+                print(message)
+                notes.append(message)
+                continue
+            row, scene_notes = crosscheck(mi, gi, name, path, args, Path(tmp))
+            rows.append(row)
+            notes.extend(scene_notes)
+    table = markdown(rows, notes, args, mi, time.monotonic() - started)
+    print("\n" + table)
+    (args.out / "table.md").write_text(table)
+    print(f"wrote {args.out / 'table.md'}")
+    return 0
+
+
+def load_mitsuba(variant: str):
+    import mitsuba as mi
+
+    try:
+        mi.set_variant(variant)
+        mi.load_dict({"type": "scene"})  # makes the JIT back end load (libLLVM) now
+    except (ImportError, RuntimeError) as error:
+        print(f"Mitsuba variant {variant} unavailable ({error}); using scalar_rgb")
+        mi.set_variant("scalar_rgb")
+    return mi
+
+
+def snapshot_gi(out: Path) -> Path:
+    """Builds `gi` through scripts/run.sh and copies the binary to `out`."""
+    subprocess.run(["bash", "scripts/run.sh", "--version"], cwd=REPO, check=True, stdout=subprocess.DEVNULL)
+    target = subprocess.run(
+        ["bash", "-c", ". scripts/env.sh && echo $CARGO_TARGET_DIR"],
+        cwd=REPO,
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout.strip()
+    copy = out / "gi"
+    shutil.copy2(Path(target) / "debug/gi", copy)
+    return copy
+
+
+@dataclass
+class Row:
+    name: str
+    size: tuple[int, int]
+    ours_mean: np.ndarray  # mean RGB
+    ours_error: np.ndarray  # standard error of the mean RGB, and of the luminance, last
+    mitsuba_mean: np.ndarray
+    mitsuba_error: np.ndarray
+    relative_mse: float
+    noise_relative_mse: float
+    seconds: tuple[float, float]  # ours, Mitsuba
+
+
+def crosscheck(mi, gi: Path, name: str, path: Path, args, tmp: Path) -> tuple[Row, list[str]]:
+    scene = gltf_scene.load(path)
+    stem = (
+        path.stem
+        + ("-flat" if args.flat_normals else "")
+        + ("-folded" if args.mitsuba_bsdf == "folded" else "")
+    )
+    if args.flat_normals:
+        for prim in scene.primitives:
+            prim.normals = None
+        flat_dir = tmp / stem
+        flat_dir.mkdir()
+        path = gltf_scene.write_flat_copy(scene, flat_dir)
+    camera = scene.camera()
+    width = args.width
+    height = max(1, round(width / camera.aspect_ratio)) if camera.aspect_ratio else width
+    print(f"{name}: {width}x{height}, gi {args.spp} spp, Mitsuba {args.mitsuba_spp} spp")
+
+    start = time.monotonic()
+    ours = render_ours(gi, path, args, width, height, tmp)
+    mi.Bitmap(ours.mean(axis=0).astype(np.float32)).write(str(args.out / f"{stem}-gi.exr"))
+    ours_seconds = time.monotonic() - start
+    start = time.monotonic()
+    mitsuba_scene, notes = mitsuba_dict(mi, scene, camera, width, height, args.max_bounces, args.mitsuba_bsdf)
+    theirs = render_mitsuba(mi, mi.load_dict(mitsuba_scene), args.mitsuba_spp)
+    mitsuba_seconds = time.monotonic() - start
+    mi.Bitmap(theirs.mean(axis=0).astype(np.float32)).write(str(args.out / f"{stem}-mitsuba.exr"))
+
+    reference, test = theirs.mean(axis=0), ours.mean(axis=0)
+    relative_mse = float(np.mean((test - reference) ** 2 / (reference**2 + RELATIVE_MSE_EPSILON)))
+    # Variance of each pixel's mean, from the spread of the runs (passes).
+    variance = ours.var(axis=0, ddof=1) / len(ours) + theirs.var(axis=0, ddof=1) / len(theirs)
+    noise_relative_mse = float(np.mean(variance / (reference**2 + RELATIVE_MSE_EPSILON)))
+    row = Row(
+        stem,
+        (width, height),
+        *mean_and_error(ours),
+        *mean_and_error(theirs),
+        relative_mse,
+        noise_relative_mse,
+        (ours_seconds, mitsuba_seconds),
+    )
+    ratio = row.ours_mean / row.mitsuba_mean
+    print(f"  ours / Mitsuba (R, G, B, luminance): {np.round(ratio, 4)}")
+    print(f"  relMSE {relative_mse:.3e}, from the noise alone {noise_relative_mse:.3e}")
+    return row, [f"{stem}: {n}" for n in notes]
+
+
+def mean_and_error(runs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean RGB then luminance over the image, and the standard errors, from (runs, H, W, 3)."""
+    per_run = runs.mean(axis=(1, 2))
+    per_run = np.concatenate([per_run, per_run @ LUMINANCE[:, None]], axis=1)
+    return per_run.mean(axis=0), per_run.std(axis=0, ddof=1) / math.sqrt(len(per_run))
+
+
+def render_ours(gi: Path, path: Path, args, width: int, height: int, tmp: Path) -> np.ndarray:
+    """`gi render` in OUR_RUNS runs of spp / OUR_RUNS with seeds 0..: (runs, H, W, 3)."""
+    import mitsuba as mi
+
+    runs = []
+    for seed in range(OUR_RUNS):
+        out = tmp / f"seed{seed}.exr"
+        command = [
+            "nice", str(gi), "render", str(path), "--spp", str(args.spp // OUR_RUNS),
+            "--width", str(width), "--height", str(height), "--max-bounces", str(args.max_bounces),
+            "--seed", str(seed), "--out", str(out),
+        ]  # fmt: skip
+        subprocess.run(command, cwd=REPO, check=True, stdout=subprocess.DEVNULL)
+        runs.append(np.array(mi.Bitmap(str(out)), dtype=np.float64)[..., :3])
+    return np.array(runs)
+
+
+def render_mitsuba(mi, scene, spp: int) -> np.ndarray:
+    """Passes of MITSUBA_PASS_SPP with seeds 0..: (passes, H, W, 3)."""
+    passes = [
+        np.array(mi.render(scene, spp=MITSUBA_PASS_SPP, seed=seed), dtype=np.float64)[..., :3]
+        for seed in range(spp // MITSUBA_PASS_SPP)
+    ]
+    return np.array(passes)
+
+
+def mitsuba_dict(
+    mi,
+    scene: gltf_scene.Scene,
+    camera: gltf_scene.Camera,
+    width: int,
+    height: int,
+    bounces: int,
+    bsdf_kind: str,
+):
+    """The Mitsuba scene dictionary of `scene`, and notes on what the conversion changed."""
+    materials = scene.document.json.get("materials", [])
+    textures = TextureCache(mi, scene.document)
+    notes = []
+    low, high = scene.bounds()
+    offset = 1e-5 * float(np.linalg.norm(high - low))
+    d = {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": bounces + 1},
+        "sensor": {
+            "type": "perspective",
+            "fov_axis": "y",
+            "fov": math.degrees(camera.yfov),
+            "near_clip": 1e-4,
+            "to_world": mi.ScalarTransform4f().look_at(
+                origin=camera.position.tolist(),
+                target=(camera.position + camera.forward).tolist(),
+                up=camera.up.tolist(),
+            ),
+            "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}},
+            "sampler": {"type": "independent"},
+        },
+    }
+    bsdfs, emitters = {}, {}
+    for i, prim in enumerate(scene.primitives):
+        material = materials[prim.material] if prim.material is not None else {}
+        if prim.material not in bsdfs:
+            bsdfs[prim.material] = mi.load_dict(bsdf(material, textures, bsdf_kind))
+            emitters[prim.material] = emission(material, textures)
+        emitter = emitters[prim.material]
+        normals = prim.normals
+        if emitter is not None and normals is not None:
+            tilt = max_tilt_degrees(prim)
+            if tilt > 1.0:
+                notes.append(
+                    f"{prim.name}: emissive, so Mitsuba shades it with flat normals "
+                    f"(the file's are up to {tilt:.1f} deg from the face)"
+                )
+            normals = None
+        d[f"shape{i}"] = mesh(
+            mi, f"shape{i}", prim.positions, prim.triangles, normals, prim.uvs, bsdfs[prim.material], emitter
+        )
+        if emitter is not None and material.get("doubleSided"):
+            # The back face's emission: the triangles reversed, moved a hair behind the front ones.
+            corners = prim.triangles[:, ::-1]
+            p = prim.positions[corners]
+            n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+            p = p + offset * (n / np.linalg.norm(n, axis=1, keepdims=True))[:, None, :]
+            uvs = prim.uvs[corners].reshape(-1, 2) if prim.uvs is not None else None
+            faces = np.arange(3 * len(corners)).reshape(-1, 3)
+            d[f"shape{i}-back"] = mesh(
+                mi, f"shape{i}-back", p.reshape(-1, 3), faces, None, uvs, bsdfs[prim.material], emitter
+            )
+    for i, light in enumerate(scene.lights):
+        d[f"light{i}"] = punctual(mi, light)
+    return d, notes
+
+
+def bsdf(material: dict, textures: TextureCache, kind: str) -> dict:
+    pbr = material.get("pbrMetallicRoughness", {})
+    reflectance = textures.scaled(
+        pbr.get("baseColorTexture"), pbr.get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])[:3]
+    )
+    if kind == "folded":
+        return {"type": "folded_lambert", "reflectance": reflectance}
+    return {"type": "twosided", "material": {"type": "diffuse", "reflectance": reflectance}}
+
+
+def emission(material: dict, textures: TextureCache):
+    """The `area` emitter of a material (loaded), or None when it does not emit."""
+    strength = (
+        material.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+    )
+    factor = [c * strength for c in material.get("emissiveFactor", [0.0, 0.0, 0.0])]
+    if max(factor) <= 0:
+        return None
+    return textures.mi.load_dict(
+        {"type": "area", "radiance": textures.scaled(material.get("emissiveTexture"), factor)}
+    )
+
+
+class TextureCache:
+    """glTF textures as linear float RGB arrays, decoded once."""
+
+    def __init__(self, mi, document: gltf_scene.Document):
+        self.mi = mi
+        self.document = document
+        self.linear = {}
+
+    def scaled(self, info: dict | None, factor) -> dict:
+        """A Mitsuba texture: `factor` alone, or x the texture of glTF texture `info`."""
+        if info is None:
+            return {"type": "rgb", "value": list(factor)}
+        if info.get("texCoord", 0) != 0:
+            raise NotImplementedError("textures on TEXCOORD_1 and later (the project drops them)")
+        j = self.document.json
+        texture = j["textures"][info["index"]]
+        sampler = j.get("samplers", [])[texture["sampler"]] if "sampler" in texture else {}
+        wrap = WRAP_MODES[sampler.get("wrapS", 10497)]
+        if WRAP_MODES[sampler.get("wrapT", 10497)] != wrap:
+            raise NotImplementedError("different wrap modes in u and v (Mitsuba's bitmap has one)")
+        if texture["source"] not in self.linear:
+            self.linear[texture["source"]] = self.decode(texture["source"])
+        return {
+            "type": "bitmap",
+            "data": self.mi.TensorXf((self.linear[texture["source"]] * np.array(factor)).astype(np.float32)),
+            "raw": True,
+            "filter_type": "bilinear",
+            "wrap_mode": wrap,
+        }
+
+    def decode(self, image: int) -> np.ndarray:
+        """Image `image` as linear RGB, row 0 at the top, like the project's sRGB decoding."""
+        mi = self.mi
+        with tempfile.NamedTemporaryFile() as f:
+            f.write(self.document.image_bytes(image))
+            f.flush()
+            bitmap = mi.Bitmap(f.name).convert(
+                mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True
+            )
+        c = np.array(bitmap, dtype=np.float64) / 255.0
+        return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def register_folded_lambert(mi) -> None:
+    """Registers `folded_lambert`: the BSDF of shared/src/path_tracer.rs ("Shading normals"), the
+    cosine lobe around the shading normal folded about the geometric surface, whose
+    cosine-weighted value is albedo/pi x (<ns.w> + <ns.R(w)>) for w above the geometric surface
+    (R: the mirror about it) and which is sampled exactly (a cosine sample, mirrored when below).
+    Both sides shade alike: the normals are flipped toward the incoming ray, as ours does."""
+    import drjit as dr
+
+    class FoldedLambert(mi.BSDF):
+        def __init__(self, props):
+            mi.BSDF.__init__(self, props)
+            self.reflectance = props.get_texture("reflectance")
+            flags = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
+            self.m_components = [flags]
+            self.m_flags = flags
+
+        @staticmethod
+        def normals(si):
+            """Shading and geometric normal in the local (shading) frame, on the side of si.wi."""
+            ng = si.to_local(si.n)
+            sign = dr.select(dr.dot(ng, si.wi) < 0, -1.0, 1.0)
+            ng = ng * sign
+            ns = mi.Vector3f(0, 0, sign)
+            return dr.select(dr.dot(ns, ng) <= 0, ng, ns), ng
+
+        @staticmethod
+        def folded_cosine(ns, ng, w):
+            d = dr.dot(ng, w)
+            value = dr.maximum(dr.dot(ns, w), 0) + dr.maximum(dr.dot(ns, w - ng * (2 * d)), 0)
+            return dr.select(d > 0, value, 0.0)
+
+        def sample(self, ctx, si, sample1, sample2, active):
+            ns, ng = self.normals(si)
+            w = mi.Frame3f(ns).to_world(mi.warp.square_to_cosine_hemisphere(sample2))
+            d = dr.dot(ng, w)
+            bs = dr.zeros(mi.BSDFSample3f)
+            bs.wo = dr.select(d < 0, dr.normalize(w - ng * (2 * d)), w)
+            bs.pdf = self.folded_cosine(ns, ng, bs.wo) / math.pi
+            bs.eta = 1.0
+            bs.sampled_type = mi.UInt32(+mi.BSDFFlags.DiffuseReflection)
+            bs.sampled_component = mi.UInt32(0)
+            active = active & (bs.pdf > 0)
+            return bs, dr.select(active, self.reflectance.eval(si, active), 0.0)
+
+        def eval(self, ctx, si, wo, active):
+            return self.eval_pdf(ctx, si, wo, active)[0]
+
+        def pdf(self, ctx, si, wo, active):
+            return self.eval_pdf(ctx, si, wo, active)[1]
+
+        def eval_pdf(self, ctx, si, wo, active):
+            ns, ng = self.normals(si)
+            pdf = self.folded_cosine(ns, ng, wo) / math.pi
+            return self.reflectance.eval(si, active) * pdf, pdf
+
+        def traverse(self, callback):
+            callback.put("reflectance", self.reflectance, mi.ParamFlags.NonDifferentiable)
+
+        def to_string(self):
+            return "FoldedLambert[]"
+
+    mi.register_bsdf("folded_lambert", FoldedLambert)
+
+
+def mesh(mi, name, positions, faces, normals, uvs, bsdf_object, emitter):
+    props = mi.Properties()
+    props["bsdf"] = bsdf_object
+    if emitter is not None:
+        props["emitter"] = emitter
+    m = mi.Mesh(
+        name,
+        len(positions),
+        len(faces),
+        props=props,
+        has_vertex_normals=normals is not None,
+        has_vertex_texcoords=uvs is not None,
+    )
+    params = mi.traverse(m)
+    params["vertex_positions"] = mi.Float(np.asarray(positions, dtype=np.float32).ravel())
+    params["faces"] = mi.UInt32(np.asarray(faces, dtype=np.uint32).ravel())
+    if uvs is not None:
+        params["vertex_texcoords"] = mi.Float(np.asarray(uvs, dtype=np.float32).ravel())
+    params.update()
+    if normals is not None:
+        # Set alone, after the positions: an update that names the positions recomputes normals.
+        params["vertex_normals"] = mi.Float(np.asarray(normals, dtype=np.float32).ravel())
+        params.update()
+    return m
+
+
+def max_tilt_degrees(prim: gltf_scene.Primitive) -> float:
+    """Largest angle between a vertex normal and its triangle's face normal."""
+    p = prim.positions[prim.triangles]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    cos = np.einsum("tk,tvk->tv", n, prim.normals[prim.triangles])
+    return math.degrees(math.acos(max(-1.0, min(1.0, float(cos.min())))))
+
+
+def punctual(mi, light: gltf_scene.Light) -> dict:
+    rgb = {"type": "rgb", "value": light.intensity.tolist()}
+    if light.kind == "directional":
+        return {"type": "directional", "direction": light.direction.tolist(), "irradiance": rgb}
+    if light.kind == "point":
+        return {"type": "point", "position": light.position.tolist(), "intensity": rgb}
+    # glTF's falloff as a texture on a hard-edged cone: the texture spans tan(outer) on each side.
+    outer, inner = light.outer_cone_angle, light.inner_cone_angle
+    centres = (np.arange(SPOT_TEXTURE_SIZE) + 0.5) / SPOT_TEXTURE_SIZE * 2 - 1
+    x, y = np.meshgrid(centres * math.tan(outer), centres * math.tan(outer))
+    cos_angle = 1 / np.sqrt(1 + x * x + y * y)
+    t = np.clip((cos_angle - math.cos(outer)) / max(math.cos(inner) - math.cos(outer), 1e-3), 0, 1)
+    falloff = np.repeat((t * t)[..., None], 3, axis=2).astype(np.float32)
+    up = [0.0, 1.0, 0.0] if abs(light.direction[1]) < 0.9 else [1.0, 0.0, 0.0]
+    return {
+        "type": "spot",
+        "intensity": rgb,
+        "cutoff_angle": math.degrees(outer),
+        "beam_width": math.degrees(outer),
+        "texture": {"type": "bitmap", "data": mi.TensorXf(falloff), "raw": True, "wrap_mode": "clamp"},
+        "to_world": mi.ScalarTransform4f().look_at(
+            origin=light.position.tolist(), target=(light.position + light.direction).tolist(), up=up
+        ),
+    }
+
+
+def markdown(rows: list[Row], notes: list[str], args, mi, seconds: float) -> str:
+    """The table, headed by what was compared: versions, settings, how to read it."""
+
+    def git(*command: str) -> str:
+        return subprocess.run(["git", *command], cwd=REPO, capture_output=True, text=True, check=True).stdout
+
+    head = git("rev-parse", "--short", "HEAD").strip()
+    edited = git("status", "--porcelain", "--", "shared", "kernels", "host").count("\n")
+    bsdf_name = {"diffuse": "`twosided` `diffuse`", "folded": "our folded cosine lobe (Python BSDF)"}
+    settings = [
+        f"`gi render` at {head} + {edited} edited files in shared/ kernels/ host/, {args.spp} spp "
+        f"({OUR_RUNS} seeds)",
+        f"Mitsuba {mi.__version__} `{mi.variant()}` `path` with {bsdf_name[args.mitsuba_bsdf]}, "
+        f"{args.mitsuba_spp} spp",
+        f"{args.max_bounces} bounces",
+    ]
+    if args.flat_normals:
+        settings.append("**vertex normals dropped in both**")
+    lines = [
+        "; ".join(settings) + f"; {seconds / 60:.1f} min in all.",
+        "",
+        "Ratio: mean radiance of ours / Mitsuba's, ± one standard error (from the spread of the runs "
+        "and passes). relMSE: host/src/metrics.rs's, Mitsuba's image as the reference; noise relMSE: "
+        "what the noise of the two images alone gives (equal: the images agree pixel by pixel).",
+        "",
+        "| scene | size | ratio R | ratio G | ratio B | ratio luminance | relMSE | noise relMSE "
+        "| gi s | Mitsuba s |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        ratio = r.ours_mean / r.mitsuba_mean
+        error = ratio * np.hypot(r.ours_error / r.ours_mean, r.mitsuba_error / r.mitsuba_mean)
+        cells = [f"{q:.4f} ± {e:.4f}" for q, e in zip(ratio, error, strict=True)]
+        lines.append(
+            f"| {r.name} | {r.size[0]}x{r.size[1]} | {' | '.join(cells)} | {r.relative_mse:.2e} | "
+            f"{r.noise_relative_mse:.2e} | {r.seconds[0]:.0f} | {r.seconds[1]:.0f} |"
+        )
+    if notes:
+        lines.append("")
+        lines.extend(f"- {n}" for n in notes)
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
