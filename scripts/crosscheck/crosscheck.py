@@ -14,7 +14,10 @@ go to `<out>/<scene>-gi.exr` and `<out>/<scene>-mitsuba.exr`.
 The Mitsuba scene follows what our renderer does:
 * every surface two-sided Lambert (`twosided` + `diffuse`); reflectance = baseColorFactor x the
   sRGB-decoded base colour texture (bilinear, no mipmaps, the sampler's wrap mode), handed over as
-  linear floats; metallic and roughness ignored;
+  linear floats; metallic and roughness ignored. Where shading normals tilt from the geometric
+  ones, renderers differ by design (Mitsuba's lobe loses energy, ours is folded to keep it, see
+  shared/src/path_tracer.rs): `--mitsuba-bsdf folded` gives Mitsuba our folded lobe as a Python
+  BSDF, so that its integrator checks ours with the same material model;
 * emission (`area`) = emissiveFactor x KHR_materials_emissive_strength (x the emissive texture),
   from the counter-clockwise face only, unless the material is doubleSided (then a second,
   reversed copy of its triangles emits from the other face). Mitsuba's area emitter emits toward
@@ -27,7 +30,8 @@ The Mitsuba scene follows what our renderer does:
   uniform jitter; no environment; max_depth = max-bounces + 1 (Mitsuba counts segments).
 
 Our renderer is built once through `scripts/run.sh` and its binary copied to `<out>`, so that every
-scene is rendered by the same build even while others edit and rebuild the tree. Its samples are
+scene is rendered by the same build even while others edit and rebuild the tree (`--gi` names a
+built binary instead). Its samples are
 split into four runs with different seeds and Mitsuba's into passes of 256, which gives the
 standard errors.
 
@@ -332,17 +336,15 @@ def bsdf(material: dict, textures: TextureCache, kind: str) -> dict:
     return {"type": "twosided", "material": {"type": "diffuse", "reflectance": reflectance}}
 
 
-def emission(material: dict, textures: TextureCache):
-    """The `area` emitter of a material (loaded), or None when it does not emit."""
+def emission(material: dict, textures: TextureCache) -> dict | None:
+    """The `area` emitter of a material (a dictionary: each shape needs its own), or None."""
     strength = (
         material.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
     )
     factor = [c * strength for c in material.get("emissiveFactor", [0.0, 0.0, 0.0])]
     if max(factor) <= 0:
         return None
-    return textures.mi.load_dict(
-        {"type": "area", "radiance": textures.scaled(material.get("emissiveTexture"), factor)}
-    )
+    return {"type": "area", "radiance": textures.scaled(material.get("emissiveTexture"), factor)}
 
 
 class TextureCache:
@@ -456,7 +458,7 @@ def mesh(mi, name, positions, faces, normals, uvs, bsdf_object, emitter):
     props = mi.Properties()
     props["bsdf"] = bsdf_object
     if emitter is not None:
-        props["emitter"] = emitter
+        props["emitter"] = mi.load_dict(emitter)
     m = mi.Mesh(
         name,
         len(positions),

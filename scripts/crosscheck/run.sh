@@ -16,4 +16,5 @@ if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c 'import mitsuba, numpy
   python3 -m venv "$venv"
   "$venv/bin/pip" install --quiet mitsuba==3.9.1 numpy
 fi
-exec "$venv/bin/python" scripts/crosscheck/crosscheck.py "$@"
+# -B: no __pycache__ in the tree.
+exec "$venv/bin/python" -B scripts/crosscheck/crosscheck.py "$@"
