@@ -201,7 +201,7 @@ fn mirrored_instances() {
 /// the identity), so that ray queries see the very vertex and ray values the software BVH sees;
 /// their leaks are the driver's and only counted (lavapipe: about 1%).
 #[test]
-fn rays_at_shared_vertices_and_edges_hit_in_both_variants() {
+fn rays_at_shared_vertices_and_edges_never_slip_through_the_software_bvh() {
     const RAYS_PER_GROUP: usize = 50_000;
     let turn = Quat::from_axis_angle(Vec3::new(1.0, 2.0, -0.5).normalize(), 2.1);
     let placements = [

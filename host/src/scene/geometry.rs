@@ -152,7 +152,10 @@ pub(super) fn clean(raw: RawPrimitive) -> (CleanPrimitive, Repairs) {
                 .map(|(g, c)| if g == Vec3::ZERO { c } else { g })
                 .collect()
         }
-        None => vertex_normals(&positions, &triangles),
+        // glTF: without NORMAL, normals are flat. A zero vertex normal makes the shading normal
+        // fall back to the triangle's geometric normal (`gi_shared::scene_data::fetch_surface`),
+        // which is flat shading without unsharing the vertices.
+        None => vec![Vec3::ZERO; positions.len()],
     };
 
     let uvs = raw.uvs.map(|uvs| {

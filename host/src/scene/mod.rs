@@ -175,7 +175,9 @@ pub struct Mesh {
     pub name: String,
     /// Vertex positions.
     pub positions: Vec<Vec3>,
-    /// Unit vertex normals, one per position: the file's, or area-weighted face normals.
+    /// Vertex normals, one per position: the file's (unit; invalid ones replaced by area-weighted
+    /// face normals), or zero where the file gives none, which shades flat: the shading normal
+    /// is then the geometric normal, as glTF requires.
     pub normals: Vec<Vec3>,
     /// First UV set (`TEXCOORD_0`), one per position (zero for primitives without one); `None` when
     /// no primitive of the mesh has UVs.

@@ -41,8 +41,12 @@ pub fn cube() -> Mesh {
     mesh("cube", positions, triangles)
 }
 
-/// The icosahedron subdivided `levels` times (`20·4^levels` triangles) on the unit sphere,
-/// counter-clockwise seen from outside; neighbouring triangles share their vertices.
+/// Most subdivisions [`icosphere`] makes: 21 million triangles.
+pub const MAX_ICOSPHERE_LEVELS: u32 = 10;
+
+/// The icosahedron subdivided `levels` times (at most [`MAX_ICOSPHERE_LEVELS`]; `20·4^levels`
+/// triangles) on the unit sphere, counter-clockwise seen from outside; neighbouring triangles
+/// share their vertices.
 pub fn icosphere(levels: u32) -> Mesh {
     let t = (1.0 + 5.0f32.sqrt()) / 2.0;
     let mut positions: Vec<Vec3> = [
@@ -84,7 +88,7 @@ pub fn icosphere(levels: u32) -> Mesh {
         [8, 6, 7],
         [9, 8, 1],
     ];
-    for _ in 0..levels {
+    for _ in 0..levels.min(MAX_ICOSPHERE_LEVELS) {
         let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
         let mut midpoint = |a: u32, b: u32, positions: &mut Vec<Vec3>| {
             *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
@@ -142,7 +146,7 @@ pub fn transformed(mesh: &Mesh, transform: Mat4) -> Mesh {
         normals: mesh
             .normals
             .iter()
-            .map(|&n| (normal * n).normalize())
+            .map(|&n| (normal * n).normalize_or_zero())
             .collect(),
         ..mesh.clone()
     }
