@@ -309,6 +309,24 @@ struct TriangleHit {
     front_face: u32,
 }
 
+impl TriangleHit {
+    /// Makes this hit of `tri` the closest in `best` when it is strictly closer (the first hit
+    /// tested keeps an exact tie); returns whether it did.
+    #[inline]
+    fn record(&self, tri: &BvhTriangle, best: &mut HitRecord) -> bool {
+        if self.t < best.t {
+            best.t = self.t;
+            best.instance = tri.instance;
+            best.primitive = tri.primitive;
+            best.front_face = self.front_face;
+            best.barycentrics = [self.u, self.v];
+            true
+        } else {
+            false
+        }
+    }
+}
+
 /// A ray prepared once for the box and triangle tests of a traversal.
 #[derive(Clone, Copy)]
 struct TraceRay {
@@ -540,13 +558,7 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement<BvhNode>, T: BvhEleme
         if tri < tri_end {
             let t = tris[tri].get();
             let h = ray.intersect(&t, t_max);
-            // Strictly closer only: the first hit tested keeps an exact tie.
-            if h.t < best.t {
-                best.t = h.t;
-                best.instance = t.instance;
-                best.primitive = t.primitive;
-                best.front_face = h.front_face;
-                best.barycentrics = [h.u, h.v];
+            if h.record(&t, best) {
                 t_max = h.t;
                 if ANY {
                     return overflow;
@@ -666,14 +678,7 @@ pub fn closest_hit_brute_force(tris: &[BvhTriangle], ray: &Ray) -> HitRecord {
     let mut i = 0;
     while i < tris.len() {
         let tri = &tris[i];
-        let h = prepared.intersect(tri, ray.t_max);
-        if h.t < best.t {
-            best.t = h.t;
-            best.instance = tri.instance;
-            best.primitive = tri.primitive;
-            best.front_face = h.front_face;
-            best.barycentrics = [h.u, h.v];
-        }
+        prepared.intersect(tri, ray.t_max).record(tri, &mut best);
         i += 1;
     }
     best

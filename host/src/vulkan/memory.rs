@@ -403,18 +403,37 @@ impl Buffer {
 /// every later command (kernels, copies, acceleration-structure builds) and to the host once the
 /// submission's fence signalled.
 pub fn transfer_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
-    let barrier = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-        .dst_access_mask(
+    memory_barrier(
+        ctx,
+        cmd,
+        (
+            vk::PipelineStageFlags::TRANSFER,
+            vk::AccessFlags::TRANSFER_WRITE,
+        ),
+        (
+            vk::PipelineStageFlags::ALL_COMMANDS | vk::PipelineStageFlags::HOST,
             vk::AccessFlags::MEMORY_READ
                 | vk::AccessFlags::MEMORY_WRITE
                 | vk::AccessFlags::HOST_READ,
-        )];
+        ),
+    );
+}
+
+/// Records one global memory barrier from the `(stages, accesses)` of `src` to those of `dst`.
+pub(crate) fn memory_barrier(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags, vk::AccessFlags),
+    dst: (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(src.1)
+        .dst_access_mask(dst.1)];
     unsafe {
         ctx.device.cmd_pipeline_barrier(
             cmd,
-            vk::PipelineStageFlags::TRANSFER,
-            vk::PipelineStageFlags::ALL_COMMANDS | vk::PipelineStageFlags::HOST,
+            src.0,
+            dst.0,
             vk::DependencyFlags::empty(),
             &barrier,
             &[],

@@ -3,7 +3,7 @@
 
 use super::context::Context;
 use super::image::Image;
-use super::memory::Buffer;
+use super::memory::{Buffer, memory_barrier};
 use crate::error::{Error, Result, VkContext};
 use crate::kernels::KernelVariant;
 use ash::vk;
@@ -288,27 +288,23 @@ impl Kernel {
 /// Makes every shader write before this point visible to later shaders, transfers and host reads
 /// (a fence alone does not make device writes visible to the host).
 pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
-    let barrier = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-        .dst_access_mask(
+    memory_barrier(
+        ctx,
+        cmd,
+        (
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            vk::AccessFlags::SHADER_WRITE,
+        ),
+        (
+            vk::PipelineStageFlags::COMPUTE_SHADER
+                | vk::PipelineStageFlags::TRANSFER
+                | vk::PipelineStageFlags::HOST,
             vk::AccessFlags::SHADER_READ
                 | vk::AccessFlags::SHADER_WRITE
                 | vk::AccessFlags::TRANSFER_READ
                 | vk::AccessFlags::HOST_READ,
-        )];
-    unsafe {
-        ctx.device.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::COMPUTE_SHADER,
-            vk::PipelineStageFlags::COMPUTE_SHADER
-                | vk::PipelineStageFlags::TRANSFER
-                | vk::PipelineStageFlags::HOST,
-            vk::DependencyFlags::empty(),
-            &barrier,
-            &[],
-            &[],
-        );
-    }
+        ),
+    );
 }
 
 fn descriptor_type(kind: BindingKind) -> vk::DescriptorType {
