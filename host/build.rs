@@ -1,8 +1,10 @@
-//! Compiles `kernels/` to SPIR-V twice: once tracing with `VK_KHR_ray_query`, once walking the BVH in
-//! software. The host picks one at run time (see `kernels::KernelVariant`).
+//! Compiles `kernels/` to SPIR-V twice, both builds at once: without features (every kernel,
+//! tracing by walking the BVH in software) and with `ray-query` (only the kernels that trace, with
+//! `VK_KHR_ray_query`). The host takes non-tracing kernels from the first module in either
+//! variant (see `kernels::KernelVariant`).
 
 use spirv_builder::{Capability, ModuleResult, SpirvBuilder, SpirvMetadata};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 /// Where the third-party scenes are, from this package's directory.
@@ -43,32 +45,46 @@ fn main() {
         println!("cargo::rustc-cfg=third_party_scenes");
     }
     let kernels = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../kernels");
-    for v in VARIANTS {
-        let mut b = SpirvBuilder::new(&kernels, "spirv-unknown-vulkan1.2")
-            .target_dir_path(v.target_dir)
-            .spirv_metadata(SpirvMetadata::NameVariables)
-            .shader_crate_features(v.features.iter().map(|s| s.to_string()));
-        b.build_script.defaults = true;
-        // The host enables a device feature for each of these (gi_shared::abi).
-        for name in gi_shared::abi::KERNEL_CAPABILITIES {
-            let c = Capability::from_str(name)
-                .unwrap_or_else(|()| panic!("unknown SPIR-V capability {name}"));
-            b = b.capability(c);
-        }
-        for c in v.capabilities {
-            b = b.capability(*c);
-        }
-        for e in v.extensions {
-            b = b.extension(*e);
-        }
-        let result = b
-            .build()
-            .unwrap_or_else(|e| panic!("kernels ({}): {e}", v.env));
-        match result.module {
-            ModuleResult::SingleModule(path) => {
-                println!("cargo::rustc-env={}={}", v.env, path.display());
-            }
-            ModuleResult::MultiModule(_) => panic!("kernels ({}): expected one module", v.env),
-        }
+    // Each build is one mostly serial rustc: side by side they take the time of the longer.
+    let modules: Vec<(&str, PathBuf)> = std::thread::scope(|s| {
+        let builds: Vec<_> = VARIANTS
+            .iter()
+            .map(|v| s.spawn(|| (v.env, build(&kernels, v))))
+            .collect();
+        builds
+            .into_iter()
+            .map(|b| b.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    });
+    for (env, path) in modules {
+        println!("cargo::rustc-env={env}={}", path.display());
+    }
+}
+
+/// Builds one variant and returns the module's path.
+fn build(kernels: &Path, v: &Variant) -> PathBuf {
+    let mut b = SpirvBuilder::new(kernels, "spirv-unknown-vulkan1.2")
+        .target_dir_path(v.target_dir)
+        .spirv_metadata(SpirvMetadata::NameVariables)
+        .shader_crate_features(v.features.iter().map(|s| s.to_string()));
+    b.build_script.defaults = true;
+    // The host enables a device feature for each of these (gi_shared::abi).
+    for name in gi_shared::abi::KERNEL_CAPABILITIES {
+        let c = Capability::from_str(name)
+            .unwrap_or_else(|()| panic!("unknown SPIR-V capability {name}"));
+        b = b.capability(c);
+    }
+    for c in v.capabilities {
+        b = b.capability(*c);
+    }
+    for e in v.extensions {
+        b = b.extension(*e);
+    }
+    let result = b
+        .build()
+        .unwrap_or_else(|e| panic!("kernels ({}): {e}", v.env));
+    match result.module {
+        ModuleResult::SingleModule(path) => path,
+        ModuleResult::MultiModule(_) => panic!("kernels ({}): expected one module", v.env),
     }
 }

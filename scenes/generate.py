@@ -8,6 +8,7 @@ Outputs (deterministic: running it again gives the same bytes):
   indirect-room.gltf (buffer embedded as a base64 data: URI)
   many-lights.gltf + many-lights.bin
   textured.gltf + textured.bin + checker.png
+  light-leak.gltf (buffer embedded)
 See README.md beside this script for what each scene holds.
 """
 
@@ -448,8 +449,43 @@ def textured():
     doc.write_gltf("textured")
 
 
+def light_leak():
+    doc = Document("Two rooms open at the front, sharing a 1 cm wall that no power-of-two cell "
+                   "boundary of the hash grid meets: a bright lit room and a dark room lit only "
+                   "by a dim lamp, seen together from outside. No light path crosses the wall: "
+                   "light found in the dark room beyond the lamp's is a leak.")
+    plaster = doc.material("plaster", [0.8, 0.8, 0.8])
+    lamp_bright = doc.material("bright lamp", WHITE, emissive=[1.0, 0.9, 0.7], strength=20.0)
+    lamp_dim = doc.material("dim lamp", WHITE, emissive=[0.7, 0.8, 1.0], strength=0.5)
+    # The shared wall's centre, x = 0.3 m, lies inside a cell and a tile at every level of detail
+    # from 64 mm cells up, so a cache cell straddles it, as cells straddle thin walls in general.
+    wall = 0.3
+    # Both rooms: z in [-1.5, 1.5], y in [0, 3], open at z = 1.5; the lit room x in [wall - 3,
+    # wall - 0.005], the dark room x in [wall + 0.005, wall + 3]. Every face looks into its
+    # room; the shared wall is two faces 1 cm apart. The openings are coplanar, so no light
+    # leaving one can enter the other.
+    walls = Geometry()
+    for x0, x1 in ((wall - 3.0, wall - 0.005), (wall + 0.005, wall + 3.0)):
+        cx, hx = (x0 + x1) / 2, (x1 - x0) / 2
+        walls.quad([cx, 0, 0], [0, 0, 1.5], [hx, 0, 0])  # floor, facing +Y
+        walls.quad([cx, 3, 0], [hx, 0, 0], [0, 0, 1.5])  # ceiling, facing -Y
+        walls.quad([cx, 1.5, -1.5], [hx, 0, 0], [0, 1.5, 0])  # back, facing +Z
+        walls.quad([x0, 1.5, 0], [0, 1.5, 0], [0, 0, 1.5])  # -X side, facing +X
+        walls.quad([x1, 1.5, 0], [0, 0, 1.5], [0, 1.5, 0])  # +X side, facing -X
+    doc.node("rooms", mesh=doc.mesh("rooms", [(walls, plaster)]))
+    # The bright lamp hangs near the shared wall so that its light grazes it.
+    bright = Geometry().quad([wall - 0.6, 2.98, 0], [0.4, 0, 0], [0, 0, 0.8])
+    dim = Geometry().quad([wall + 1.5, 2.98, 0], [1.2, 0, 0], [0, 0, 1.2])
+    doc.node("lamps", mesh=doc.mesh("lamps", [(bright, lamp_bright), (dim, lamp_dim)]))
+    # Outside, in line with the shared wall: the lit room fills the left half of the image, the
+    # dark room the right half.
+    doc.camera("camera", [wall, 1.5, 3.6], [wall, 1.5, 0.0], 70.0, aspect=1.0)
+    doc.write_gltf("light-leak", embed=True)
+
+
 if __name__ == "__main__":
     cornell_box()
     indirect_room()
     many_lights()
     textured()
+    light_leak()

@@ -116,44 +116,32 @@ fn gpu_speeds(
     bvh: &Bvh,
     sets: [&[Ray]; 2],
 ) -> Result<Vec<[f64; 2]>> {
-    let mut passes = Vec::new();
-    let run = |passes: &mut Vec<(SceneGeometry, TraceRays)>| -> Result<Vec<[f64; 2]>> {
-        for ctx in contexts {
-            let geometry = SceneGeometry::new(ctx, scene, Some(bvh))?;
-            let pass = TraceRays::new(ctx, &geometry);
-            let pass = match pass {
-                Ok(p) => p,
-                Err(e) => {
-                    geometry.destroy(ctx);
-                    return Err(e);
-                }
-            };
-            passes.push((geometry, pass));
-        }
-        for (ctx, (geometry, pass)) in contexts.iter().zip(passes.iter()) {
-            pass.run(ctx, geometry, &sets[0][..RAYS / 16])?;
-        }
-        let mut speeds = vec![[f64::NAN; 2]; contexts.len()];
-        for _ in 0..REPEATS {
-            for (k, (ctx, (geometry, pass))) in contexts.iter().zip(passes.iter()).enumerate() {
-                for (speed, rays) in speeds[k].iter_mut().zip(sets) {
-                    let ms = pass.run(ctx, geometry, rays)?.gpu_ms;
-                    // NaN without timestamps; otherwise the fastest run counts.
-                    let s = ms.map_or(f64::NAN, |ms| mrays(rays.len(), ms));
-                    if speed.is_nan() || s > *speed {
-                        *speed = s;
-                    }
+    let passes = contexts
+        .iter()
+        .map(|ctx| {
+            Ok((
+                SceneGeometry::new(ctx, scene, Some(bvh))?,
+                TraceRays::new(ctx)?,
+            ))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    for (ctx, (geometry, pass)) in contexts.iter().zip(passes.iter()) {
+        pass.run(ctx, geometry, &sets[0][..RAYS / 16])?;
+    }
+    let mut speeds = vec![[f64::NAN; 2]; contexts.len()];
+    for _ in 0..REPEATS {
+        for (k, (ctx, (geometry, pass))) in contexts.iter().zip(passes.iter()).enumerate() {
+            for (speed, rays) in speeds[k].iter_mut().zip(sets) {
+                let ms = pass.run(ctx, geometry, rays)?.gpu_ms;
+                // NaN without timestamps; otherwise the fastest run counts.
+                let s = ms.map_or(f64::NAN, |ms| mrays(rays.len(), ms));
+                if speed.is_nan() || s > *speed {
+                    *speed = s;
                 }
             }
         }
-        Ok(speeds)
-    };
-    let result = run(&mut passes);
-    for (ctx, (geometry, pass)) in contexts.iter().zip(passes) {
-        pass.destroy(ctx);
-        geometry.destroy(ctx);
     }
-    result
+    Ok(speeds)
 }
 
 fn bench(contexts: &[Context], name: &str, scene: &Scene) -> Result<()> {

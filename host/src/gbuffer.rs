@@ -9,8 +9,8 @@
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 use crate::scene::bvh::Bvh;
-use crate::scene::gpu_data::{GpuShadingData, ShadingData};
-use crate::scene::upload::SceneGeometry;
+use crate::scene::gpu_data::ShadingData;
+use crate::scene::upload::GpuScene;
 use crate::vulkan::{
     BindingKind, Buffer, Context, Image, Kernel, KernelModule, Resource, submit_timed,
 };
@@ -83,24 +83,19 @@ pub struct GBufferImages {
 impl GBufferImages {
     /// Creates the images for a `width × height` G-buffer.
     pub fn new(ctx: &Context, width: u32, height: u32) -> Result<Self> {
-        let mut made: Vec<Image> = Vec::with_capacity(7);
-        for (name, format) in IMAGE_NAMES.iter().zip(FORMATS) {
-            match Image::new(ctx, &format!("G-buffer {name}"), width, height, format) {
-                Ok(image) => made.push(image),
-                Err(e) => {
-                    made.into_iter().for_each(|i| i.destroy(ctx));
-                    return Err(e);
-                }
-            }
-        }
-        let images = made.try_into().map_err(|unexpected: Vec<Image>| {
-            let count = unexpected.len();
-            unexpected.into_iter().for_each(|i| i.destroy(ctx));
-            Error::InvalidArgument {
+        let made = IMAGE_NAMES
+            .iter()
+            .zip(FORMATS)
+            .map(|(name, format)| {
+                Image::new(ctx, &format!("G-buffer {name}"), width, height, format)
+            })
+            .collect::<Result<Vec<Image>>>()?;
+        let images = made
+            .try_into()
+            .map_err(|unexpected: Vec<Image>| Error::InvalidArgument {
                 name: "G-buffer",
-                why: format!("{count} images made for 7"),
-            }
-        })?;
+                why: format!("{} images made for 7", unexpected.len()),
+            })?;
         Ok(Self { images })
     }
 
@@ -163,11 +158,6 @@ impl GBufferImages {
             texels,
         })
     }
-
-    /// Frees the images.
-    pub fn destroy(self, ctx: &Context) {
-        self.images.into_iter().for_each(|i| i.destroy(ctx));
-    }
 }
 
 /// A G-buffer on the host: every image's pixel, row by row from the top.
@@ -202,23 +192,14 @@ pub struct GBufferPass {
 }
 
 impl GBufferPass {
-    /// Creates the pipeline for the geometry's binding layout.
-    pub fn new(ctx: &Context, geometry: &SceneGeometry) -> Result<Self> {
+    /// Creates the pipeline.
+    pub fn new(ctx: &Context) -> Result<Self> {
         let module = KernelModule::new(ctx)?;
-        let mut bindings = geometry.binding_kinds();
-        bindings.push(BindingKind::StorageBuffer);
-        bindings.extend(GpuShadingData::binding_kinds());
+        let mut bindings = vec![BindingKind::StorageBuffer];
         bindings.extend(GBufferImages::binding_kinds());
-        let kernel = Kernel::new(ctx, &module, "gbuffer::gbuffer", &bindings, 0);
-        module.destroy(ctx);
-        let kernel = kernel?;
-        match Buffer::parameters(ctx, "G-buffer camera", &[CameraParams::default()]) {
-            Ok(camera) => Ok(Self { kernel, camera }),
-            Err(e) => {
-                kernel.destroy(ctx);
-                Err(e)
-            }
-        }
+        let kernel = Kernel::new(ctx, &module, "gbuffer::gbuffer", &bindings, 0)?;
+        let camera = Buffer::parameters(ctx, "G-buffer camera", &[CameraParams::default()])?;
+        Ok(Self { kernel, camera })
     }
 
     /// Renders the G-buffer of `camera` into `images`, submits and waits; returns the GPU time in
@@ -227,8 +208,7 @@ impl GBufferPass {
     pub fn run(
         &mut self,
         ctx: &Context,
-        geometry: &SceneGeometry,
-        shading: &GpuShadingData,
+        scene: &GpuScene,
         camera: &CameraParams,
         images: &GBufferImages,
     ) -> Result<Option<f64>> {
@@ -244,9 +224,7 @@ impl GBufferPass {
         }
         // The previous submission has finished (submissions wait), so the buffer is free.
         self.camera.write(bytemuck::bytes_of(camera))?;
-        let mut resources = geometry.resources();
-        resources.push(Resource::Buffer(&self.camera));
-        resources.extend(shading.resources());
+        let mut resources = vec![Resource::Buffer(&self.camera)];
         resources.extend(images.resources());
         let groups = [
             width.div_ceil(GBUFFER_TILE),
@@ -254,14 +232,9 @@ impl GBufferPass {
             1,
         ];
         submit_timed(ctx, "gbuffer", |cmd| {
-            self.kernel.dispatch(ctx, cmd, &resources, &[], groups)
+            self.kernel
+                .dispatch_traced(ctx, cmd, scene.sets(), &resources, &[], groups)
         })
-    }
-
-    /// Frees the pipeline and the camera buffer.
-    pub fn destroy(self, ctx: &Context) {
-        self.kernel.destroy(ctx);
-        self.camera.destroy(ctx);
     }
 }
 

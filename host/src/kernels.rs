@@ -1,8 +1,13 @@
 //! The two compiled kernel modules and the choice between them.
+//!
+//! The common module has every kernel, tracing (if at all) in software; the ray-query module has
+//! only the kernels that trace, with ray queries. A context running ray queries takes its tracing
+//! kernels from the latter and every other kernel from the former.
 
 use crate::error::{Error, Result};
 use crate::vulkan::Capabilities;
 use std::fmt;
+use std::sync::OnceLock;
 
 /// How the user wants rays traced.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -16,7 +21,7 @@ pub enum TraceMode {
     Software,
 }
 
-/// One of the two builds of `kernels/`.
+/// How a context's kernels trace rays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum KernelVariant {
     /// Traces with `VK_KHR_ray_query` against device-built acceleration structures.
@@ -50,20 +55,44 @@ impl KernelVariant {
         }
     }
 
-    /// The SPIR-V module of this variant, as words.
-    pub fn spirv_words(self) -> Vec<u32> {
-        let bytes = match self {
-            Self::RayQuery => RAY_QUERY_SPV,
-            Self::Software => SOFTWARE_SPV,
-        };
-        // The build script wrote the module itself; a malformed one is a build bug.
-        ash::util::read_spv(&mut std::io::Cursor::new(bytes)).unwrap_or_default()
+    /// The module this variant's tracing kernels come from, as words (the common module in
+    /// software).
+    pub fn tracing_spirv_words(self) -> Vec<u32> {
+        match self {
+            Self::RayQuery => words(RAY_QUERY_SPV),
+            Self::Software => common_spirv_words(),
+        }
     }
 
-    /// The names of the module's entry points.
+    /// The names of every kernel a context of this variant runs.
     pub fn entry_points(self) -> Vec<String> {
-        entry_points(&self.spirv_words())
+        let mut names = entry_points(&common_spirv_words());
+        if self == Self::RayQuery {
+            // The tracing kernels are in both modules: list them once.
+            names.retain(|n| !traces(n));
+            names.extend(entry_points(&words(RAY_QUERY_SPV)));
+        }
+        names
     }
+}
+
+/// The common module (every kernel, tracing in software), as words.
+pub fn common_spirv_words() -> Vec<u32> {
+    words(SOFTWARE_SPV)
+}
+
+fn words(bytes: &[u8]) -> Vec<u32> {
+    // The build script wrote the module itself; a malformed one is a build bug.
+    ash::util::read_spv(&mut std::io::Cursor::new(bytes)).unwrap_or_default()
+}
+
+/// Whether kernel `entry` traces rays: the kernels built with ray queries are exactly those.
+pub fn traces(entry: &str) -> bool {
+    static TRACING: OnceLock<Vec<String>> = OnceLock::new();
+    TRACING
+        .get_or_init(|| entry_points(&words(RAY_QUERY_SPV)))
+        .iter()
+        .any(|e| e == entry)
 }
 
 impl fmt::Display for KernelVariant {
@@ -101,37 +130,9 @@ pub fn entry_points(words: &[u32]) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ash::vk;
 
     fn caps(ray_query: bool) -> Capabilities {
-        Capabilities {
-            name: "test device".into(),
-            device_type: vk::PhysicalDeviceType::DISCRETE_GPU,
-            api_version: vk::API_VERSION_1_3,
-            driver: String::new(),
-            ray_query,
-            acceleration_structure: ray_query,
-            buffer_device_address: true,
-            subgroup_size: 32,
-            shader_float16: true,
-            shader_int8: true,
-            shader_int16: true,
-            shader_int64: true,
-            int64_atomics: true,
-            float32_atomic_add: true,
-            vulkan_memory_model: true,
-            vulkan_memory_model_device_scope: true,
-            scalar_block_layout: true,
-            compute_timestamps: true,
-            timestamp_period_ns: 1.0,
-            max_storage_buffer_range: 1 << 27,
-            max_shared_memory: 1 << 15,
-            max_workgroup_count: [65535; 3],
-            push_descriptor: true,
-            accel_scratch_alignment: 128,
-            max_workgroup_invocations: 1024,
-            device_local_bytes: 1 << 30,
-        }
+        Capabilities::for_tests(ray_query)
     }
 
     #[test]
@@ -166,8 +167,14 @@ mod tests {
                 .contains(&"smoke::smoke".to_string())
         );
         assert!(entry_points(&[]).is_empty());
+        // Only tracing kernels are built twice.
+        assert!(traces("trace_rays::trace_rays"));
+        assert!(!traces("smoke::smoke"));
+        let rq = KernelVariant::RayQuery.entry_points();
+        assert!(rq.contains(&"smoke::smoke".to_string()), "{rq:?}");
+        assert_eq!(rq.len(), KernelVariant::Software.entry_points().len());
         // A truncated module yields what was complete, without panicking.
-        let words = KernelVariant::RayQuery.spirv_words();
+        let words = KernelVariant::RayQuery.tracing_spirv_words();
         let _ = entry_points(&words[..words.len() / 2]);
     }
 }

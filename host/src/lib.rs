@@ -6,7 +6,9 @@
 //! `gi-shared`.
 
 pub mod error;
+pub mod frame;
 pub mod gbuffer;
+pub mod gi;
 pub mod image_io;
 pub mod kernels;
 pub mod metrics;

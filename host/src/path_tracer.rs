@@ -7,9 +7,9 @@
 use crate::error::{Error, Result};
 use crate::image_io::HdrImage;
 use crate::scene::bvh::Bvh;
-use crate::scene::gpu_data::{GpuShadingData, ShadingData};
-use crate::scene::lights::{GpuLights, LightParams, LightSet};
-use crate::scene::upload::SceneGeometry;
+use crate::scene::gpu_data::ShadingData;
+use crate::scene::lights::{LightParams, LightSet};
+use crate::scene::upload::GpuScene;
 use crate::vulkan::{
     BindingKind, Buffer, Context, Kernel, KernelModule, Resource, compute_barrier, submit_timed,
     transfer_barrier,
@@ -123,30 +123,20 @@ pub struct PathTracerPass {
 }
 
 impl PathTracerPass {
-    /// Creates the pipeline for the geometry's binding layout.
-    pub fn new(ctx: &Context, geometry: &SceneGeometry) -> Result<Self> {
+    /// Creates the pipeline.
+    pub fn new(ctx: &Context) -> Result<Self> {
         let module = KernelModule::new(ctx)?;
-        let mut bindings = geometry.binding_kinds();
-        bindings.push(BindingKind::StorageBuffer);
-        bindings.extend(GpuShadingData::binding_kinds());
-        // Lights, triangle→light table, environment, its distribution; the accumulation.
-        bindings.extend([BindingKind::StorageBuffer; 5]);
+        // The camera and the accumulation.
+        let bindings = [BindingKind::StorageBuffer; 2];
         let kernel = Kernel::new(
             ctx,
             &module,
             "path_tracer::path_tracer",
             &bindings,
             std::mem::size_of::<PathTracerParams>() as u32,
-        );
-        module.destroy(ctx);
-        let kernel = kernel?;
-        match Buffer::parameters(ctx, "path tracer camera", &[CameraParams::default()]) {
-            Ok(camera) => Ok(Self { kernel, camera }),
-            Err(e) => {
-                kernel.destroy(ctx);
-                Err(e)
-            }
-        }
+        )?;
+        let camera = Buffer::parameters(ctx, "path tracer camera", &[CameraParams::default()])?;
+        Ok(Self { kernel, camera })
     }
 
     /// Renders `settings.samples` paths per pixel of `camera`'s image, calling `progress(done,
@@ -154,16 +144,10 @@ impl PathTracerPass {
     ///
     /// Each submission clears a device-local accumulation buffer, adds a batch of samples to it
     /// and copies it to a read-back buffer; the host adds the batches in `f64`.
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "the scene's three device parts, the view, the settings and the callback"
-    )]
     pub fn render(
         &mut self,
         ctx: &Context,
-        geometry: &SceneGeometry,
-        shading: &GpuShadingData,
-        lights: &GpuLights,
+        scene: &GpuScene,
         camera: &CameraParams,
         settings: &PathTracerSettings,
         mut progress: impl FnMut(u32, u32),
@@ -182,14 +166,7 @@ impl PathTracerPass {
         let pixels = width as usize * height as usize;
         let accumulation =
             Buffer::device_zeroed::<[f32; 4]>(ctx, "path tracer accumulation", pixels)?;
-        let mut readback = match Buffer::readback::<[f32; 4]>(ctx, "path tracer read-back", pixels)
-        {
-            Ok(r) => r,
-            Err(e) => {
-                accumulation.destroy(ctx);
-                return Err(e);
-            }
-        };
+        let mut readback = Buffer::readback::<[f32; 4]>(ctx, "path tracer read-back", pixels)?;
         let per_submit = (PATHS_PER_SUBMIT / pixels as u64).clamp(
             u64::from(MIN_SAMPLES_PER_SUBMIT),
             u64::from(MAX_SAMPLES_PER_SUBMIT),
@@ -199,53 +176,47 @@ impl PathTracerPass {
             height.div_ceil(PATH_TRACER_TILE),
             1,
         ];
-        let light_params = lights.params();
+        let light_params = scene.lights.params();
         let mut sums = vec![[0.0f64; 4]; pixels];
         let mut total_ms: Option<f64> = Some(0.0);
         let mut done = 0;
-        let outcome = (|| -> Result<()> {
-            let mut resources = geometry.resources();
-            resources.push(Resource::Buffer(&self.camera));
-            resources.extend(shading.resources());
-            resources.extend(lights.resources());
-            resources.push(Resource::Buffer(&accumulation));
-            while done < settings.samples {
-                let batch = per_submit.min(settings.samples - done);
-                let ms = submit_timed(ctx, "path tracer", |cmd| {
-                    accumulation.record_fill_zero(ctx, cmd);
-                    transfer_barrier(ctx, cmd);
-                    for s in 0..batch {
-                        if s > 0 {
-                            compute_barrier(ctx, cmd);
-                        }
-                        let params = settings.params(&light_params, done + s);
-                        self.kernel.dispatch(
-                            ctx,
-                            cmd,
-                            &resources,
-                            bytemuck::bytes_of(&params),
-                            groups,
-                        )?;
+        let resources = [
+            Resource::Buffer(&self.camera),
+            Resource::Buffer(&accumulation),
+        ];
+        while done < settings.samples {
+            let batch = per_submit.min(settings.samples - done);
+            let ms = submit_timed(ctx, "path tracer", |cmd| {
+                accumulation.record_fill_zero(ctx, cmd);
+                transfer_barrier(ctx, cmd);
+                for s in 0..batch {
+                    if s > 0 {
+                        compute_barrier(ctx, cmd);
                     }
-                    compute_barrier(ctx, cmd);
-                    accumulation.record_copy_to(ctx, cmd, &readback)?;
-                    transfer_barrier(ctx, cmd);
-                    Ok(())
-                })?;
-                for (sum, s) in sums.iter_mut().zip(readback.read::<[f32; 4]>()?) {
-                    for c in 0..4 {
-                        sum[c] += f64::from(s[c]);
-                    }
+                    let params = settings.params(&light_params, done + s);
+                    self.kernel.dispatch_traced(
+                        ctx,
+                        cmd,
+                        scene.sets(),
+                        &resources,
+                        bytemuck::bytes_of(&params),
+                        groups,
+                    )?;
                 }
-                total_ms = total_ms.zip(ms).map(|(a, b)| a + b);
-                done += batch;
-                progress(done, settings.samples);
+                compute_barrier(ctx, cmd);
+                accumulation.record_copy_to(ctx, cmd, &readback)?;
+                transfer_barrier(ctx, cmd);
+                Ok(())
+            })?;
+            for (sum, s) in sums.iter_mut().zip(readback.read::<[f32; 4]>()?) {
+                for c in 0..4 {
+                    sum[c] += f64::from(s[c]);
+                }
             }
-            Ok(())
-        })();
-        accumulation.destroy(ctx);
-        readback.destroy(ctx);
-        outcome?;
+            total_ms = total_ms.zip(ms).map(|(a, b)| a + b);
+            done += batch;
+            progress(done, settings.samples);
+        }
         let image = HdrImage::from_pixels(
             width,
             height,
@@ -260,12 +231,6 @@ impl PathTracerPass {
             image,
             gpu_ms: total_ms,
         })
-    }
-
-    /// Frees the pipeline and the camera buffer.
-    pub fn destroy(self, ctx: &Context) {
-        self.kernel.destroy(ctx);
-        self.camera.destroy(ctx);
     }
 }
 

@@ -31,11 +31,9 @@ pub fn run(ctx: &Context, invocations: u32) -> Result<SmokeReport> {
         "smoke::smoke",
         &[BindingKind::StorageBuffer],
         0,
-    );
-    module.destroy(ctx);
-    let kernel = kernel?;
+    )?;
     let out = Buffer::device_zeroed::<u32>(ctx, "smoke output", invocations as usize)?;
-    let dispatched = submit_timed(ctx, "smoke", |cmd| {
+    let gpu_ms = submit_timed(ctx, "smoke", |cmd| {
         kernel.dispatch(
             ctx,
             cmd,
@@ -43,11 +41,8 @@ pub fn run(ctx: &Context, invocations: u32) -> Result<SmokeReport> {
             &[],
             [invocations.div_ceil(WORKGROUP_SIZE), 1, 1],
         )
-    });
-    let result = dispatched.and_then(|ms| Ok((ms, out.read_back::<u32>(ctx)?)));
-    out.destroy(ctx);
-    kernel.destroy(ctx);
-    let (gpu_ms, values) = result?;
+    })?;
+    let values = out.read_back::<u32>(ctx)?;
     let mismatches = values
         .iter()
         .enumerate()

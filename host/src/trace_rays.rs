@@ -22,14 +22,12 @@ pub struct TraceResult {
 }
 
 impl TraceRays {
-    /// Creates the pipeline for the geometry's binding layout.
-    pub fn new(ctx: &Context, geometry: &SceneGeometry) -> Result<Self> {
+    /// Creates the pipeline.
+    pub fn new(ctx: &Context) -> Result<Self> {
         let module = KernelModule::new(ctx)?;
-        let mut bindings = geometry.binding_kinds();
-        bindings.extend([BindingKind::StorageBuffer; 2]);
-        let kernel = Kernel::new(ctx, &module, "trace_rays::trace_rays", &bindings, 0);
-        module.destroy(ctx);
-        Ok(Self { kernel: kernel? })
+        let bindings = [BindingKind::StorageBuffer; 2];
+        let kernel = Kernel::new(ctx, &module, "trace_rays::trace_rays", &bindings, 0)?;
+        Ok(Self { kernel })
     }
 
     /// Traces `rays` against `geometry`.
@@ -40,31 +38,14 @@ impl TraceRays {
         rays: &[Ray],
     ) -> Result<TraceResult> {
         let ray_buf = Buffer::device_local(ctx, "rays", rays, Default::default())?;
-        let hit_buf = Buffer::device_zeroed::<HitRecord>(ctx, "hits", rays.len());
-        let hit_buf = match hit_buf {
-            Ok(b) => b,
-            Err(e) => {
-                ray_buf.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let mut resources = geometry.resources();
-        resources.extend([Resource::Buffer(&ray_buf), Resource::Buffer(&hit_buf)]);
+        let hit_buf = Buffer::device_zeroed::<HitRecord>(ctx, "hits", rays.len())?;
+        let resources = [Resource::Buffer(&ray_buf), Resource::Buffer(&hit_buf)];
         let groups = (rays.len() as u32).div_ceil(WORKGROUP_SIZE);
-        let dispatched = submit_timed(ctx, "trace_rays", |cmd| {
+        let gpu_ms = submit_timed(ctx, "trace_rays", |cmd| {
             self.kernel
-                .dispatch(ctx, cmd, &resources, &[], [groups, 1, 1])
-        });
-        drop(resources);
-        let result = dispatched.and_then(|ms| Ok((ms, hit_buf.read_back::<HitRecord>(ctx)?)));
-        ray_buf.destroy(ctx);
-        hit_buf.destroy(ctx);
-        let (gpu_ms, hits) = result?;
+                .dispatch_traced(ctx, cmd, geometry.sets(), &resources, &[], [groups, 1, 1])
+        })?;
+        let hits = hit_buf.read_back::<HitRecord>(ctx)?;
         Ok(TraceResult { hits, gpu_ms })
-    }
-
-    /// Frees the pipeline.
-    pub fn destroy(self, ctx: &Context) {
-        self.kernel.destroy(ctx);
     }
 }

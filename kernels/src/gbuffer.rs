@@ -2,12 +2,11 @@
 //! [`gi_shared::gbuffer::gbuffer_texel`] and written to the G-buffer's storage images (formats and
 //! contents in `gi_shared::gbuffer`).
 //!
-//! Set 0 after the scene's geometry (1 binding with ray queries, 2 in software): the camera
-//! (`CameraParams`), then the shading data (instances, meshes, vertices, triangles, materials,
-//! texture table, texels), then the images (depth, geometric normal, shading normal, albedo,
-//! emissive, motion, ids). Workgroups of 8 × 8 pixels.
+//! Set 0: the camera (`CameraParams`), then the images (depth, geometric normal, shading normal,
+//! albedo, emissive, motion, ids). Set 1: the scene's geometry. Set 2: the scene's shading data
+//! (instances, meshes, vertices, triangles, materials, texture table, texels; the lights that
+//! follow are unused). Workgroups of 8 × 8 pixels.
 
-use crate::trace;
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::{GBufferTexel, gbuffer_texel, in_image};
 use gi_shared::scene_data::{
@@ -47,100 +46,51 @@ macro_rules! write_texel {
     }};
 }
 
-/// Writes the G-buffer pixel of invocation `id`.
-#[cfg(feature = "ray-query")]
-#[spirv(compute(threads(8, 8)))]
-#[allow(
-    clippy::too_many_arguments,
-    reason = "an entry point takes one argument per binding"
-)]
-pub fn gbuffer(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(descriptor_set = 0, binding = 0)] tlas: &trace::AccelerationStructure,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] camera: &CameraParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] instances: &[GpuInstance],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] meshes: &[GpuMesh],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] vertices: &[GpuVertex],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] triangles: &[GpuTriangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] materials: &[GpuMaterial],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] textures: &[GpuTexture],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] texels: &[u32],
-    #[spirv(descriptor_set = 0, binding = 9)] depth: &DepthImage,
-    #[spirv(descriptor_set = 0, binding = 10)] geometric_normal: &HalfImage,
-    #[spirv(descriptor_set = 0, binding = 11)] shading_normal: &HalfImage,
-    #[spirv(descriptor_set = 0, binding = 12)] albedo: &UnormImage,
-    #[spirv(descriptor_set = 0, binding = 13)] emissive: &HalfImage,
-    #[spirv(descriptor_set = 0, binding = 14)] motion: &FloatImage,
-    #[spirv(descriptor_set = 0, binding = 15)] ids: &IdImage,
-) {
-    let pixel = UVec2::new(id.x, id.y);
-    if !in_image(camera, pixel) {
-        return;
+traced_kernel! {
+    /// Writes the G-buffer pixel of invocation `id`.
+    #[spirv(compute(threads(8, 8)))]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "an entry point takes one argument per binding"
+    )]
+    pub fn gbuffer(
+        scene;
+        #[spirv(global_invocation_id)] id: UVec3,
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] camera: &CameraParams,
+        #[spirv(descriptor_set = 0, binding = 1)] depth: &DepthImage,
+        #[spirv(descriptor_set = 0, binding = 2)] geometric_normal: &HalfImage,
+        #[spirv(descriptor_set = 0, binding = 3)] shading_normal: &HalfImage,
+        #[spirv(descriptor_set = 0, binding = 4)] albedo: &UnormImage,
+        #[spirv(descriptor_set = 0, binding = 5)] emissive: &HalfImage,
+        #[spirv(descriptor_set = 0, binding = 6)] motion: &FloatImage,
+        #[spirv(descriptor_set = 0, binding = 7)] ids: &IdImage,
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] instances: &[GpuInstance],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] meshes: &[GpuMesh],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] vertices: &[GpuVertex],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] texels: &[u32],
+    ) {
+        let pixel = UVec2::new(id.x, id.y);
+        if !in_image(camera, pixel) {
+            return;
+        }
+        let ray = primary_ray(camera, pixel, camera.jitter());
+        let hit = scene.closest_hit(&ray);
+        let texel = gbuffer_texel(
+            camera, &ray, &hit, instances, meshes, vertices, triangles, materials, textures, texels,
+        );
+        write_texel!(
+            pixel,
+            texel,
+            depth,
+            geometric_normal,
+            shading_normal,
+            albedo,
+            emissive,
+            motion,
+            ids
+        );
     }
-    let ray = primary_ray(camera, pixel, camera.jitter());
-    let hit = trace::closest_hit(tlas, &ray);
-    let texel = gbuffer_texel(
-        camera, &ray, &hit, instances, meshes, vertices, triangles, materials, textures, texels,
-    );
-    write_texel!(
-        pixel,
-        texel,
-        depth,
-        geometric_normal,
-        shading_normal,
-        albedo,
-        emissive,
-        motion,
-        ids
-    );
-}
-
-/// Writes the G-buffer pixel of invocation `id`.
-#[cfg(not(feature = "ray-query"))]
-#[spirv(compute(threads(8, 8)))]
-#[allow(
-    clippy::too_many_arguments,
-    reason = "an entry point takes one argument per binding"
-)]
-pub fn gbuffer(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] nodes: &[trace::BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)]
-    bvh_triangles: &[trace::BvhTriangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] camera: &CameraParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] instances: &[GpuInstance],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] meshes: &[GpuMesh],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] vertices: &[GpuVertex],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] triangles: &[GpuTriangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] materials: &[GpuMaterial],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] textures: &[GpuTexture],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] texels: &[u32],
-    #[spirv(descriptor_set = 0, binding = 10)] depth: &DepthImage,
-    #[spirv(descriptor_set = 0, binding = 11)] geometric_normal: &HalfImage,
-    #[spirv(descriptor_set = 0, binding = 12)] shading_normal: &HalfImage,
-    #[spirv(descriptor_set = 0, binding = 13)] albedo: &UnormImage,
-    #[spirv(descriptor_set = 0, binding = 14)] emissive: &HalfImage,
-    #[spirv(descriptor_set = 0, binding = 15)] motion: &FloatImage,
-    #[spirv(descriptor_set = 0, binding = 16)] ids: &IdImage,
-) {
-    let pixel = UVec2::new(id.x, id.y);
-    if !in_image(camera, pixel) {
-        return;
-    }
-    let ray = primary_ray(camera, pixel, camera.jitter());
-    let hit = trace::closest_hit(nodes, bvh_triangles, &ray);
-    let texel = gbuffer_texel(
-        camera, &ray, &hit, instances, meshes, vertices, triangles, materials, textures, texels,
-    );
-    write_texel!(
-        pixel,
-        texel,
-        depth,
-        geometric_normal,
-        shading_normal,
-        albedo,
-        emissive,
-        motion,
-        ids
-    );
 }

@@ -2,9 +2,10 @@
 //! device-built acceleration structure (feature `ray-query`), or the shared crate's BVH walked in
 //! software. Both return the same [`HitRecord`].
 //!
-//! A kernel that traces takes the scene's geometry as the first bindings of set 0: the top-level
-//! acceleration structure (binding 0) with ray queries; the BVH nodes (binding 0) and triangles
-//! (binding 1) in software. Its own bindings follow.
+//! A kernel that traces is written once, with [`traced_kernel!`]: the macro emits its entry point
+//! for the variant being built, binding the scene's geometry as set 1 (the top-level acceleration
+//! structure at binding 0 with ray queries; the BVH nodes at binding 0 and triangles at binding 1
+//! in software) and handing the body a [`Scene`] to trace against.
 
 use gi_shared::ray::{HitRecord, Ray};
 
@@ -14,9 +15,106 @@ pub use gi_shared::bvh::{BvhNodeRows as BvhNode, BvhTriangleRows as BvhTriangle}
 #[cfg(feature = "ray-query")]
 pub use spirv_std::ray_tracing::AccelerationStructure;
 
+/// Defines a kernel that traces, once for both variants. It takes the entry point's attributes,
+/// the name the body calls the [`Scene`] by, then the kernel's own parameters (sets 0 and 2) and
+/// its body:
+///
+/// ```ignore
+/// traced_kernel! {
+///     /// Docs.
+///     #[spirv(compute(threads(64)))]
+///     pub fn name(scene; #[spirv(global_invocation_id)] id: UVec3, ...) {
+///         let hit = scene.closest_hit(&ray);
+///     }
+/// }
+/// ```
+///
+/// The variant being built gets one entry point of that name with the geometry's bindings (set 1)
+/// added in front of the kernel's parameters.
+#[macro_export]
+macro_rules! traced_kernel {
+    (
+        $(#[$attr:meta])*
+        pub fn $name:ident(
+            $scene:ident;
+            $($(#[$param_attr:meta])* $param:ident: $ty:ty),* $(,)?
+        ) $body:block
+    ) => {
+        #[cfg(feature = "ray-query")]
+        $(#[$attr])*
+        pub fn $name(
+            #[spirv(descriptor_set = 1, binding = 0)] tlas: &$crate::trace::AccelerationStructure,
+            $($(#[$param_attr])* $param: $ty),*
+        ) {
+            let $scene = $crate::trace::Scene { tlas };
+            $body
+        }
+
+        #[cfg(not(feature = "ray-query"))]
+        $(#[$attr])*
+        pub fn $name(
+            #[spirv(storage_buffer, descriptor_set = 1, binding = 0)]
+            bvh_nodes: &[$crate::trace::BvhNode],
+            #[spirv(storage_buffer, descriptor_set = 1, binding = 1)]
+            bvh_triangles: &[$crate::trace::BvhTriangle],
+            $($(#[$param_attr])* $param: $ty),*
+        ) {
+            let $scene = $crate::trace::Scene {
+                nodes: bvh_nodes,
+                triangles: bvh_triangles,
+            };
+            $body
+        }
+    };
+}
+
+/// The scene's geometry as a tracing kernel sees it (built by [`traced_kernel!`]).
+#[cfg(feature = "ray-query")]
+#[derive(Clone, Copy)]
+pub struct Scene<'a> {
+    /// The top-level acceleration structure.
+    pub tlas: &'a AccelerationStructure,
+}
+
+/// The scene's geometry as a tracing kernel sees it (built by [`traced_kernel!`]).
+#[cfg(not(feature = "ray-query"))]
+#[derive(Clone, Copy)]
+pub struct Scene<'a> {
+    /// The flattened BVH's nodes.
+    pub nodes: &'a [BvhNode],
+    /// Its triangles, in leaf order.
+    pub triangles: &'a [BvhTriangle],
+}
+
+#[cfg(not(feature = "ray-query"))]
+impl Scene<'_> {
+    /// The closest hit of `ray`, or [`HitRecord::miss`].
+    pub fn closest_hit(self, ray: &Ray) -> HitRecord {
+        gi_shared::bvh::closest_hit(self.nodes, self.triangles, ray)
+    }
+
+    /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+    pub fn any_hit(self, ray: &Ray) -> bool {
+        gi_shared::bvh::any_hit(self.nodes, self.triangles, ray)
+    }
+}
+
+#[cfg(feature = "ray-query")]
+impl Scene<'_> {
+    /// The closest hit of `ray`, or [`HitRecord::miss`].
+    pub fn closest_hit(self, ray: &Ray) -> HitRecord {
+        closest_hit(self.tlas, ray)
+    }
+
+    /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+    pub fn any_hit(self, ray: &Ray) -> bool {
+        any_hit(self.tlas, ray)
+    }
+}
+
 /// The closest hit of `ray`, or [`HitRecord::miss`].
 #[cfg(feature = "ray-query")]
-pub fn closest_hit(tlas: &AccelerationStructure, ray: &Ray) -> HitRecord {
+fn closest_hit(tlas: &AccelerationStructure, ray: &Ray) -> HitRecord {
     use spirv_std::glam::Vec3;
     use spirv_std::ray_tracing::{CommittedIntersection, RayFlags, RayQuery};
     // Ray queries leave such rays undefined; the software traversal misses them, and so must this.
@@ -52,15 +150,9 @@ pub fn closest_hit(tlas: &AccelerationStructure, ray: &Ray) -> HitRecord {
     }
 }
 
-/// The closest hit of `ray`, or [`HitRecord::miss`].
-#[cfg(not(feature = "ray-query"))]
-pub fn closest_hit(nodes: &[BvhNode], triangles: &[BvhTriangle], ray: &Ray) -> HitRecord {
-    gi_shared::bvh::closest_hit(nodes, triangles, ray)
-}
-
 /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
 #[cfg(feature = "ray-query")]
-pub fn any_hit(tlas: &AccelerationStructure, ray: &Ray) -> bool {
+fn any_hit(tlas: &AccelerationStructure, ray: &Ray) -> bool {
     use spirv_std::glam::Vec3;
     use spirv_std::ray_tracing::{CommittedIntersection, RayFlags, RayQuery};
     if !ray.is_traceable() {
@@ -83,10 +175,4 @@ pub fn any_hit(tlas: &AccelerationStructure, ray: &Ray) -> bool {
             CommittedIntersection::None
         )
     }
-}
-
-/// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
-#[cfg(not(feature = "ray-query"))]
-pub fn any_hit(nodes: &[BvhNode], triangles: &[BvhTriangle], ray: &Ray) -> bool {
-    gi_shared::bvh::any_hit(nodes, triangles, ray)
 }

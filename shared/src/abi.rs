@@ -7,4 +7,12 @@ pub const WORKGROUP_SIZE: u32 = 64;
 /// SPIR-V capabilities every kernel module declares beyond `Shader` and `VulkanMemoryModel`.
 /// The kernel build declares them; the host enables the matching device feature and refuses a
 /// device without it, naming the feature.
-pub const KERNEL_CAPABILITIES: &[&str] = &[];
+///
+/// - `VulkanMemoryModelDeviceScope`: device-scope atomics (`kernels/src/atomics.rs`).
+/// - `GroupNonUniform`, `GroupNonUniformArithmetic`: subgroup ids and subgroup scans in compute
+///   kernels (the prefix scan).
+pub const KERNEL_CAPABILITIES: &[&str] = &[
+    "VulkanMemoryModelDeviceScope",
+    "GroupNonUniform",
+    "GroupNonUniformArithmetic",
+];

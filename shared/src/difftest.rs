@@ -15,7 +15,7 @@ use crate::octahedral::{
 };
 use crate::packing::{
     f16_to_f32, f32_to_f16, pack_radiance_half, pack_score_lane, pack_seed, pack_snorm10x3,
-    quantize_hash_radiance, quantize_probe_radiance, unpack_snorm10x3,
+    quantize_probe_radiance, unpack_snorm10x3,
 };
 use crate::random::{Random, halton23, pixel_sample, radical_inverse};
 use crate::reservoir::Reservoir;
@@ -286,8 +286,11 @@ pub fn evaluate(function: u32, input: [u32; 4]) -> [u32; OUTPUT_WORDS] {
             o[1] = pack_score_lane(f(c), d);
         }
         18 => {
-            o[0] = quantize_hash_radiance(f(a));
+            // Hash-cell accumulators: 64-bit fixed point, low word in 0 and high word in 2.
+            let [lo, hi] = crate::fixed_point::encode(f(a));
+            o[0] = lo;
             o[1] = quantize_probe_radiance(f(b));
+            o[2] = hi;
         }
         19 => {
             let mut sh = ShL2Rgb::ZERO;

@@ -7,23 +7,34 @@
 #![cfg_attr(not(any(feature = "std", test)), no_std)]
 
 pub mod abi;
+pub mod append_list;
+pub mod atomics;
 pub mod bvh;
+pub mod cache_view;
 pub mod camera;
 pub mod color;
 pub mod difftest;
 pub mod environment;
+pub mod finite_check;
+pub mod fixed_point;
 pub mod gbuffer;
 pub mod hash;
 pub mod hash_cells;
+pub mod indirect;
 pub mod layout;
+pub mod light_grid;
 pub mod lights;
+pub mod machinery_tests;
 pub mod math;
 pub mod octahedral;
 pub mod packing;
 pub mod path_tracer;
+pub mod radiance_feedback;
 pub mod random;
 pub mod ray;
 pub mod reservoir;
 pub mod sampling;
+pub mod scan;
 pub mod scene_data;
 pub mod sh;
+pub mod world_restir;

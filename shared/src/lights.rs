@@ -19,9 +19,11 @@
 //! falloff is inverse-square without a window).
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Vec2, Vec3};
+use glam::{UVec2, Vec2, Vec3};
 
+use crate::environment::{sample_environment, texel_of};
 use crate::math::{clamp, max, min, saturate, to_u32_clamped};
+use crate::ray::{Ray, offset_ray_origin};
 use crate::sampling::{area_to_solid_angle_pdf, sample_triangle};
 
 /// [`GpuLight::kind`]: a point light, `position` and `intensity` (W/sr).
@@ -368,6 +370,106 @@ pub fn punctual_incidence(light: &GpuLight, point: Vec3) -> PunctualIncidence {
     }
 }
 
+/// Radiance of the environment image along the unit `direction` (pointing away from the scene):
+/// its texel ([`crate::environment`] gives the mapping). `environment` holds the `size` image's
+/// texels row by row (RGB, the fourth channel unused); a too-short buffer reads as black.
+#[inline]
+pub fn environment_radiance(size: UVec2, environment: &[[f32; 4]], direction: Vec3) -> Vec3 {
+    let t = texel_of(size, direction);
+    let i = t.y as usize * size.x as usize + t.x as usize;
+    if i < environment.len() {
+        let t = environment[i];
+        Vec3::new(t[0], t[1], t[2])
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// One sample of one light seen from a shading point: what next-event estimation needs before
+/// the receiver's BSDF and the light's selection probability.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSample {
+    /// Unit direction from the shading point toward the light.
+    pub direction: Vec3,
+    /// Radiance (triangle, environment; before emissive textures and multipliers), or irradiance
+    /// on a surface facing the light (punctual lights).
+    pub radiance: Vec3,
+    /// Solid-angle density of `direction` given the light; 1 for punctual lights (a delta
+    /// distribution: `radiance` is already an irradiance); 0 when there is no usable sample
+    /// (a triangle seen edge-on or from a side that does not emit, an empty environment).
+    pub pdf: f32,
+    /// The shadow ray from the shading point to the sample (ends short of a triangle's surface).
+    pub ray: Ray,
+    /// Barycentrics of the point on a triangle light (for its emissive texture).
+    pub barycentrics: Vec2,
+}
+
+/// Samples `light` from the shading point `origin` (`u` uniform in `[0, 1)²`): a point on a
+/// triangle (uniform in area), a direction of the environment (by its distribution `cdf` of a
+/// `environment_size` image, radiance from `environment`), or a punctual light's incidence.
+pub fn sample_light(
+    light: &GpuLight,
+    origin: Vec3,
+    environment_size: UVec2,
+    environment: &[[f32; 4]],
+    environment_cdf: &[f32],
+    u: Vec2,
+) -> LightSample {
+    let mut s = LightSample {
+        direction: Vec3::ZERO,
+        radiance: Vec3::ZERO,
+        pdf: 0.0,
+        ray: Ray {
+            origin: origin.to_array(),
+            t_min: 0.0,
+            direction: [0.0; 3],
+            t_max: 0.0,
+        },
+        barycentrics: Vec2::ZERO,
+    };
+    if light.kind == LIGHT_TRIANGLE {
+        let t = sample_triangle_light(light, origin, u);
+        s.direction = t.direction;
+        s.barycentrics = t.barycentrics;
+        if t.pdf > 0.0 && light.emits_toward(-t.direction) {
+            let (p0, p1, p2) = (
+                Vec3::from_array(light.p0),
+                Vec3::from_array(light.p1),
+                Vec3::from_array(light.p2),
+            );
+            let (e1, e2) = (p1 - p0, p2 - p0);
+            let mut n = e1.cross(e2).normalize_or_zero();
+            if n.dot(t.direction) > 0.0 {
+                n = -n;
+            }
+            // The shadow ray ends just off the light, on the shading point's side.
+            let size = e1.abs().max(e2.abs()).max((p2 - p1).abs()).max_element();
+            let end = offset_ray_origin(t.point, n, size);
+            s.radiance = Vec3::from_array(light.intensity);
+            s.pdf = t.pdf;
+            s.ray.direction = (end - origin).to_array();
+            s.ray.t_max = 1.0;
+        }
+    } else if light.kind == LIGHT_ENVIRONMENT {
+        let e = sample_environment(environment_size, environment_cdf, u);
+        s.direction = e.direction;
+        if e.pdf > 0.0 {
+            s.radiance = environment_radiance(environment_size, environment, e.direction);
+            s.pdf = e.pdf;
+            s.ray.direction = e.direction.to_array();
+            s.ray.t_max = f32::INFINITY;
+        }
+    } else {
+        let incidence = punctual_incidence(light, origin);
+        s.direction = incidence.direction;
+        s.radiance = incidence.irradiance;
+        s.pdf = 1.0;
+        s.ray.direction = incidence.direction.to_array();
+        s.ray.t_max = incidence.distance;
+    }
+    s
+}
+
 /// Veach's power heuristic (β = 2): the MIS weight of a sample drawn with density `pdf` when
 /// `other_pdf` could also have drawn it. 0 when `pdf` is 0 or NaN; an infinite `pdf` (a
 /// technique that cannot miss) against a finite other gets 1, and the reverse 0.
@@ -600,6 +702,70 @@ mod tests {
 
     fn point_position(l: &GpuLight) -> Vec3 {
         Vec3::from_array(l.p0)
+    }
+
+    /// One sampling entry point for every kind: a triangle only from its emitting side, with a
+    /// shadow ray that stops just short of it; punctual lights as delta samples; no environment
+    /// without an image.
+    #[test]
+    fn light_samples_of_every_kind() {
+        let v = [
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(0.0, 2.0, 1.0),
+            Vec3::new(1.0, 2.0, 0.0),
+        ];
+        // (p1 − p0) × (p2 − p0) = +Y: the back faces down, toward the origin.
+        let down = GpuLight::triangle(0, 0, v, Vec3::splat(3.0), EMIT_BACK);
+        let up = GpuLight::triangle(0, 0, v, Vec3::splat(3.0), EMIT_FRONT);
+        let u = Vec2::new(0.3, 0.6);
+        let s = sample_light(&down, Vec3::ZERO, UVec2::ZERO, &[], &[], u);
+        let t = sample_triangle_light(&down, Vec3::ZERO, u);
+        assert_eq!(
+            (s.direction, s.pdf, s.barycentrics),
+            (t.direction, t.pdf, t.barycentrics)
+        );
+        assert_eq!(s.radiance, Vec3::splat(3.0));
+        let end = Vec3::from_array(s.ray.direction);
+        assert_eq!(s.ray.t_max, 1.0);
+        assert!(end.y < 2.0 && end.y > 2.0 - 1e-5, "{end}");
+        assert_eq!(
+            sample_light(&up, Vec3::ZERO, UVec2::ZERO, &[], &[], u).pdf,
+            0.0
+        );
+
+        let point = GpuLight::point(Vec3::new(0.0, 2.0, 0.0), Vec3::splat(8.0));
+        let p = sample_light(&point, Vec3::ZERO, UVec2::ZERO, &[], &[], u);
+        assert_eq!(
+            (p.direction, p.radiance, p.pdf),
+            (Vec3::Y, Vec3::splat(2.0), 1.0)
+        );
+        assert_eq!((p.ray.t_max, p.ray.direction), (2.0, [0.0, 1.0, 0.0]));
+
+        let sky = sample_light(&GpuLight::ENVIRONMENT, Vec3::ZERO, UVec2::ZERO, &[], &[], u);
+        assert_eq!((sky.pdf, sky.radiance), (0.0, Vec3::ZERO));
+        // A 1 × 1 image: uniform over the sphere, its one texel's radiance.
+        let cdf = [0.0, 1.0, 0.0, 1.0];
+        let e = sample_light(
+            &GpuLight::ENVIRONMENT,
+            Vec3::ZERO,
+            UVec2::ONE,
+            &[[0.5; 4]],
+            &cdf,
+            u,
+        );
+        assert!(
+            (e.pdf
+                - 1.0
+                    / (2.0
+                        * core::f32::consts::PI
+                        * core::f32::consts::PI
+                        * Vec2::new(e.direction.x, e.direction.z).length()))
+            .abs()
+                < 1e-4
+        );
+        assert_eq!(e.radiance, Vec3::splat(0.5));
+        assert_eq!(e.ray.t_max, f32::INFINITY);
+        assert_eq!(environment_radiance(UVec2::ONE, &[], Vec3::Y), Vec3::ZERO);
     }
 
     #[test]

@@ -195,19 +195,11 @@ pub fn unpack_score_lane(packed: u32) -> (f32, u32) {
     (f16_to_f32(packed >> 16), packed & 0xffff)
 }
 
-/// Fixed-point scale of the hash-grid cell accumulators (`rgb × 1e3`, global `u32` atomics).
-pub const HASH_RADIANCE_SCALE: f32 = 1e3;
 /// Fixed-point scale of the screen-probe accumulators (`rgb` and hit distance `× 1e4`, shared memory).
 pub const PROBE_RADIANCE_SCALE: f32 = 1e4;
-/// Samples one hash cell may receive in one frame without its `u32` sums wrapping (see
-/// [`HASH_MAX_QUANTIZED`]). Kernels must not add more than this many per cell per frame.
-pub const HASH_ACCUM_SAMPLE_BUDGET: u32 = 1024;
 /// Samples one probe cell may receive per frame: 64 traced rays plus 9 × 64 reprojected cells = 640,
 /// rounded up.
 pub const PROBE_ACCUM_SAMPLE_BUDGET: u32 = 1024;
-/// Per-sample clamp of quantised hash radiance: `budget` samples of it still fit in a `u32`.
-/// That is 4194.303 in radiance units per channel.
-pub const HASH_MAX_QUANTIZED: u32 = max_quantized_per_sample(HASH_ACCUM_SAMPLE_BUDGET);
 /// Per-sample clamp of quantised probe radiance/hit distance: 419.4303 units (so probe hit distances
 /// saturate at ~419 m; misses use 1e9 and saturate too).
 pub const PROBE_MAX_QUANTIZED: u32 = max_quantized_per_sample(PROBE_ACCUM_SAMPLE_BUDGET);
@@ -224,7 +216,6 @@ pub const fn samples_before_wrap(q: u32) -> u32 {
     u32::MAX / if q > 1 { q } else { 1 }
 }
 
-const _: () = assert!(samples_before_wrap(HASH_MAX_QUANTIZED) >= HASH_ACCUM_SAMPLE_BUDGET);
 const _: () = assert!(samples_before_wrap(PROBE_MAX_QUANTIZED) >= PROBE_ACCUM_SAMPLE_BUDGET);
 
 /// Quantises `x` to fixed point: `round(x · scale)` clamped to `[0, max_q]`; negatives and NaN give 0.
@@ -232,12 +223,6 @@ const _: () = assert!(samples_before_wrap(PROBE_MAX_QUANTIZED) >= PROBE_ACCUM_SA
 pub fn quantize(x: f32, scale: f32, max_q: u32) -> u32 {
     let q = to_u32_clamped(floor(x * scale + 0.5));
     if q < max_q { q } else { max_q }
-}
-
-/// Quantised hash-cell radiance channel ([`HASH_RADIANCE_SCALE`], clamped to [`HASH_MAX_QUANTIZED`]).
-#[inline]
-pub fn quantize_hash_radiance(x: f32) -> u32 {
-    quantize(x, HASH_RADIANCE_SCALE, HASH_MAX_QUANTIZED)
 }
 
 /// Quantised probe radiance/hit-distance channel ([`PROBE_RADIANCE_SCALE`], clamped to
@@ -414,31 +399,29 @@ mod tests {
 
     #[test]
     fn fixed_point_budget_holds_and_overflow_is_detected() {
-        assert_eq!(HASH_MAX_QUANTIZED, 4_194_303);
-        assert_eq!(quantize_hash_radiance(1e9), HASH_MAX_QUANTIZED);
-        assert_eq!(quantize_hash_radiance(-1.0), 0);
-        assert_eq!(quantize_hash_radiance(f32::NAN), 0);
-        assert_eq!(quantize_hash_radiance(f32::INFINITY), HASH_MAX_QUANTIZED);
-        assert_eq!(quantize_hash_radiance(1.2344), 1234);
-        assert_eq!(quantize_hash_radiance(0.0015), 2);
-        assert!((dequantize(quantize_hash_radiance(2.5), HASH_RADIANCE_SCALE) - 2.5).abs() < 1e-6);
+        assert_eq!(PROBE_MAX_QUANTIZED, 4_194_303);
+        assert_eq!(quantize_probe_radiance(1e9), PROBE_MAX_QUANTIZED);
+        assert_eq!(quantize_probe_radiance(-1.0), 0);
+        assert_eq!(quantize_probe_radiance(f32::NAN), 0);
+        assert_eq!(quantize_probe_radiance(f32::INFINITY), PROBE_MAX_QUANTIZED);
+        assert_eq!(quantize_probe_radiance(0.12344), 1234);
+        assert_eq!(quantize_probe_radiance(0.00015), 2);
+        assert!(
+            (dequantize(quantize_probe_radiance(2.5), PROBE_RADIANCE_SCALE) - 2.5).abs() < 1e-6
+        );
 
-        for (q, budget) in [
-            (quantize_hash_radiance(f32::MAX), HASH_ACCUM_SAMPLE_BUDGET),
-            (quantize_probe_radiance(1e9), PROBE_ACCUM_SAMPLE_BUDGET),
-        ] {
-            let mut sum = 0u32;
-            for _ in 0..budget {
-                sum = accumulate_checked(sum, q).expect("within budget");
-            }
-            // The documented limit itself: samples_before_wrap more samples are still fine...
-            let more = samples_before_wrap(q) - budget;
-            for _ in 0..more {
-                sum = accumulate_checked(sum, q).expect("within samples_before_wrap");
-            }
-            // ...and one step beyond wraps, which the checked add reports.
-            assert_eq!(accumulate_checked(sum, q), None);
+        let (q, budget) = (quantize_probe_radiance(1e9), PROBE_ACCUM_SAMPLE_BUDGET);
+        let mut sum = 0u32;
+        for _ in 0..budget {
+            sum = accumulate_checked(sum, q).expect("within budget");
         }
+        // The documented limit itself: samples_before_wrap more samples are still fine...
+        let more = samples_before_wrap(q) - budget;
+        for _ in 0..more {
+            sum = accumulate_checked(sum, q).expect("within samples_before_wrap");
+        }
+        // ...and one step beyond wraps, which the checked add reports.
+        assert_eq!(accumulate_checked(sum, q), None);
         assert_eq!(samples_before_wrap(0), u32::MAX);
         assert_eq!(samples_before_wrap(1000), 4_294_967);
     }

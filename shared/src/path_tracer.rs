@@ -62,12 +62,12 @@ use glam::{UVec2, Vec2, Vec3};
 
 use crate::camera::{CameraParams, primary_ray};
 use crate::color::luminance;
-use crate::environment::{environment_pdf, sample_environment, texel_of};
+use crate::environment::environment_pdf;
 use crate::hash::pcg_chain;
 use crate::lights::{
-    GpuLight, LIGHT_ENVIRONMENT, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, light_of_triangle,
-    power_heuristic, punctual_incidence, russian_roulette_survival, sample_triangle_light,
-    select_light, triangle_light_pdf,
+    GpuLight, LIGHT_ENVIRONMENT, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, environment_radiance,
+    light_of_triangle, power_heuristic, russian_roulette_survival, sample_light, select_light,
+    triangle_light_pdf,
 };
 use crate::math::{INV_PI, max, min_u32};
 use crate::random::Random;
@@ -148,14 +148,7 @@ pub fn sky_radiance(params: &PathTracerParams, environment: &[[f32; 4]], directi
     if w == 0 || h == 0 {
         return Vec3::from_array(params.sky);
     }
-    let t = texel_of(UVec2::new(w, h), direction);
-    let i = t.y as usize * w as usize + t.x as usize;
-    if i < environment.len() {
-        let t = environment[i];
-        Vec3::new(t[0], t[1], t[2])
-    } else {
-        Vec3::ZERO
-    }
+    environment_radiance(UVec2::new(w, h), environment, direction)
 }
 
 /// One path in flight (see the [module](self) for the loop that drives it).
@@ -331,71 +324,37 @@ fn light_candidate(
     };
     let mut c = LightCandidate::NONE;
     c.light = index;
-    let mis = |pdf: f32, cosine: f32| {
-        if params.strategy == STRATEGY_LIGHTS_ONLY {
-            1.0
+    let [w, h] = params.environment_size;
+    let s = sample_light(
+        &light,
+        frame.origin,
+        UVec2::new(w, h),
+        environment,
+        environment_cdf,
+        u,
+    );
+    let cosine = folded_cosine(frame.ns, frame.ng, s.direction);
+    let pdf = s.pdf * light.select_pmf;
+    if pdf > 0.0 && cosine > 0.0 {
+        if light.kind == LIGHT_TRIANGLE || light.kind == LIGHT_ENVIRONMENT {
+            let mis = if params.strategy == STRATEGY_LIGHTS_ONLY {
+                1.0
+            } else {
+                power_heuristic(pdf, cosine * INV_PI)
+            };
+            c.weight = frame.brdf * (cosine * mis);
         } else {
-            power_heuristic(pdf, cosine * INV_PI)
-        }
-    };
-    if light.kind == LIGHT_TRIANGLE {
-        let s = sample_triangle_light(&light, frame.origin, u);
-        let cosine = folded_cosine(frame.ns, frame.ng, s.direction);
-        let pdf = s.pdf * light.select_pmf;
-        if pdf > 0.0 && cosine > 0.0 && light.emits_toward(-s.direction) {
-            let (p0, p1, p2) = (
-                Vec3::from_array(light.p0),
-                Vec3::from_array(light.p1),
-                Vec3::from_array(light.p2),
-            );
-            let (e1, e2) = (p1 - p0, p2 - p0);
-            let mut n = e1.cross(e2).normalize_or_zero();
-            if n.dot(s.direction) > 0.0 {
-                n = -n;
-            }
-            let size = e1.abs().max(e2.abs()).max((p2 - p1).abs()).max_element();
-            let end = offset_ray_origin(s.point, n, size);
-            c.weight = frame.brdf * (cosine * mis(pdf, cosine));
-            c.radiance = Vec3::from_array(light.intensity) * params.emissive_multiplier;
-            c.pdf = pdf;
-            c.barycentrics = s.barycentrics;
-            c.ray = Ray {
-                origin: frame.origin.to_array(),
-                t_min: 0.0,
-                direction: (end - frame.origin).to_array(),
-                t_max: 1.0,
-            };
-        }
-    } else if light.kind == LIGHT_ENVIRONMENT {
-        let [w, h] = params.environment_size;
-        let s = sample_environment(UVec2::new(w, h), environment_cdf, u);
-        let cosine = folded_cosine(frame.ns, frame.ng, s.direction);
-        let pdf = s.pdf * light.select_pmf;
-        if pdf > 0.0 && cosine > 0.0 {
-            c.weight = frame.brdf * (cosine * mis(pdf, cosine));
-            c.radiance = sky_radiance(params, environment, s.direction);
-            c.pdf = pdf;
-            c.ray = Ray {
-                origin: frame.origin.to_array(),
-                t_min: 0.0,
-                direction: s.direction.to_array(),
-                t_max: f32::INFINITY,
-            };
-        }
-    } else {
-        let incidence = punctual_incidence(&light, frame.origin);
-        let cosine = folded_cosine(frame.ns, frame.ng, incidence.direction);
-        if light.select_pmf > 0.0 && cosine > 0.0 {
+            // Punctual lights: no ray can hit them, so no MIS.
             c.weight = frame.brdf * cosine;
-            c.radiance = incidence.irradiance;
-            c.pdf = light.select_pmf;
-            c.ray = Ray {
-                origin: frame.origin.to_array(),
-                t_min: 0.0,
-                direction: incidence.direction.to_array(),
-                t_max: incidence.distance,
-            };
         }
+        c.radiance = if light.kind == LIGHT_TRIANGLE {
+            s.radiance * params.emissive_multiplier
+        } else {
+            s.radiance
+        };
+        c.pdf = pdf;
+        c.barycentrics = s.barycentrics;
+        c.ray = s.ray;
     }
     c
 }

@@ -3,7 +3,8 @@
 
 use gi_host::KernelVariant;
 use gi_host::vulkan::{
-    AccelerationStructure, BindingKind, Buffer, Instance, Kernel, KernelModule, Resource,
+    AccelerationStructure, BindingKind, Buffer, DescriptorSet, Instance, Kernel, KernelModule,
+    Resource, SceneSet, SceneSets,
 };
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::ray::{HitRecord, Ray};
@@ -39,6 +40,10 @@ fn both_variants_declare_their_entry_points() {
         }
     }
     assert_eq!(sw.len(), rq.len(), "the variants differ in entry points");
+    // Only the kernels that trace are built with ray queries.
+    let tracing = gi_host::kernels::entry_points(&KernelVariant::RayQuery.tracing_spirv_words());
+    assert!(tracing.iter().all(|e| gi_host::kernels::traces(e)));
+    assert!(!tracing.iter().any(|e| e == "smoke::smoke"), "{tracing:?}");
 }
 
 #[test]
@@ -49,8 +54,25 @@ fn missing_entry_point_is_a_clear_error() {
         .err()
         .expect("there is no such kernel");
     assert!(err.to_string().contains("no_such::kernel"), "{err}");
-    module.destroy(&ctx);
+    drop(module);
     finish_without_validation_messages(ctx);
+}
+
+#[test]
+fn resources_free_themselves_whenever_they_are_dropped() {
+    let ctx = context(KernelVariant::Software);
+    let early = Buffer::device_zeroed::<u32>(&ctx, "early", 4).unwrap();
+    let late = Buffer::device_zeroed::<u32>(&ctx, "late", 4).unwrap();
+    drop(early);
+    assert_eq!(ctx.live_buffers().len(), 1);
+    // A resource alive at `finish` would hide its own destruction from the check: it is reported.
+    let messages = ctx.finish().expect("tests always run with validation on");
+    assert!(
+        messages.len() == 1 && messages[0].contains("outlived Context::finish"),
+        "{messages:?}"
+    );
+    // The device and instance go with it, after the context.
+    drop(late);
 }
 
 /// Two instances of a two-triangle mesh: a unit quad in z = 0 (instance 7) and the same quad
@@ -129,28 +151,32 @@ fn ray_queries_hit_the_expected_triangles() {
         &ctx,
         &module,
         "trace_rays::trace_rays",
-        &[
-            BindingKind::AccelerationStructure,
-            BindingKind::StorageBuffer,
-            BindingKind::StorageBuffer,
-        ],
+        &[BindingKind::StorageBuffer, BindingKind::StorageBuffer],
         0,
     )
     .unwrap();
-    module.destroy(&ctx);
+    drop(module);
+    let geometry = DescriptorSet::new(
+        &ctx,
+        SceneSet::Geometry,
+        &[Resource::AccelerationStructure(tlas.handle)],
+    )
+    .unwrap();
+    let resources = [Resource::Buffer(&ray_buf), Resource::Buffer(&hit_buf)];
+    let groups = [(rays.len() as u32).div_ceil(WORKGROUP_SIZE), 1, 1];
+    // A kernel that traces needs the scene, and only it takes one.
+    let err = ctx
+        .submit(|cmd| kernel.dispatch(&ctx, cmd, &resources, &[], groups))
+        .unwrap()
+        .unwrap_err();
+    assert!(err.to_string().contains("dispatch_traced"), "{err}");
+    let scene = SceneSets {
+        geometry: &geometry,
+        shading: None,
+    };
     ctx.submit(|cmd| {
         kernel
-            .dispatch(
-                &ctx,
-                cmd,
-                &[
-                    Resource::AccelerationStructure(tlas.handle),
-                    Resource::Buffer(&ray_buf),
-                    Resource::Buffer(&hit_buf),
-                ],
-                &[],
-                [(rays.len() as u32).div_ceil(WORKGROUP_SIZE), 1, 1],
-            )
+            .dispatch_traced(&ctx, cmd, scene, &resources, &[], groups)
             .unwrap();
         gi_host::vulkan::compute_barrier(&ctx, cmd);
     })
@@ -186,10 +212,11 @@ fn ray_queries_hit_the_expected_triangles() {
             assert_eq!(hit.t, f32::INFINITY, "ray {i}");
         }
     }
-    kernel.destroy(&ctx);
-    ray_buf.destroy(&ctx);
-    hit_buf.destroy(&ctx);
-    tlas.destroy(&ctx);
-    blas.destroy(&ctx);
+    drop(kernel);
+    drop(geometry);
+    drop(ray_buf);
+    drop(hit_buf);
+    drop(tlas);
+    drop(blas);
     finish_without_validation_messages(ctx);
 }

@@ -21,8 +21,9 @@ use gi_host::gbuffer::{
 };
 use gi_host::scene::Scene;
 use gi_host::scene::bvh::Bvh;
-use gi_host::scene::gpu_data::{GpuShadingData, ShadingData};
-use gi_host::scene::upload::{SceneGeometry, build_bvh};
+use gi_host::scene::gpu_data::ShadingData;
+use gi_host::scene::lights::LightSet;
+use gi_host::scene::upload::{GpuScene, build_bvh};
 use gi_shared::camera::{CameraParams, primary_ray, view_projection};
 use gi_shared::gbuffer::GBufferTexel;
 use gi_shared::scene_data::srgb_to_linear;
@@ -52,29 +53,33 @@ fn load(file: &str) -> Loaded {
 /// Renders the G-buffer of each camera on the device, in one context of `variant`.
 fn render(variant: KernelVariant, loaded: &Loaded, cameras: &[CameraParams]) -> Vec<GBufferData> {
     let ctx = context(variant);
-    let geometry = SceneGeometry::new(&ctx, &loaded.scene, Some(&loaded.bvh)).unwrap();
-    let shading = GpuShadingData::new(&ctx, &loaded.shading).unwrap();
+    let lights = LightSet::new(&loaded.scene, None, false);
+    let scene = GpuScene::upload(
+        &ctx,
+        &loaded.scene,
+        Some(&loaded.bvh),
+        &loaded.shading,
+        &lights,
+    )
+    .unwrap();
     // Texture storage exists only for a scene with textures.
     let textured = !loaded.scene.textures.is_empty();
-    assert_eq!(shading.has_buffer("textures"), textured);
-    assert_eq!(shading.has_buffer("texels"), textured);
-    let mut pass = GBufferPass::new(&ctx, &geometry).unwrap();
+    assert_eq!(scene.shading.has_buffer("textures"), textured);
+    assert_eq!(scene.shading.has_buffer("texels"), textured);
+    let mut pass = GBufferPass::new(&ctx).unwrap();
     let images = GBufferImages::new(&ctx, WIDTH, HEIGHT).unwrap();
     let mut out = vec![];
     for camera in cameras {
-        let ms = pass
-            .run(&ctx, &geometry, &shading, camera, &images)
-            .unwrap();
+        let ms = pass.run(&ctx, &scene, camera, &images).unwrap();
         println!(
             "{} {variant}: G-buffer {WIDTH}x{HEIGHT} in {ms:.3?} ms GPU time",
             loaded.scene.source.display()
         );
         out.push(images.read_back(&ctx).unwrap());
     }
-    images.destroy(&ctx);
-    pass.destroy(&ctx);
-    shading.destroy(&ctx);
-    geometry.destroy(&ctx);
+    drop(images);
+    drop(pass);
+    drop(scene);
     finish_without_validation_messages(ctx);
     out
 }

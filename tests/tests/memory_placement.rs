@@ -9,8 +9,9 @@
 use gi_host::KernelVariant;
 use gi_host::gbuffer::{GBufferImages, GBufferPass};
 use gi_host::scene::Scene;
-use gi_host::scene::gpu_data::{BUFFER_NAMES, GpuShadingData, ShadingData};
-use gi_host::scene::upload::SceneGeometry;
+use gi_host::scene::gpu_data::{BUFFER_NAMES, ShadingData};
+use gi_host::scene::lights::LightSet;
+use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::{
     BindingKind, Buffer, Context, Kernel, KernelModule, MemoryLocation, Resource, compute_barrier,
     transfer_barrier,
@@ -42,9 +43,9 @@ fn scene_bvh_and_outputs_are_device_local_in_both_variants() {
             ctx.live_buffers().is_empty(),
             "{variant}: a new context holds buffers"
         );
-        let geometry = SceneGeometry::new(&ctx, &scene, None).unwrap();
-        let shading = GpuShadingData::new(&ctx, &shading_data).unwrap();
-        let pass = GBufferPass::new(&ctx, &geometry).unwrap();
+        let lights = LightSet::new(&scene, None, false);
+        let gpu = GpuScene::upload(&ctx, &scene, None, &shading_data, &lights).unwrap();
+        let pass = GBufferPass::new(&ctx).unwrap();
         let images = GBufferImages::new(&ctx, 8, 8).unwrap();
 
         let live = ctx.live_buffers();
@@ -80,10 +81,9 @@ fn scene_bvh_and_outputs_are_device_local_in_both_variants() {
             "{variant}: {live:?}"
         );
 
-        images.destroy(&ctx);
-        pass.destroy(&ctx);
-        shading.destroy(&ctx);
-        geometry.destroy(&ctx);
+        drop(images);
+        drop(pass);
+        drop(gpu);
         assert_eq!(
             ctx.live_buffers(),
             [],
@@ -113,8 +113,8 @@ fn the_check_rejects_a_host_visible_scene_buffer() {
         message.contains("\"readback\": 16 bytes in GpuToCpu"),
         "{message}"
     );
-    camera.destroy(&ctx);
-    readback.destroy(&ctx);
+    drop(camera);
+    drop(readback);
     finish_without_validation_messages(ctx);
 }
 
@@ -151,9 +151,9 @@ fn device_local_data_round_trips_and_is_not_host_accessible() {
     assert!(Buffer::device_zeroed::<u32>(&ctx, "empty", 0).is_err());
     assert_eq!(ctx.live_buffers().len(), 3, "{:?}", ctx.live_buffers());
 
-    small.destroy(&ctx);
-    zeroed.destroy(&ctx);
-    buffer.destroy(&ctx);
+    drop(small);
+    drop(zeroed);
+    drop(buffer);
     finish_without_validation_messages(ctx);
 }
 
@@ -176,7 +176,7 @@ fn clear_dispatch_and_copy_in_one_submission() {
         0,
     )
     .unwrap();
-    module.destroy(&ctx);
+    drop(module);
     ctx.submit(|cmd| -> gi_host::Result<()> {
         out.record_fill_zero(&ctx, cmd);
         transfer_barrier(&ctx, cmd);
@@ -200,9 +200,9 @@ fn clear_dispatch_and_copy_in_one_submission() {
         };
         assert_eq!(*v, expected, "element {i}");
     }
-    kernel.destroy(&ctx);
-    readback.destroy(&ctx);
-    out.destroy(&ctx);
+    drop(kernel);
+    drop(readback);
+    drop(out);
     finish_without_validation_messages(ctx);
 }
 
@@ -211,32 +211,24 @@ fn clear_dispatch_and_copy_in_one_submission() {
 #[test]
 fn path_tracer_buffers_are_device_local_while_rendering() {
     use gi_host::path_tracer::{PathTracerPass, PathTracerSettings};
-    use gi_host::scene::lights::{Environment, GpuLights, LightSet};
+    use gi_host::scene::lights::Environment;
     let (scene, _warnings) = Scene::load(scene_path("cornell-box.gltf")).unwrap();
     let shading_data = ShadingData::new(&scene).unwrap();
     let environment = Environment::new([2, 1], vec![[1.0; 4]; 2]).unwrap();
     let set = LightSet::new(&scene, Some(environment), true);
     for variant in KernelVariant::ALL {
         let ctx = context(variant);
-        let geometry = SceneGeometry::new(&ctx, &scene, None).unwrap();
-        let shading = GpuShadingData::new(&ctx, &shading_data).unwrap();
-        let lights = GpuLights::new(&ctx, &set).unwrap();
-        let mut pass = PathTracerPass::new(&ctx, &geometry).unwrap();
+        let gpu = GpuScene::upload(&ctx, &scene, None, &shading_data, &set).unwrap();
+        let mut pass = PathTracerPass::new(&ctx).unwrap();
         let camera = gi_host::gbuffer::scene_camera(&scene, 8, 8);
         let settings = PathTracerSettings {
             samples: 2,
             ..Default::default()
         };
         let mut seen = vec![];
-        pass.render(
-            &ctx,
-            &geometry,
-            &shading,
-            &lights,
-            &camera,
-            &settings,
-            |_, _| seen = ctx.live_buffers(),
-        )
+        pass.render(&ctx, &gpu, &camera, &settings, |_, _| {
+            seen = ctx.live_buffers()
+        })
         .unwrap();
         assert_device_local_except(&seen, &["path tracer camera", "path tracer read-back"]);
         for name in [
@@ -252,10 +244,8 @@ fn path_tracer_buffers_are_device_local_while_rendering() {
                 "{variant}: {name:?} missing or host-visible in {seen:?}"
             );
         }
-        pass.destroy(&ctx);
-        lights.destroy(&ctx);
-        shading.destroy(&ctx);
-        geometry.destroy(&ctx);
+        drop(pass);
+        drop(gpu);
         finish_without_validation_messages(ctx);
     }
 }

@@ -13,10 +13,10 @@ use gi_host::image_io::HdrImage;
 use gi_host::path_tracer::{
     MAX_SAMPLES_PER_SUBMIT, PathTracerPass, PathTracerSettings, Render, Strategy, render_on_cpu,
 };
-use gi_host::scene::gpu_data::{GpuShadingData, ShadingData};
-use gi_host::scene::lights::{Environment, GpuLights, LightSet};
+use gi_host::scene::gpu_data::ShadingData;
+use gi_host::scene::lights::{Environment, LightSet};
 use gi_host::scene::procedural::transformed;
-use gi_host::scene::upload::{SceneGeometry, build_bvh};
+use gi_host::scene::upload::{GpuScene, build_bvh};
 use gi_host::scene::{Aabb, Instance, Light, LightKind, Material, Mesh, Scene};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::path_tracer::path_random;
@@ -51,22 +51,15 @@ fn render_gpu_lit(
     settings: &PathTracerSettings,
 ) -> Render {
     let ctx = context(variant);
-    let geometry = SceneGeometry::new(&ctx, scene, None).unwrap();
-    let shading = GpuShadingData::new(&ctx, &ShadingData::new(scene).unwrap()).unwrap();
-    let lights = GpuLights::new(&ctx, set).unwrap();
-    assert_eq!(lights.count() as usize, set.lights.len());
-    let mut pass = PathTracerPass::new(&ctx, &geometry).unwrap();
+    let shading = ShadingData::new(scene).unwrap();
+    let gpu = GpuScene::upload(&ctx, scene, None, &shading, set).unwrap();
+    assert_eq!(gpu.lights.count() as usize, set.lights.len());
+    let mut pass = PathTracerPass::new(&ctx).unwrap();
     let mut reports = vec![];
     let render = pass
-        .render(
-            &ctx,
-            &geometry,
-            &shading,
-            &lights,
-            camera,
-            settings,
-            |done, total| reports.push((done, total)),
-        )
+        .render(&ctx, &gpu, camera, settings, |done, total| {
+            reports.push((done, total))
+        })
         .unwrap();
     // Progress rises to the total, once per submission.
     assert_eq!(reports.last(), Some(&(settings.samples, settings.samples)));
@@ -78,10 +71,8 @@ fn render_gpu_lit(
         settings.samples,
         render.gpu_ms
     );
-    pass.destroy(&ctx);
-    lights.destroy(&ctx);
-    shading.destroy(&ctx);
-    geometry.destroy(&ctx);
+    drop(pass);
+    drop(gpu);
     finish_without_validation_messages(ctx);
     render
 }
@@ -556,27 +547,15 @@ fn an_environment_image_lights_a_plane() {
     let cpu = render_on_cpu(&shading, &set, &bvh, &camera, &settings).unwrap();
     for variant in VARIANTS {
         let ctx = context(variant);
-        let geometry = SceneGeometry::new(&ctx, &scene, None).unwrap();
-        let gpu_shading = GpuShadingData::new(&ctx, &shading).unwrap();
-        let lights = GpuLights::new(&ctx, &set).unwrap();
-        assert_eq!(lights.count(), 0);
-        let mut pass = PathTracerPass::new(&ctx, &geometry).unwrap();
+        let gpu = GpuScene::upload(&ctx, &scene, None, &shading, &set).unwrap();
+        assert_eq!(gpu.lights.count(), 0);
+        let mut pass = PathTracerPass::new(&ctx).unwrap();
         let image = pass
-            .render(
-                &ctx,
-                &geometry,
-                &gpu_shading,
-                &lights,
-                &camera,
-                &settings,
-                |_, _| {},
-            )
+            .render(&ctx, &gpu, &camera, &settings, |_, _| {})
             .unwrap()
             .image;
-        pass.destroy(&ctx);
-        lights.destroy(&ctx);
-        gpu_shading.destroy(&ctx);
-        geometry.destroy(&ctx);
+        drop(pass);
+        drop(gpu);
         finish_without_validation_messages(ctx);
         for (i, p) in image.pixels().iter().enumerate() {
             let got = Vec3::from_array(*p);

@@ -106,7 +106,7 @@ fn run_on_gpu(ctx: &Context, cases: &[DiffCase]) -> Vec<Vec<DiffOutput>> {
         std::mem::size_of::<DiffPush>() as u32,
     )
     .unwrap();
-    module.destroy(ctx);
+    drop(module);
     let input = Buffer::device_local(ctx, "difftest cases", cases, Default::default()).unwrap();
     let mut results = vec![];
     for function in 0..FUNCTIONS.len() as u32 {
@@ -131,10 +131,10 @@ fn run_on_gpu(ctx: &Context, cases: &[DiffCase]) -> Vec<Vec<DiffOutput>> {
         })
         .unwrap();
         results.push(output.read_back::<DiffOutput>(ctx).unwrap());
-        output.destroy(ctx);
+        drop(output);
     }
-    input.destroy(ctx);
-    kernel.destroy(ctx);
+    drop(input);
+    drop(kernel);
     results
 }
 

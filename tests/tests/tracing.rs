@@ -102,10 +102,10 @@ fn check_scene(path: PathBuf) -> (Scene, Vec<HitRecord>) {
     for variant in KernelVariant::ALL {
         let ctx = context(variant);
         let geometry = SceneGeometry::new(&ctx, &scene, Some(&bvh)).unwrap();
-        let pass = TraceRays::new(&ctx, &geometry).unwrap();
+        let pass = TraceRays::new(&ctx).unwrap();
         let gpu = pass.run(&ctx, &geometry, &rays).unwrap();
-        pass.destroy(&ctx);
-        geometry.destroy(&ctx);
+        drop(pass);
+        drop(geometry);
         finish_without_validation_messages(ctx);
         let extent = (scene.bounds.max - scene.bounds.min).length();
         let a = compare(&format!("{file} {variant}"), extent, &cpu, &gpu.hits);
@@ -289,10 +289,10 @@ fn rays_at_shared_vertices_and_edges_never_slip_through_the_software_bvh() {
                 assert_eq!(leaks(g, &cpu), 0, "cpu {}", g.name);
             }
             let geometry = SceneGeometry::new(&ctx, &g.scene, Some(&g.bvh)).unwrap();
-            let pass = TraceRays::new(&ctx, &geometry).unwrap();
+            let pass = TraceRays::new(&ctx).unwrap();
             let gpu = pass.run(&ctx, &geometry, &g.rays).unwrap();
-            pass.destroy(&ctx);
-            geometry.destroy(&ctx);
+            drop(pass);
+            drop(geometry);
             let n = leaks(g, &gpu.hits);
             println!(
                 "{variant:<24} {:<32} {n:>5} of {} rays leak",

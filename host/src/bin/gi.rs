@@ -2,13 +2,15 @@
 
 use clap::{Parser, Subcommand};
 use gi_host::gbuffer::{GBufferData, GBufferImages, GBufferPass, scene_camera, write_debug_pngs};
+use gi_host::gi::debug_views::write_debug_views;
+use gi_host::gi::{CacheView, GiSettings, ViewOptions};
 use gi_host::image_io::{HdrImage, ToneMap};
 use gi_host::metrics::{self, CompareSettings};
 use gi_host::path_tracer::{PathTracerPass, PathTracerSettings, Render, Strategy};
 use gi_host::scene::Scene;
-use gi_host::scene::gpu_data::{GpuShadingData, ShadingData};
-use gi_host::scene::lights::{Environment, GpuLights, LightSet};
-use gi_host::scene::upload::{SceneGeometry, build_bvh};
+use gi_host::scene::gpu_data::ShadingData;
+use gi_host::scene::lights::{Environment, LightSet};
+use gi_host::scene::upload::{GpuScene, build_bvh};
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
 use gi_shared::camera::CameraParams;
@@ -119,6 +121,78 @@ enum Command {
         /// Do not importance-sample the environment image (BSDF sampling alone finds it).
         #[arg(long, requires = "environment")]
         no_environment_sampling: bool,
+    },
+    /// Show the world-space radiance cache on its own (GI-1.0's hash cells): each G-buffer pixel
+    /// casts one cosine-distributed ray per frame, whose hit queries and feeds the cache; the
+    /// image is the running mean of emission + albedo × (direct + cache-lit indirect). Prints the
+    /// cache's occupancy per frame, then the GPU time per pass and the memory table.
+    CacheView {
+        /// The glTF scene (.gltf or .glb).
+        scene: PathBuf,
+        /// Output image: OpenEXR (linear radiance); the PNG goes beside it with the same name.
+        #[arg(long, default_value = "out/cache-view.exr")]
+        out: PathBuf,
+        /// Image width in pixels.
+        #[arg(long, default_value_t = 320, value_parser = clap::value_parser!(u32).range(1..=8192))]
+        width: u32,
+        /// Image height in pixels.
+        #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(1..=8192))]
+        height: u32,
+        /// Frames to render (the image is their running mean).
+        #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+        frames: u32,
+        /// Factor on the emission of every surface.
+        #[arg(long, default_value_t = 1.0)]
+        emissive_multiplier: f32,
+        /// Constant sky radiance as r,g,b (W/(sr·m²)); none by default.
+        #[arg(long, value_parser = parse_vec3, conflicts_with = "environment")]
+        sky: Option<Vec3>,
+        /// Equirectangular environment image lighting the scene instead of --sky.
+        #[arg(long)]
+        environment: Option<PathBuf>,
+        /// Exposure of the PNGs in stops.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        exposure: f32,
+        /// Seed of the random streams.
+        #[arg(long, default_value_t = 0)]
+        seed: u32,
+        /// Camera position x,y,z (with --camera-target); default: the scene's first camera.
+        #[arg(long, value_parser = parse_vec3, requires = "camera_target", allow_negative_numbers = true)]
+        camera_position: Option<Vec3>,
+        /// Point the camera looks at, x,y,z.
+        #[arg(long, value_parser = parse_vec3, requires = "camera_position", allow_negative_numbers = true)]
+        camera_target: Option<Vec3>,
+        /// Vertical field of view in degrees, with --camera-position.
+        #[arg(long, default_value_t = 45.0)]
+        fov: f32,
+        /// Do not importance-sample the environment image.
+        #[arg(long, requires = "environment")]
+        no_environment_sampling: bool,
+        /// log2 of the hash grid's bucket count (default: scaled with the resolution).
+        #[arg(long)]
+        buckets_log2: Option<u32>,
+        /// log2 of the tiles per bucket.
+        #[arg(long, default_value_t = GiSettings::default().tiles_per_bucket_log2)]
+        tiles_per_bucket_log2: u32,
+        /// Angular size of a cache cell in pixels.
+        #[arg(long, default_value_t = GiSettings::default().cell_size_pixels)]
+        cell_size_pixels: f32,
+        /// Smallest world-space cell size in metres.
+        #[arg(long, default_value_t = GiSettings::default().min_cell_size, allow_negative_numbers = true)]
+        min_cell_size: f32,
+        /// Turn temporal radiance feedback off (secondary hits then get direct light only).
+        #[arg(long)]
+        no_feedback: bool,
+        /// Turn the descriptor's short-ray flag and the short-ray bypass off (light-leak fixes).
+        #[arg(long)]
+        no_leak_fixes: bool,
+        /// Turn world-space ReSTIR temporal reuse of the light samples on.
+        #[arg(long)]
+        restir: bool,
+        /// Write debug views of the cache (PNGs: cells by hash, LOD, sample count, cached
+        /// radiance, evicted tiles) into this folder.
+        #[arg(long)]
+        debug_views: Option<PathBuf>,
     },
     /// Measure the path tracer's speed: paths per second for each scene in each tracing variant
     /// the device has (ignores --trace).
@@ -262,6 +336,76 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         };
         render(&ctx, scene, &output, view, sky, &settings)?;
     }
+    if let Some(Command::CacheView {
+        scene,
+        out,
+        width,
+        height,
+        frames,
+        emissive_multiplier,
+        sky,
+        environment,
+        exposure,
+        seed,
+        camera_position,
+        camera_target,
+        fov,
+        no_environment_sampling,
+        buckets_log2,
+        tiles_per_bucket_log2,
+        cell_size_pixels,
+        min_cell_size,
+        no_feedback,
+        no_leak_fixes,
+        restir,
+        debug_views,
+    }) = &cli.command
+    {
+        let defaults = GiSettings::for_resolution(*width, *height);
+        let settings = GiSettings {
+            buckets_log2: buckets_log2.unwrap_or(
+                (defaults.buckets_log2 + defaults.tiles_per_bucket_log2)
+                    .saturating_sub(*tiles_per_bucket_log2),
+            ),
+            tiles_per_bucket_log2: *tiles_per_bucket_log2,
+            cell_size_pixels: *cell_size_pixels,
+            min_cell_size: *min_cell_size,
+            temporal_feedback: !*no_feedback,
+            short_ray_flag: !*no_leak_fixes,
+            bypass: !*no_leak_fixes,
+            restir: *restir,
+            ..defaults
+        };
+        let options = ViewOptions {
+            sky: sky.unwrap_or(Vec3::ZERO),
+            emissive_multiplier: *emissive_multiplier,
+            seed: *seed,
+        };
+        let environment = environment
+            .as_ref()
+            .map(|p| HdrImage::read(p).and_then(|i| Environment::from_image(&i)))
+            .transpose()?;
+        let output = Output {
+            path: out,
+            width: *width,
+            height: *height,
+            exposure: *exposure,
+        };
+        let sky = Sky {
+            environment,
+            sample: !*no_environment_sampling,
+        };
+        let view = camera_position
+            .zip(*camera_target)
+            .map(|(p, t)| (p, t, *fov));
+        let run = CacheViewRun {
+            frames: *frames,
+            settings,
+            options,
+            debug_views: debug_views.as_deref(),
+        };
+        cache_view(&ctx, scene, &output, view, sky, &run)?;
+    }
     check_validation(&ctx)
 }
 
@@ -346,15 +490,10 @@ fn gbuffer(
         scene.lights.len(),
         start.elapsed().as_secs_f64() * 1e3
     );
-    let geometry = SceneGeometry::new(ctx, &scene, bvh.as_ref())?;
-    let result = GpuShadingData::new(ctx, &shading).and_then(|gpu| {
-        let camera = scene_camera(&scene, width, height);
-        let rendered = render_gbuffer(ctx, &geometry, &gpu, &camera);
-        gpu.destroy(ctx);
-        rendered
-    });
-    geometry.destroy(ctx);
-    let (ms, data) = result?;
+    // The G-buffer reads no lights, but they are part of the scene's set.
+    let lights = LightSet::new(&scene, None, false);
+    let gpu = GpuScene::upload(ctx, &scene, bvh.as_ref(), &shading, &lights)?;
+    let (ms, data) = render_gbuffer(ctx, &gpu, &scene_camera(&scene, width, height))?;
     let files = write_debug_pngs(&data, out)?;
     let timing = ms
         .map(|ms| format!(" in {ms:.2} ms GPU time"))
@@ -366,28 +505,17 @@ fn gbuffer(
     Ok(())
 }
 
-/// Runs the G-buffer pass once, freeing what it created whatever happens.
+/// Runs the G-buffer pass once.
 fn render_gbuffer(
     ctx: &Context,
-    geometry: &SceneGeometry,
-    shading: &GpuShadingData,
+    scene: &GpuScene,
     camera: &CameraParams,
 ) -> gi_host::Result<(Option<f64>, GBufferData)> {
     let [width, height] = camera.image_size;
-    let mut pass = GBufferPass::new(ctx, geometry)?;
-    let images = match GBufferImages::new(ctx, width, height) {
-        Ok(i) => i,
-        Err(e) => {
-            pass.destroy(ctx);
-            return Err(e);
-        }
-    };
-    let result = pass
-        .run(ctx, geometry, shading, camera, &images)
-        .and_then(|ms| Ok((ms, images.read_back(ctx)?)));
-    images.destroy(ctx);
-    pass.destroy(ctx);
-    result
+    let mut pass = GBufferPass::new(ctx)?;
+    let images = GBufferImages::new(ctx, width, height)?;
+    let ms = pass.run(ctx, scene, camera, &images)?;
+    Ok((ms, images.read_back(ctx)?))
 }
 
 /// Parses `x,y,z`.
@@ -418,36 +546,13 @@ struct Sky {
 }
 
 /// A scene on the device, ready for the path tracer.
-struct Uploaded {
-    geometry: SceneGeometry,
-    shading: GpuShadingData,
-    lights: GpuLights,
-}
+struct Uploaded(GpuScene);
 
 impl Uploaded {
     fn new(ctx: &Context, scene: &Scene, sky: Sky) -> gi_host::Result<Self> {
-        let shading_data = ShadingData::new(scene)?;
-        let geometry = SceneGeometry::new(ctx, scene, None)?;
-        let shading = match GpuShadingData::new(ctx, &shading_data) {
-            Ok(s) => s,
-            Err(e) => {
-                geometry.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let set = LightSet::new(scene, sky.environment, sky.sample);
-        match GpuLights::new(ctx, &set) {
-            Ok(lights) => Ok(Self {
-                geometry,
-                shading,
-                lights,
-            }),
-            Err(e) => {
-                shading.destroy(ctx);
-                geometry.destroy(ctx);
-                Err(e)
-            }
-        }
+        let shading = ShadingData::new(scene)?;
+        let lights = LightSet::new(scene, sky.environment, sky.sample);
+        GpuScene::upload(ctx, scene, None, &shading, &lights).map(Self)
     }
 
     /// Renders `settings.samples` paths per pixel of `camera`, reporting progress to `progress`.
@@ -458,24 +563,7 @@ impl Uploaded {
         settings: &PathTracerSettings,
         progress: impl FnMut(u32, u32),
     ) -> gi_host::Result<Render> {
-        let mut pass = PathTracerPass::new(ctx, &self.geometry)?;
-        let result = pass.render(
-            ctx,
-            &self.geometry,
-            &self.shading,
-            &self.lights,
-            camera,
-            settings,
-            progress,
-        );
-        pass.destroy(ctx);
-        result
-    }
-
-    fn destroy(self, ctx: &Context) {
-        self.lights.destroy(ctx);
-        self.shading.destroy(ctx);
-        self.geometry.destroy(ctx);
+        PathTracerPass::new(ctx)?.render(ctx, &self.0, camera, settings, progress)
     }
 }
 
@@ -530,6 +618,7 @@ fn render(
         None => scene_camera(&scene, width, height),
     };
     let uploaded = Uploaded::new(ctx, &scene, sky)?;
+    println!("memory:\n{}", gi_host::frame::MemoryTable::of(ctx));
     let bar = ProgressBar::new(u64::from(settings.samples)).with_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} spp, eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -538,7 +627,7 @@ fn render(
         bar.set_position(u64::from(done))
     });
     bar.finish_and_clear();
-    uploaded.destroy(ctx);
+    drop(uploaded);
     let rendered = rendered?;
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
@@ -610,11 +699,10 @@ fn benchmark(
                 samples: 1,
                 ..*settings
             };
-            let result = uploaded
-                .render(&ctx, &camera, &warm, |_, _| {})
-                .and_then(|_| uploaded.render(&ctx, &camera, settings, |_, _| {}));
-            uploaded.destroy(&ctx);
-            let ms = result?.gpu_ms.unwrap_or(f64::NAN);
+            uploaded.render(&ctx, &camera, &warm, |_, _| {})?;
+            let rendered = uploaded.render(&ctx, &camera, settings, |_, _| {})?;
+            drop(uploaded);
+            let ms = rendered.gpu_ms.unwrap_or(f64::NAN);
             let paths = f64::from(width) * f64::from(height) * f64::from(settings.samples);
             println!(
                 "{name:<32} {:>10} {:>22} {ms:>14.1} {:>14.3}",
@@ -626,4 +714,129 @@ fn benchmark(
         check_validation(&ctx)?;
     }
     Ok(())
+}
+
+/// What `gi cache-view` runs besides the scene and the output.
+struct CacheViewRun<'a> {
+    frames: u32,
+    settings: GiSettings,
+    options: ViewOptions,
+    debug_views: Option<&'a Path>,
+}
+
+fn cache_view(
+    ctx: &Context,
+    path: &Path,
+    output: &Output<'_>,
+    view: Option<(Vec3, Vec3, f32)>,
+    sky: Sky,
+    run: &CacheViewRun<'_>,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let Output {
+        path: out,
+        width,
+        height,
+        exposure,
+    } = *output;
+    run.settings.validate(width, height)?;
+    let start = Instant::now();
+    let scene = load_scene(path)?;
+    println!(
+        "scene:               {} ({} triangles, {} punctual lights, {} emissive triangles)",
+        path.display(),
+        scene.triangle_count(),
+        scene.lights.len(),
+        scene.emissive_triangles.len()
+    );
+    let camera = match view {
+        Some((position, target, fov)) => CameraParams::new(
+            position,
+            target - position,
+            Vec3::Y,
+            fov.to_radians(),
+            width,
+            height,
+        ),
+        None => scene_camera(&scene, width, height),
+    };
+    let shading = ShadingData::new(&scene)?;
+    let lights = LightSet::new(&scene, sky.environment, sky.sample);
+    let gpu = GpuScene::upload(ctx, &scene, None, &shading, &lights)?;
+    let s = &run.settings;
+    println!(
+        "cache:               {} buckets x {} tiles = {} tiles, cells of {} px (min {} m), \
+         feedback {}, short-ray flag {}, bypass {}, ReSTIR {}",
+        1u32 << s.buckets_log2,
+        1u32 << s.tiles_per_bucket_log2,
+        s.tile_count(),
+        s.cell_size_pixels,
+        s.min_cell_size,
+        on_off(s.temporal_feedback),
+        on_off(s.short_ray_flag),
+        on_off(s.bypass),
+        on_off(s.restir)
+    );
+    let mut cache = CacheView::new(ctx, &lights, width, height, *s, run.options)?;
+    let rendered = (|| -> Result<_, Box<dyn std::error::Error>> {
+        let mut keys_before = vec![];
+        for f in 0..run.frames {
+            if run.debug_views.is_some() && f + 1 == run.frames {
+                keys_before = cache.read_back_state(ctx)?.keys;
+            }
+            let o = cache.render_frame(ctx, &gpu, &camera)?;
+            println!(
+                "frame {:>5}: live tiles {:>6}  inserted {:>5}  failed inserts {:>5}  evicted {:>5}  \
+                 | queries {:>7}  fed back {:>7}  shadow rays {:>7}  bypassed {:>6}",
+                o.frame,
+                o.live_tiles,
+                o.inserted,
+                o.failed_inserts,
+                o.evicted,
+                o.queries,
+                o.fed_back,
+                o.shadow_rays,
+                o.bypassed
+            );
+        }
+        let image = cache.image(ctx)?;
+        let views = match run.debug_views {
+            Some(_) => cache.debug_views(ctx, &keys_before)?,
+            None => vec![],
+        };
+        println!("GPU time per pass:\n{}", cache.timings());
+        println!("memory:\n{}", gi_host::frame::MemoryTable::of(ctx));
+        Ok((image, views))
+    })();
+    drop(cache);
+    drop(gpu);
+    let (image, views) = rendered?;
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
+    }
+    let png = out.with_extension("png");
+    image.write_exr(out)?;
+    image.write_png(
+        &png,
+        &ToneMap {
+            exposure,
+            ..ToneMap::default()
+        },
+    )?;
+    println!(
+        "cache view:          {width}x{height}, {} frames in {:.1} s",
+        run.frames,
+        start.elapsed().as_secs_f64()
+    );
+    println!("wrote                {}", out.display());
+    println!("wrote                {}", png.display());
+    if let Some(dir) = run.debug_views {
+        for f in write_debug_views(&views, dir, exposure)? {
+            println!("wrote                {}", f.display());
+        }
+    }
+    Ok(())
+}
+
+fn on_off(on: bool) -> &'static str {
+    if on { "on" } else { "off" }
 }

@@ -9,7 +9,7 @@
 
 use super::{Scene, Wrap};
 use crate::error::{Error, Result};
-use crate::vulkan::{BindingKind, Buffer, Context, Resource};
+use crate::vulkan::{Buffer, Context, Resource};
 use ash::vk;
 use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
 use gi_shared::scene_data::{
@@ -179,8 +179,8 @@ pub const BUFFER_NAMES: [&str; 7] = [
     "texels",
 ];
 
-/// The shading data in storage buffers, bound as seven consecutive bindings in the order of
-/// [`BUFFER_NAMES`].
+/// The shading data in storage buffers, bound as the first seven bindings of the scene's set 2 in
+/// the order of [`BUFFER_NAMES`].
 pub struct GpuShadingData {
     /// One per name of [`BUFFER_NAMES`]; `None` for a kind the scene does not have (the texture
     /// table and texels of a scene without textures).
@@ -215,33 +215,25 @@ impl GpuShadingData {
             if bytes.is_empty() {
                 continue;
             }
-            match Buffer::device_local(ctx, name, bytes, vk::BufferUsageFlags::empty()) {
-                Ok(b) => *slot = Some(b),
-                Err(e) => {
-                    uploaded.destroy(ctx);
-                    return Err(e);
-                }
-            }
+            *slot = Some(Buffer::device_local(
+                ctx,
+                name,
+                bytes,
+                vk::BufferUsageFlags::empty(),
+            )?);
         }
         if uploaded.buffers.iter().any(Option::is_none) {
-            match Buffer::device_zeroed::<[u32; 4]>(ctx, "shading data placeholder", 1) {
-                Ok(b) => uploaded.placeholder = Some(b),
-                Err(e) => {
-                    uploaded.destroy(ctx);
-                    return Err(e);
-                }
-            }
+            uploaded.placeholder = Some(Buffer::device_zeroed::<[u32; 4]>(
+                ctx,
+                "shading data placeholder",
+                1,
+            )?);
         }
         Ok(uploaded)
     }
 
-    /// The binding kinds of the shading data: seven storage buffers.
-    pub fn binding_kinds() -> [BindingKind; 7] {
-        [BindingKind::StorageBuffer; 7]
-    }
-
-    /// The resources for [`GpuShadingData::binding_kinds`], the placeholder in place of absent
-    /// kinds.
+    /// The seven buffers, the first bindings of the scene's set 2 (`vulkan::SceneSet::Shading`),
+    /// the placeholder in place of absent kinds.
     pub fn resources(&self) -> Vec<Resource<'_>> {
         self.buffers
             .iter()
@@ -257,15 +249,6 @@ impl GpuShadingData {
             .iter()
             .zip(&self.buffers)
             .any(|(n, b)| *n == name && b.is_some())
-    }
-
-    /// Frees the buffers.
-    pub fn destroy(self, ctx: &Context) {
-        self.buffers
-            .into_iter()
-            .chain([self.placeholder])
-            .flatten()
-            .for_each(|b| b.destroy(ctx));
     }
 }
 

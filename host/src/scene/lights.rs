@@ -333,38 +333,13 @@ impl GpuLights {
             Some(e) => (&e.texels, &e.distribution),
             None => (&placeholder_texel, &placeholder_cdf),
         };
-        let lights = Buffer::device_local(ctx, "lights", lights, usage)?;
-        let rest = (|| -> Result<(Buffer, Buffer, Buffer)> {
-            let table = Buffer::device_local(ctx, "light table", &set.triangle_table, usage)?;
-            let environment = match Buffer::device_local(ctx, "environment", texels, usage) {
-                Ok(b) => b,
-                Err(e) => {
-                    table.destroy(ctx);
-                    return Err(e);
-                }
-            };
-            match Buffer::device_local(ctx, "environment distribution", cdf, usage) {
-                Ok(d) => Ok((table, environment, d)),
-                Err(e) => {
-                    environment.destroy(ctx);
-                    table.destroy(ctx);
-                    Err(e)
-                }
-            }
-        })();
-        match rest {
-            Ok((triangle_table, environment, distribution)) => Ok(Self {
-                lights,
-                triangle_table,
-                environment,
-                distribution,
-                params: set.params(),
-            }),
-            Err(e) => {
-                lights.destroy(ctx);
-                Err(e)
-            }
-        }
+        Ok(Self {
+            lights: Buffer::device_local(ctx, "lights", lights, usage)?,
+            triangle_table: Buffer::device_local(ctx, "light table", &set.triangle_table, usage)?,
+            environment: Buffer::device_local(ctx, "environment", texels, usage)?,
+            distribution: Buffer::device_local(ctx, "environment distribution", cdf, usage)?,
+            params: set.params(),
+        })
     }
 
     /// Number of lights (0 with the placeholder).
@@ -377,8 +352,8 @@ impl GpuLights {
         self.params
     }
 
-    /// The four buffers, for four storage-buffer bindings: lights, triangle→light table,
-    /// environment texels, environment distribution.
+    /// The four buffers, the last bindings of the scene's set 2 (`vulkan::SceneSet::Shading`):
+    /// lights, triangle→light table, environment texels, environment distribution.
     pub fn resources(&self) -> [Resource<'_>; 4] {
         [
             Resource::Buffer(&self.lights),
@@ -386,14 +361,6 @@ impl GpuLights {
             Resource::Buffer(&self.environment),
             Resource::Buffer(&self.distribution),
         ]
-    }
-
-    /// Frees the buffers.
-    pub fn destroy(self, ctx: &Context) {
-        self.lights.destroy(ctx);
-        self.triangle_table.destroy(ctx);
-        self.environment.destroy(ctx);
-        self.distribution.destroy(ctx);
     }
 }
 

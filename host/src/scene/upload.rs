@@ -1,17 +1,30 @@
-//! The scene's geometry on the device, in the form the context's kernel variant traces: bottom-
-//! level acceleration structures per mesh and a top-level one of instances for ray queries, or the
-//! flattened BVH's node and triangle buffers for the software traversal.
+//! The scene on the device. Its geometry ([`SceneGeometry`]) in the form the context's kernel
+//! variant traces: bottom-level acceleration structures per mesh and a top-level one of instances
+//! for ray queries, or the flattened BVH's node and triangle buffers for the software traversal;
+//! bound as set 1 of every kernel that traces. The whole scene ([`GpuScene`]) adds the shading data
+//! and lights, bound as set 2 (see `vulkan::pipeline`).
 
 use super::Scene;
 use super::bvh::{Bvh, TriangleId};
+use super::gpu_data::{GpuShadingData, ShadingData};
+use super::lights::{GpuLights, LightSet};
 use crate::error::Result;
 use crate::kernels::KernelVariant;
-use crate::vulkan::{AccelerationStructure, BindingKind, Buffer, Context, Instance, Resource};
+use crate::vulkan::{
+    AccelerationStructure, Buffer, Context, DescriptorSet, Instance, Resource, SceneSet, SceneSets,
+};
 use ash::vk;
 
-/// Geometry bound as the first bindings of set 0 of every kernel that traces (see
-/// `kernels/src/trace.rs`).
-pub enum SceneGeometry {
+/// The scene's geometry on the device and its descriptor set (set 1 of every kernel that traces,
+/// see `kernels/src/trace.rs`).
+pub struct SceneGeometry {
+    /// What the kernels trace.
+    pub data: GeometryData,
+    set: DescriptorSet,
+}
+
+/// The geometry in the context's variant.
+pub enum GeometryData {
     /// Ray queries: one bottom level per mesh, one top level over the instances.
     RayQuery {
         /// Bottom levels, indexed like `Scene::meshes`.
@@ -51,24 +64,37 @@ pub fn build_bvh(scene: &Scene) -> Result<Bvh> {
 }
 
 impl SceneGeometry {
-    /// Uploads `scene` for the context's variant. The software variant uses `bvh` when given
-    /// (built from this scene by [`build_bvh`]) and builds it otherwise.
+    /// Uploads `scene` for the context's variant, with its descriptor set. The software variant
+    /// uses `bvh` when given (built from this scene by [`build_bvh`]) and builds it otherwise.
     pub fn new(ctx: &Context, scene: &Scene, bvh: Option<&Bvh>) -> Result<Self> {
+        let data = GeometryData::new(ctx, scene, bvh)?;
+        let set = DescriptorSet::new(ctx, SceneSet::Geometry, &data.resources())?;
+        Ok(Self { data, set })
+    }
+
+    /// The sets a kernel that only traces is dispatched with.
+    pub fn sets(&self) -> SceneSets<'_> {
+        SceneSets {
+            geometry: &self.set,
+            shading: None,
+        }
+    }
+}
+
+impl GeometryData {
+    fn new(ctx: &Context, scene: &Scene, bvh: Option<&Bvh>) -> Result<Self> {
         match ctx.variant() {
             KernelVariant::RayQuery => {
-                let mut blases = Vec::with_capacity(scene.meshes.len());
-                for mesh in &scene.meshes {
-                    let vertices: Vec<[f32; 3]> =
-                        mesh.positions.iter().map(|p| p.to_array()).collect();
-                    let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-                    match AccelerationStructure::triangles(ctx, &vertices, &indices) {
-                        Ok(b) => blases.push(b),
-                        Err(e) => {
-                            blases.into_iter().for_each(|b| b.destroy(ctx));
-                            return Err(e);
-                        }
-                    }
-                }
+                let blases = scene
+                    .meshes
+                    .iter()
+                    .map(|mesh| {
+                        let vertices: Vec<[f32; 3]> =
+                            mesh.positions.iter().map(|p| p.to_array()).collect();
+                        let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+                        AccelerationStructure::triangles(ctx, &vertices, &indices)
+                    })
+                    .collect::<Result<Vec<_>>>()?;
                 let instances: Vec<Instance<'_>> = scene
                     .instances
                     .iter()
@@ -79,15 +105,9 @@ impl SceneGeometry {
                         custom_index: i as u32,
                     })
                     .collect();
-                let tlas = AccelerationStructure::instances(ctx, &instances);
+                let tlas = AccelerationStructure::instances(ctx, &instances)?;
                 drop(instances);
-                match tlas {
-                    Ok(tlas) => Ok(Self::RayQuery { blases, tlas }),
-                    Err(e) => {
-                        blases.into_iter().for_each(|b| b.destroy(ctx));
-                        Err(e)
-                    }
-                }
+                Ok(Self::RayQuery { blases, tlas })
             }
             KernelVariant::Software => {
                 let built;
@@ -99,28 +119,16 @@ impl SceneGeometry {
                     }
                 };
                 let usage = vk::BufferUsageFlags::empty();
-                let nodes = Buffer::device_local(ctx, "bvh nodes", &bvh.nodes, usage)?;
-                match Buffer::device_local(ctx, "bvh triangles", &bvh.triangles, usage) {
-                    Ok(triangles) => Ok(Self::Software { nodes, triangles }),
-                    Err(e) => {
-                        nodes.destroy(ctx);
-                        Err(e)
-                    }
-                }
+                Ok(Self::Software {
+                    nodes: Buffer::device_local(ctx, "bvh nodes", &bvh.nodes, usage)?,
+                    triangles: Buffer::device_local(ctx, "bvh triangles", &bvh.triangles, usage)?,
+                })
             }
         }
     }
 
-    /// The binding kinds the geometry occupies, from binding 0.
-    pub fn binding_kinds(&self) -> Vec<BindingKind> {
-        match self {
-            Self::RayQuery { .. } => vec![BindingKind::AccelerationStructure],
-            Self::Software { .. } => vec![BindingKind::StorageBuffer; 2],
-        }
-    }
-
-    /// The resources for [`SceneGeometry::binding_kinds`].
-    pub fn resources(&self) -> Vec<Resource<'_>> {
+    /// The resources of set 1, in the order of [`SceneSet::binding_kinds`].
+    fn resources(&self) -> Vec<Resource<'_>> {
         match self {
             Self::RayQuery { tlas, .. } => vec![Resource::AccelerationStructure(tlas.handle)],
             Self::Software { nodes, triangles } => {
@@ -128,18 +136,59 @@ impl SceneGeometry {
             }
         }
     }
+}
 
-    /// Frees the device copies.
-    pub fn destroy(self, ctx: &Context) {
-        match self {
-            Self::RayQuery { blases, tlas } => {
-                tlas.destroy(ctx);
-                blases.into_iter().for_each(|b| b.destroy(ctx));
-            }
-            Self::Software { nodes, triangles } => {
-                nodes.destroy(ctx);
-                triangles.destroy(ctx);
-            }
+/// A scene on the device: its geometry (set 1), shading data and lights, and the descriptor set
+/// that binds the last two (set 2).
+pub struct GpuScene {
+    /// The geometry, with set 1.
+    pub geometry: SceneGeometry,
+    /// The shading data.
+    pub shading: GpuShadingData,
+    /// The lights.
+    pub lights: GpuLights,
+    set: DescriptorSet,
+}
+
+impl GpuScene {
+    /// Binds the uploaded parts as one scene.
+    pub fn new(
+        ctx: &Context,
+        geometry: SceneGeometry,
+        shading: GpuShadingData,
+        lights: GpuLights,
+    ) -> Result<Self> {
+        let mut resources = shading.resources();
+        resources.extend(lights.resources());
+        let set = DescriptorSet::new(ctx, SceneSet::Shading, &resources)?;
+        drop(resources);
+        Ok(Self {
+            geometry,
+            shading,
+            lights,
+            set,
+        })
+    }
+
+    /// Uploads `scene` with its shading data and lights (`bvh` as for [`SceneGeometry::new`]).
+    pub fn upload(
+        ctx: &Context,
+        scene: &Scene,
+        bvh: Option<&Bvh>,
+        shading: &ShadingData,
+        lights: &LightSet,
+    ) -> Result<Self> {
+        let geometry = SceneGeometry::new(ctx, scene, bvh)?;
+        let shading = GpuShadingData::new(ctx, shading)?;
+        let lights = GpuLights::new(ctx, lights)?;
+        Self::new(ctx, geometry, shading, lights)
+    }
+
+    /// The sets every kernel that traces is dispatched with.
+    pub fn sets(&self) -> SceneSets<'_> {
+        SceneSets {
+            geometry: &self.geometry.set,
+            shading: Some(&self.set),
         }
     }
 }

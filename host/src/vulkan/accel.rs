@@ -1,18 +1,21 @@
 //! Acceleration structures for the ray-query variant: one bottom level per triangle mesh, one top
 //! level of instances, both built on the device.
 
-use super::context::Context;
+use super::context::{Context, SharedDevice};
 use super::memory::Buffer;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
+use std::sync::Arc;
 
-/// A built acceleration structure and the buffer that holds it.
+/// A built acceleration structure and the buffer that holds it, freed when dropped.
 pub struct AccelerationStructure {
     /// The handle kernels bind.
     pub handle: vk::AccelerationStructureKHR,
     address: vk::DeviceAddress,
-    buffer: Buffer,
+    // Dropped after the structure it holds (fields drop after `drop`).
+    _buffer: Buffer,
+    shared: Arc<SharedDevice>,
 }
 
 /// One instance of a bottom-level structure in a top-level one.
@@ -31,11 +34,14 @@ const BUILD_INPUT: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
 );
 
 fn accel_ext(ctx: &Context) -> Result<&ash::khr::acceleration_structure::Device> {
-    ctx.accel.as_ref().ok_or_else(|| Error::MissingFeature {
-        device: ctx.capabilities().name.clone(),
-        feature: "VK_KHR_acceleration_structure (context not created for ray queries)".into(),
-        needed_for: "acceleration structure builds".into(),
-    })
+    ctx.shared
+        .accel
+        .as_ref()
+        .ok_or_else(|| Error::MissingFeature {
+            device: ctx.capabilities().name.clone(),
+            feature: "VK_KHR_acceleration_structure (context not created for ray queries)".into(),
+            needed_for: "acceleration structure builds".into(),
+        })
 }
 
 impl AccelerationStructure {
@@ -54,13 +60,7 @@ impl AccelerationStructure {
             });
         }
         let vb = Buffer::device_local(ctx, "blas vertices", vertices, BUILD_INPUT)?;
-        let ib = match Buffer::device_local(ctx, "blas indices", indices, BUILD_INPUT) {
-            Ok(b) => b,
-            Err(e) => {
-                vb.destroy(ctx);
-                return Err(e);
-            }
-        };
+        let ib = Buffer::device_local(ctx, "blas indices", indices, BUILD_INPUT)?;
         let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
             .vertex_format(vk::Format::R32G32B32_SFLOAT)
             .vertex_data(vk::DeviceOrHostAddressConstKHR {
@@ -76,15 +76,13 @@ impl AccelerationStructure {
             .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
             .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
             .flags(vk::GeometryFlagsKHR::OPAQUE);
-        let built = Self::build(
+        // The inputs go when this returns: the build has finished by then.
+        Self::build(
             ctx,
             vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
             geometry,
             (indices.len() / 3) as u32,
-        );
-        vb.destroy(ctx);
-        ib.destroy(ctx);
-        built
+        )
     }
 
     /// Builds a top-level structure over `instances`.
@@ -132,14 +130,12 @@ impl AccelerationStructure {
             .geometry_type(vk::GeometryTypeKHR::INSTANCES)
             .geometry(vk::AccelerationStructureGeometryDataKHR { instances: data })
             .flags(vk::GeometryFlagsKHR::OPAQUE);
-        let built = Self::build(
+        Self::build(
             ctx,
             vk::AccelerationStructureTypeKHR::TOP_LEVEL,
             geometry,
             raw.len() as u32,
-        );
-        ib.destroy(ctx);
-        built
+        )
     }
 
     fn build(
@@ -176,15 +172,14 @@ impl AccelerationStructure {
             .buffer(buffer.handle)
             .size(sizes.acceleration_structure_size)
             .ty(ty);
-        let handle = match unsafe { ext.create_acceleration_structure(&create, None) } {
-            Ok(h) => h,
-            Err(result) => {
-                buffer.destroy(ctx);
-                return Err(Error::Vulkan {
-                    call: "vkCreateAccelerationStructureKHR",
-                    result,
-                });
-            }
+        let handle = unsafe { ext.create_acceleration_structure(&create, None) }
+            .vk("vkCreateAccelerationStructureKHR")?;
+        // From here on, dropping `built` frees the structure and its buffer.
+        let mut built = Self {
+            handle,
+            address: 0,
+            _buffer: buffer,
+            shared: ctx.shared.clone(),
         };
         let align = u64::from(ctx.capabilities().accel_scratch_alignment.max(1));
         let scratch = Buffer::new(
@@ -194,14 +189,7 @@ impl AccelerationStructure {
             vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
             MemoryLocation::GpuOnly,
         );
-        let scratch = match scratch {
-            Ok(s) => s,
-            Err(e) => {
-                unsafe { ext.destroy_acceleration_structure(handle, None) };
-                buffer.destroy(ctx);
-                return Err(e);
-            }
-        };
+        let scratch = scratch?;
         let scratch_address = scratch.device_address(ctx).div_ceil(align) * align;
         info = info
             .dst_acceleration_structure(handle)
@@ -211,33 +199,25 @@ impl AccelerationStructure {
         let range =
             [vk::AccelerationStructureBuildRangeInfoKHR::default()
                 .primitive_count(primitive_count)];
-        let submitted = ctx.submit(|cmd| unsafe {
+        ctx.submit(|cmd| unsafe {
             ext.cmd_build_acceleration_structures(cmd, &[info], &[&range]);
-        });
-        scratch.destroy(ctx);
-        if let Err(e) = submitted {
-            unsafe { ext.destroy_acceleration_structure(handle, None) };
-            buffer.destroy(ctx);
-            return Err(e);
-        }
-        let address = unsafe {
+        })?;
+        drop(scratch);
+        built.address = unsafe {
             ext.get_acceleration_structure_device_address(
                 &vk::AccelerationStructureDeviceAddressInfoKHR::default()
                     .acceleration_structure(handle),
             )
         };
-        Ok(Self {
-            handle,
-            address,
-            buffer,
-        })
+        Ok(built)
     }
+}
 
-    /// Frees the structure and its buffer.
-    pub fn destroy(self, ctx: &Context) {
-        if let Ok(ext) = accel_ext(ctx) {
+impl Drop for AccelerationStructure {
+    fn drop(&mut self) {
+        // Made only where the extension is loaded.
+        if let Some(ext) = &self.shared.accel {
             unsafe { ext.destroy_acceleration_structure(self.handle, None) };
         }
-        self.buffer.destroy(ctx);
     }
 }

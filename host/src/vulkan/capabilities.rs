@@ -24,6 +24,9 @@ pub struct Capabilities {
     pub buffer_device_address: bool,
     /// Subgroup size of compute shaders (lavapipe: 8, NVIDIA: 32, AMD: 32 or 64).
     pub subgroup_size: u32,
+    /// Subgroup operations compute shaders may use (`supportedOperations` when `supportedStages`
+    /// has compute, empty otherwise).
+    pub subgroup_operations: vk::SubgroupFeatureFlags,
     /// `shaderFloat16` arithmetic.
     pub shader_float16: bool,
     /// `shaderInt8` arithmetic.
@@ -157,6 +160,14 @@ impl Capabilities {
                 && chain.v12.buffer_device_address == vk::TRUE,
             buffer_device_address: chain.v12.buffer_device_address == vk::TRUE,
             subgroup_size: subgroup.subgroup_size,
+            subgroup_operations: if subgroup
+                .supported_stages
+                .contains(vk::ShaderStageFlags::COMPUTE)
+            {
+                subgroup.supported_operations
+            } else {
+                vk::SubgroupFeatureFlags::empty()
+            },
             shader_float16: chain.v12.shader_float16 == vk::TRUE,
             shader_int8: chain.v12.shader_int8 == vk::TRUE,
             shader_int16: chain.core.shader_int16 == vk::TRUE,
@@ -194,6 +205,43 @@ impl Capabilities {
     }
 }
 
+#[cfg(test)]
+impl Capabilities {
+    /// A device that has everything (ray queries as asked), for unit tests.
+    pub(crate) fn for_tests(ray_query: bool) -> Self {
+        Self {
+            name: "test device".into(),
+            device_type: vk::PhysicalDeviceType::DISCRETE_GPU,
+            api_version: vk::API_VERSION_1_3,
+            driver: String::new(),
+            ray_query,
+            acceleration_structure: ray_query,
+            buffer_device_address: true,
+            subgroup_size: 32,
+            subgroup_operations: vk::SubgroupFeatureFlags::BASIC
+                | vk::SubgroupFeatureFlags::ARITHMETIC,
+            shader_float16: true,
+            shader_int8: true,
+            shader_int16: true,
+            shader_int64: true,
+            int64_atomics: true,
+            float32_atomic_add: true,
+            vulkan_memory_model: true,
+            vulkan_memory_model_device_scope: true,
+            scalar_block_layout: true,
+            compute_timestamps: true,
+            timestamp_period_ns: 1.0,
+            max_storage_buffer_range: 1 << 27,
+            max_shared_memory: 1 << 15,
+            max_workgroup_count: [65535; 3],
+            push_descriptor: true,
+            accel_scratch_alignment: 128,
+            max_workgroup_invocations: 1024,
+            device_local_bytes: 1 << 30,
+        }
+    }
+}
+
 impl fmt::Display for Capabilities {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let yn = |b: bool| if b { "yes" } else { "no" };
@@ -218,7 +266,14 @@ impl fmt::Display for Capabilities {
             "accel. structures:   {}",
             yn(self.acceleration_structure)
         )?;
-        writeln!(f, "subgroup size:       {}", self.subgroup_size)?;
+        writeln!(
+            f,
+            "subgroups:           size {}, arithmetic in compute {}",
+            self.subgroup_size,
+            yn(self
+                .subgroup_operations
+                .contains(vk::SubgroupFeatureFlags::ARITHMETIC))
+        )?;
         writeln!(
             f,
             "f16 / i8 / i16 / i64: {} / {} / {} / {}",

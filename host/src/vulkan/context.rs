@@ -2,7 +2,8 @@
 //! the memory allocator and one-shot submissions.
 
 use super::capabilities::{Capabilities, FeatureChain};
-use super::memory::{BufferInfo, BufferRegistry};
+use super::memory::{BufferInfo, ResourceRegistry};
+use super::pipeline::{SceneSet, create_set_layout};
 use super::validation::ValidationLog;
 use crate::error::{Error, Result, VkContext};
 use crate::kernels::{KernelVariant, TraceMode};
@@ -38,21 +39,67 @@ pub struct ContextOptions {
 }
 
 /// One Vulkan device ready to run the kernels.
+///
+/// Every resource made from it (buffers, images, kernels, ...) holds the [`SharedDevice`] and
+/// frees itself when dropped; the device and instance go when the context and the last resource
+/// are gone, whatever the order.
 pub struct Context {
-    // Kept alive: the instance's function pointers come from the loader it holds.
-    _entry: ash::Entry,
-    pub(crate) instance: ash::Instance,
-    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
-    validation: Option<Arc<ValidationLog>>,
+    /// What resources share; `device` below is its handle, kept for `ctx.device` calls.
+    pub(crate) shared: Arc<SharedDevice>,
     pub(crate) device: ash::Device,
+    validation: Option<Arc<ValidationLog>>,
     pub(crate) queue: vk::Queue,
-    pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
-    pub(crate) accel: Option<ash::khr::acceleration_structure::Device>,
     pub(crate) push_descriptor: ash::khr::push_descriptor::Device,
     command_pool: vk::CommandPool,
     capabilities: Capabilities,
     variant: KernelVariant,
-    pub(crate) buffers: BufferRegistry,
+    /// Layouts of the scene's sets 1 and 2 (`SceneSet`), shared by every kernel that traces.
+    scene_set_layouts: [vk::DescriptorSetLayout; 2],
+}
+
+/// The device-level state resources need to free themselves, shared by the context and every
+/// resource (an `Arc`): the last owner waits for the device, frees the allocator's memory, and
+/// destroys the device, then ([`Instance`]) the debug messenger and the instance.
+pub(crate) struct SharedDevice {
+    pub(crate) device: ash::Device,
+    pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
+    pub(crate) accel: Option<ash::khr::acceleration_structure::Device>,
+    pub(crate) buffers: ResourceRegistry<vk::Buffer>,
+    pub(crate) images: ResourceRegistry<vk::Image>,
+    // Dropped after the device (fields drop after `drop`).
+    _instance: Instance,
+}
+
+impl Drop for SharedDevice {
+    fn drop(&mut self) {
+        unsafe {
+            self.device.device_wait_idle().ok();
+            ManuallyDrop::drop(&mut self.allocator);
+            self.device.destroy_device(None);
+        }
+    }
+}
+
+/// The instance and its debug messenger, destroyed together: last of all, or as soon as
+/// `Context::new` fails before a device exists.
+struct Instance {
+    instance: ash::Instance,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    // The messenger's user data: alive while the messenger is.
+    _validation: Option<Arc<ValidationLog>>,
+    // The instance's function pointers come from the loader it holds.
+    _entry: ash::Entry,
+}
+
+impl Drop for Instance {
+    fn drop(&mut self) {
+        unsafe {
+            if let Some((loader, messenger)) = self.debug.take() {
+                loader.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
 }
 
 fn device_rank(t: vk::PhysicalDeviceType) -> u32 {
@@ -119,10 +166,12 @@ impl Context {
                 });
             }
         };
-        // From here on, `partial` destroys what exists if a later step fails.
-        let mut partial = Partial {
-            instance: Some(instance.clone()),
+        // From here on, `owner` destroys what exists if a later step fails.
+        let mut owner = Instance {
+            instance: instance.clone(),
             debug: None,
+            _validation: validation.clone(),
+            _entry: entry.clone(),
         };
 
         if let Some(log) = &validation {
@@ -141,7 +190,7 @@ impl Context {
                 .user_data(Arc::as_ptr(log).cast_mut().cast());
             let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }
                 .vk("vkCreateDebugUtilsMessengerEXT")?;
-            partial.debug = Some((loader, messenger));
+            owner.debug = Some((loader, messenger));
         }
 
         let physical_devices =
@@ -236,41 +285,48 @@ impl Context {
                 return Err(e);
             }
         };
+        // From here on, `shared` destroys the device and instance if a later step fails.
+        let shared = Arc::new(SharedDevice {
+            device: device.clone(),
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            accel: (variant == KernelVariant::RayQuery)
+                .then(|| ash::khr::acceleration_structure::Device::new(&instance, &device)),
+            buffers: ResourceRegistry::default(),
+            images: ResourceRegistry::default(),
+            _instance: owner,
+        });
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        let command_pool = match unsafe { device.create_command_pool(&pool_info, None) } {
-            Ok(p) => p,
-            Err(result) => {
-                drop(allocator);
-                unsafe { device.destroy_device(None) };
-                return Err(Error::Vulkan {
-                    call: "vkCreateCommandPool",
-                    result,
-                });
-            }
-        };
-        let accel = (variant == KernelVariant::RayQuery)
-            .then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
-
+        let command_pool =
+            unsafe { device.create_command_pool(&pool_info, None) }.vk("vkCreateCommandPool")?;
         let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);
 
-        partial.instance = None;
-        Ok(Self {
-            _entry: entry,
-            instance,
-            debug: partial.debug.take(),
-            validation,
+        let mut ctx = Self {
+            shared,
             device,
+            validation,
             queue,
-            allocator: ManuallyDrop::new(Mutex::new(allocator)),
-            accel,
             push_descriptor,
             command_pool,
             capabilities,
             variant,
-            buffers: BufferRegistry::default(),
-        })
+            scene_set_layouts: [vk::DescriptorSetLayout::null(); 2],
+        };
+        // Dropping `ctx` on an error frees what exists (destroying a null layout is a no-op).
+        for (slot, set) in ctx
+            .scene_set_layouts
+            .iter_mut()
+            .zip([SceneSet::Geometry, SceneSet::Shading])
+        {
+            *slot = create_set_layout(&ctx.device, &set.binding_kinds(variant), false)?;
+        }
+        Ok(ctx)
+    }
+
+    /// The layouts of the scene's persistent sets, in set order (1 and 2).
+    pub(crate) fn scene_set_layouts(&self) -> [vk::DescriptorSetLayout; 2] {
+        self.scene_set_layouts
     }
 
     /// What the chosen device can do.
@@ -291,7 +347,13 @@ impl Context {
     /// Every buffer alive on this context, in creation order: its name, size and the memory
     /// location it asked for. Tests use it to check that long-lived data is device-local.
     pub fn live_buffers(&self) -> Vec<BufferInfo> {
-        self.buffers.snapshot()
+        self.shared.buffers.snapshot()
+    }
+
+    /// Every image alive on this context, in creation order: its name, the size of its memory
+    /// and the location it asked for.
+    pub fn live_images(&self) -> Vec<BufferInfo> {
+        self.shared.images.snapshot()
     }
 
     /// Validation messages (warnings and errors) seen so far; `None` when validation is off.
@@ -301,10 +363,22 @@ impl Context {
 
     /// Tears the context down and returns every validation message, including those the layer
     /// prints while objects are destroyed (leaks); `None` when validation is off.
+    ///
+    /// Resources still alive keep the device until they are dropped, so their destruction and
+    /// any leak would go unreported: that is reported as a message of its own.
     pub fn finish(self) -> Option<Vec<String>> {
         let log = self.validation.clone();
+        let alive = Arc::strong_count(&self.shared) - 1;
         drop(self);
-        log.map(|l| l.messages())
+        log.map(|l| {
+            let mut messages = l.messages();
+            if alive > 0 {
+                messages.push(format!(
+                    "{alive} resources outlived Context::finish: drop them before"
+                ));
+            }
+            messages
+        })
     }
 
     /// Records commands with `record`, submits them, and waits (at most [`SUBMIT_TIMEOUT`]).
@@ -360,32 +434,11 @@ impl Drop for Context {
         unsafe {
             self.device.device_wait_idle().ok();
             self.device.destroy_command_pool(self.command_pool, None);
-            ManuallyDrop::drop(&mut self.allocator);
-            self.device.destroy_device(None);
-            if let Some((loader, messenger)) = self.debug.take() {
-                loader.destroy_debug_utils_messenger(messenger, None);
-            }
-            self.instance.destroy_instance(None);
-        }
-    }
-}
-
-/// Destroys the instance (and messenger) when `Context::new` fails half-way.
-struct Partial {
-    instance: Option<ash::Instance>,
-    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
-}
-
-impl Drop for Partial {
-    fn drop(&mut self) {
-        if let Some(instance) = self.instance.take() {
-            unsafe {
-                if let Some((loader, messenger)) = self.debug.take() {
-                    loader.destroy_debug_utils_messenger(messenger, None);
-                }
-                instance.destroy_instance(None);
+            for layout in self.scene_set_layouts {
+                self.device.destroy_descriptor_set_layout(layout, None);
             }
         }
+        // The device and instance go with the last holder of `shared`.
     }
 }
 
@@ -442,10 +495,23 @@ fn required_features(caps: &Capabilities, variant: KernelVariant) -> Result<Feat
     }
     f.v12.vulkan_memory_model = vk::TRUE;
     for cap in gi_shared::abi::KERNEL_CAPABILITIES {
+        let subgroup = |op| caps.subgroup_operations.contains(op);
         let (have, name) = match *cap {
             "Int8" => (caps.shader_int8, "shaderInt8"),
             "Int16" => (caps.shader_int16, "shaderInt16"),
             "Int64" => (caps.shader_int64, "shaderInt64"),
+            "VulkanMemoryModelDeviceScope" => (
+                caps.vulkan_memory_model_device_scope,
+                "vulkanMemoryModelDeviceScope",
+            ),
+            "GroupNonUniform" => (
+                subgroup(vk::SubgroupFeatureFlags::BASIC),
+                "subgroup basic operations in compute shaders (VK_SUBGROUP_FEATURE_BASIC_BIT)",
+            ),
+            "GroupNonUniformArithmetic" => (
+                subgroup(vk::SubgroupFeatureFlags::ARITHMETIC),
+                "subgroup arithmetic in compute shaders (VK_SUBGROUP_FEATURE_ARITHMETIC_BIT)",
+            ),
             other => (false, other),
         };
         if !have {
@@ -454,7 +520,10 @@ fn required_features(caps: &Capabilities, variant: KernelVariant) -> Result<Feat
         match *cap {
             "Int8" => f.v12.shader_int8 = vk::TRUE,
             "Int16" => f.core.shader_int16 = vk::TRUE,
-            _ => f.core.shader_int64 = vk::TRUE,
+            "Int64" => f.core.shader_int64 = vk::TRUE,
+            "VulkanMemoryModelDeviceScope" => f.v12.vulkan_memory_model_device_scope = vk::TRUE,
+            // Subgroup operations are properties, not features: nothing to enable.
+            _ => {}
         }
     }
     if variant == KernelVariant::RayQuery {
@@ -481,10 +550,44 @@ mod tests {
     }
 
     #[test]
+    fn devices_without_what_the_kernels_declare_are_refused_by_name() {
+        let full = Capabilities::for_tests(false);
+        let f = required_features(&full, KernelVariant::Software).unwrap();
+        assert_eq!(f.v12.vulkan_memory_model_device_scope, vk::TRUE);
+        let no_arithmetic = Capabilities {
+            subgroup_operations: vk::SubgroupFeatureFlags::BASIC,
+            ..full.clone()
+        };
+        let err = required_features(&no_arithmetic, KernelVariant::Software)
+            .map(drop)
+            .unwrap_err();
+        assert!(err.to_string().contains("subgroup arithmetic"), "{err}");
+        let no_device_scope = Capabilities {
+            vulkan_memory_model_device_scope: false,
+            ..full
+        };
+        let err = required_features(&no_device_scope, KernelVariant::Software)
+            .map(drop)
+            .unwrap_err();
+        assert!(
+            err.to_string().contains("vulkanMemoryModelDeviceScope"),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn every_kernel_capability_maps_to_a_device_feature() {
         for cap in gi_shared::abi::KERNEL_CAPABILITIES {
             assert!(
-                ["Int8", "Int16", "Int64"].contains(cap),
+                [
+                    "Int8",
+                    "Int16",
+                    "Int64",
+                    "VulkanMemoryModelDeviceScope",
+                    "GroupNonUniform",
+                    "GroupNonUniformArithmetic"
+                ]
+                .contains(cap),
                 "capability {cap} has no device feature mapping"
             );
         }

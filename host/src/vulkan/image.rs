@@ -1,15 +1,16 @@
 //! Storage images, allocated through `gpu-allocator`, kept in `VK_IMAGE_LAYOUT_GENERAL` for their
 //! whole life, with read-back through a host-visible buffer.
 
-use super::context::Context;
+use super::context::{Context, SharedDevice};
 use super::memory::{Buffer, allocate};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 use gpu_allocator::vulkan::Allocation;
+use std::sync::Arc;
 
 /// A 2D storage image (one mip level, one layer) and its view and memory, in the `GENERAL`
-/// layout from creation on. Destroy it with [`Image::destroy`] before the context goes.
+/// layout from creation on; freed when dropped.
 pub struct Image {
     /// The Vulkan handle.
     pub handle: vk::Image,
@@ -23,6 +24,7 @@ pub struct Image {
     pub height: u32,
     allocation: Option<Allocation>,
     name: String,
+    shared: Arc<SharedDevice>,
 }
 
 /// Bytes per texel of the formats [`Image::new`] accepts.
@@ -98,6 +100,14 @@ impl Image {
                 return Err(e);
             }
         };
+        ctx.shared.images.add(
+            handle,
+            super::memory::BufferInfo {
+                name: name.to_string(),
+                bytes: requirements.size,
+                location: MemoryLocation::GpuOnly,
+            },
+        );
         // From here on, `image` frees what exists if a later step fails.
         let mut image = Self {
             handle,
@@ -107,8 +117,9 @@ impl Image {
             height,
             allocation: Some(allocation),
             name: name.to_string(),
+            shared: ctx.shared.clone(),
         };
-        // The allocation stays alive (and bound) until `destroy`.
+        // The allocation stays alive (and bound) until the image is dropped.
         let memory = image
             .allocation
             .as_ref()
@@ -116,7 +127,6 @@ impl Image {
         if let Some((memory, offset)) = memory
             && let Err(result) = unsafe { ctx.device.bind_image_memory(handle, memory, offset) }
         {
-            image.destroy(ctx);
             return Err(Error::Vulkan {
                 call: "vkBindImageMemory",
                 result,
@@ -127,16 +137,8 @@ impl Image {
             .view_type(vk::ImageViewType::TYPE_2D)
             .format(format)
             .subresource_range(COLOR);
-        match unsafe { ctx.device.create_image_view(&view_info, None) } {
-            Ok(v) => image.view = v,
-            Err(result) => {
-                image.destroy(ctx);
-                return Err(Error::Vulkan {
-                    call: "vkCreateImageView",
-                    result,
-                });
-            }
-        }
+        image.view =
+            unsafe { ctx.device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
         let to_general = [image.layout_barrier(
             vk::ImageLayout::UNDEFINED,
             vk::ImageLayout::GENERAL,
@@ -146,7 +148,7 @@ impl Image {
                 | vk::AccessFlags::TRANSFER_READ
                 | vk::AccessFlags::TRANSFER_WRITE,
         )];
-        let transitioned = ctx.submit(|cmd| unsafe {
+        ctx.submit(|cmd| unsafe {
             ctx.device.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::TOP_OF_PIPE,
@@ -156,11 +158,7 @@ impl Image {
                 &[],
                 &to_general,
             )
-        });
-        if let Err(e) = transitioned {
-            image.destroy(ctx);
-            return Err(e);
-        }
+        })?;
         Ok(image)
     }
 
@@ -261,20 +259,21 @@ impl Image {
                 &to_general,
             );
         });
-        let bytes = copied.and_then(|()| staging.read::<u8>());
-        staging.destroy(ctx);
-        bytes
+        copied?;
+        staging.read::<u8>()
     }
+}
 
-    /// Frees the view, the image and its memory.
-    pub fn destroy(mut self, ctx: &Context) {
+impl Drop for Image {
+    fn drop(&mut self) {
+        self.shared.images.remove(self.handle);
+        let device = &self.shared.device;
         unsafe {
-            if self.view != vk::ImageView::null() {
-                ctx.device.destroy_image_view(self.view, None);
-            }
-            ctx.device.destroy_image(self.handle, None);
+            // Null until the view is made; destroying a null view is a no-op.
+            device.destroy_image_view(self.view, None);
+            device.destroy_image(self.handle, None);
         }
-        if let (Some(a), Ok(mut alloc)) = (self.allocation.take(), ctx.allocator.lock()) {
+        if let (Some(a), Ok(mut alloc)) = (self.allocation.take(), self.shared.allocator.lock()) {
             alloc.free(a).ok();
         }
     }

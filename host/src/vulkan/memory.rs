@@ -7,12 +7,12 @@
 //! ([`Buffer::parameters`]) and for read-back staging ([`Buffer::readback`]). Every live buffer is
 //! listed by [`Context::live_buffers`], so tests can check where each one landed.
 
-use super::context::Context;
+use super::context::{Context, SharedDevice};
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 pub use gpu_allocator::MemoryLocation;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 /// Allocates memory for a resource named `name` (named in errors and allocator reports).
 pub(crate) fn allocate(
@@ -22,10 +22,14 @@ pub(crate) fn allocate(
     location: MemoryLocation,
     linear: bool,
 ) -> Result<Allocation> {
-    let mut allocator = ctx.allocator.lock().map_err(|_| Error::InvalidArgument {
-        name: "allocator",
-        why: "poisoned by an earlier panic".into(),
-    })?;
+    let mut allocator = ctx
+        .shared
+        .allocator
+        .lock()
+        .map_err(|_| Error::InvalidArgument {
+            name: "allocator",
+            why: "poisoned by an earlier panic".into(),
+        })?;
     allocator
         .allocate(&AllocationCreateDesc {
             name,
@@ -40,34 +44,41 @@ pub(crate) fn allocate(
         })
 }
 
-/// One live buffer, as listed by [`Context::live_buffers`].
+/// One live buffer or image, as listed by [`Context::live_buffers`] and
+/// [`Context::live_images`].
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BufferInfo {
     /// The name it was created with.
     pub name: String,
-    /// Its size in bytes.
+    /// Its size in bytes (for an image, the size of its memory allocation).
     pub bytes: u64,
     /// The memory location it asked the allocator for (what the code chose, whatever the device
     /// made of it: on a CPU device every location is both device-local and host-visible).
     pub location: MemoryLocation,
 }
 
-/// The buffers alive on a context, in creation order, keyed by their handle.
-#[derive(Default)]
-pub(crate) struct BufferRegistry(Mutex<Vec<(vk::Buffer, BufferInfo)>>);
+/// The resources (buffers or images) alive on a context, in creation order, keyed by their
+/// handle.
+pub(crate) struct ResourceRegistry<H>(Mutex<Vec<(H, BufferInfo)>>);
 
-impl BufferRegistry {
-    fn entries(&self) -> std::sync::MutexGuard<'_, Vec<(vk::Buffer, BufferInfo)>> {
+impl<H> Default for ResourceRegistry<H> {
+    fn default() -> Self {
+        Self(Mutex::new(vec![]))
+    }
+}
+
+impl<H: Copy + PartialEq> ResourceRegistry<H> {
+    fn entries(&self) -> std::sync::MutexGuard<'_, Vec<(H, BufferInfo)>> {
         // The list stays consistent even if a panic poisoned the lock: every edit is one push or
         // one removal.
         self.0.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    fn add(&self, handle: vk::Buffer, info: BufferInfo) {
+    pub(crate) fn add(&self, handle: H, info: BufferInfo) {
         self.entries().push((handle, info));
     }
 
-    fn remove(&self, handle: vk::Buffer) {
+    pub(crate) fn remove(&self, handle: H) {
         let mut entries = self.entries();
         if let Some(i) = entries.iter().position(|(h, _)| *h == handle) {
             entries.remove(i);
@@ -79,7 +90,7 @@ impl BufferRegistry {
     }
 }
 
-/// A storage buffer and its memory. Destroy it with [`Buffer::destroy`] before the context goes.
+/// A storage buffer and its memory, freed when dropped.
 pub struct Buffer {
     /// The Vulkan handle.
     pub handle: vk::Buffer,
@@ -88,6 +99,7 @@ pub struct Buffer {
     allocation: Option<Allocation>,
     name: String,
     location: MemoryLocation,
+    shared: Arc<SharedDevice>,
 }
 
 /// Usage flags every storage buffer gets: kernels read and write it, copies fill and drain it.
@@ -133,13 +145,17 @@ impl Buffer {
                 .bind_buffer_memory(handle, allocation.memory(), allocation.offset())
         } {
             unsafe { ctx.device.destroy_buffer(handle, None) };
-            ctx.allocator.lock().ok().map(|mut a| a.free(allocation));
+            ctx.shared
+                .allocator
+                .lock()
+                .ok()
+                .map(|mut a| a.free(allocation));
             return Err(Error::Vulkan {
                 call: "vkBindBufferMemory",
                 result,
             });
         }
-        ctx.buffers.add(
+        ctx.shared.buffers.add(
             handle,
             BufferInfo {
                 name: name.to_string(),
@@ -153,6 +169,7 @@ impl Buffer {
             allocation: Some(allocation),
             name: name.to_string(),
             location,
+            shared: ctx.shared.clone(),
         })
     }
 
@@ -170,31 +187,21 @@ impl Buffer {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         let size = bytes.len() as u64;
         let buffer = Self::new(ctx, name, size, extra, MemoryLocation::GpuOnly)?;
-        let staging = Self::new(
+        // Freed when this returns, after the copy finished.
+        let mut staging = Self::new(
             ctx,
             &format!("{name} staging"),
             size,
             vk::BufferUsageFlags::empty(),
             MemoryLocation::CpuToGpu,
-        );
-        let uploaded = staging.and_then(|mut staging| {
-            let copied = staging.write(bytes).and_then(|()| {
-                ctx.submit(|cmd| {
-                    staging.record_copy_to(ctx, cmd, &buffer)?;
-                    transfer_barrier(ctx, cmd);
-                    Ok(())
-                })?
-            });
-            staging.destroy(ctx);
-            copied
-        });
-        match uploaded {
-            Ok(()) => Ok(buffer),
-            Err(e) => {
-                buffer.destroy(ctx);
-                Err(e)
-            }
-        }
+        )?;
+        staging.write(bytes)?;
+        ctx.submit(|cmd| {
+            staging.record_copy_to(ctx, cmd, &buffer)?;
+            transfer_barrier(ctx, cmd);
+            Ok(())
+        })??;
+        Ok(buffer)
     }
 
     /// Creates a device-local buffer of `count` elements of `T`, zeroed on the device with one
@@ -212,17 +219,11 @@ impl Buffer {
             vk::BufferUsageFlags::empty(),
             MemoryLocation::GpuOnly,
         )?;
-        let cleared = ctx.submit(|cmd| {
+        ctx.submit(|cmd| {
             buffer.record_fill_zero(ctx, cmd);
             transfer_barrier(ctx, cmd);
-        });
-        match cleared {
-            Ok(()) => Ok(buffer),
-            Err(e) => {
-                buffer.destroy(ctx);
-                Err(e)
-            }
-        }
+        })?;
+        Ok(buffer)
     }
 
     /// Creates a small host-visible buffer holding `data`: parameters the host rewrites with
@@ -237,13 +238,8 @@ impl Buffer {
             vk::BufferUsageFlags::empty(),
             MemoryLocation::CpuToGpu,
         )?;
-        match buffer.write(bytes) {
-            Ok(()) => Ok(buffer),
-            Err(e) => {
-                buffer.destroy(ctx);
-                Err(e)
-            }
-        }
+        buffer.write(bytes)?;
+        Ok(buffer)
     }
 
     /// Creates a host-readable staging buffer for `count` elements of `T`, contents undefined:
@@ -342,9 +338,8 @@ impl Buffer {
             transfer_barrier(ctx, cmd);
             Ok(())
         });
-        let values = copied.and_then(|r| r).and_then(|()| staging.read::<T>());
-        staging.destroy(ctx);
-        values
+        copied??;
+        staging.read::<T>()
     }
 
     /// Records a fill of the whole buffer with zero bytes. Follow it with [`transfer_barrier`]
@@ -388,12 +383,13 @@ impl Buffer {
         let info = vk::BufferDeviceAddressInfo::default().buffer(self.handle);
         unsafe { ctx.device.get_buffer_device_address(&info) }
     }
+}
 
-    /// Frees the buffer and its memory.
-    pub fn destroy(mut self, ctx: &Context) {
-        ctx.buffers.remove(self.handle);
-        unsafe { ctx.device.destroy_buffer(self.handle, None) };
-        if let (Some(a), Ok(mut alloc)) = (self.allocation.take(), ctx.allocator.lock()) {
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        self.shared.buffers.remove(self.handle);
+        unsafe { self.shared.device.destroy_buffer(self.handle, None) };
+        if let (Some(a), Ok(mut alloc)) = (self.allocation.take(), self.shared.allocator.lock()) {
             alloc.free(a).ok();
         }
     }

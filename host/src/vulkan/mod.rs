@@ -1,10 +1,12 @@
-//! The Vulkan layer: context, memory, pipelines, acceleration structures and timing.
+//! The Vulkan layer: context, memory, pipelines, acceleration structures, timing, and the
+//! current/previous pairs of per-frame resources.
 
 mod accel;
 mod capabilities;
 mod context;
 mod image;
 mod memory;
+mod ping_pong;
 mod pipeline;
 mod timing;
 mod validation;
@@ -13,6 +15,11 @@ pub use accel::{AccelerationStructure, Instance};
 pub use capabilities::Capabilities;
 pub use context::{Context, ContextOptions, DEVICE_ENV, LOADER_ENV, SUBMIT_TIMEOUT, select_device};
 pub use image::Image;
+pub(crate) use memory::memory_barrier;
 pub use memory::{Buffer, BufferInfo, MemoryLocation, transfer_barrier};
-pub use pipeline::{BindingKind, Kernel, KernelModule, Resource, compute_barrier};
-pub use timing::{GpuTimer, submit_timed};
+pub use ping_pong::PingPong;
+pub use pipeline::{
+    BindingKind, DescriptorSet, Kernel, KernelModule, MAX_PUSH_BINDINGS, Resource,
+    SHADING_BINDINGS, SceneSet, SceneSets, compute_barrier,
+};
+pub use timing::{FrameTimings, GpuTimer, PassTiming, submit_timed};

@@ -1,15 +1,38 @@
-//! Compute pipelines over the kernel modules, with resources bound by push descriptors so that no
-//! descriptor set has to outlive its dispatch.
+//! Compute pipelines over the kernel modules, and how kernels get their resources.
+//!
+//! Descriptor sets, the same in both tracing variants:
+//!
+//! * **set 0**: the kernel's own resources (outputs, parameters, per-frame buffers), pushed with
+//!   each dispatch by push descriptors, at most [`MAX_PUSH_BINDINGS`] (the least
+//!   `maxPushDescriptors` a device may have). Nothing to allocate or keep alive per dispatch.
+//! * **set 1**: the scene's geometry ([`SceneSet::Geometry`]): the top-level acceleration
+//!   structure with ray queries, the BVH's nodes and triangles in software. A persistent set
+//!   allocated once with the geometry (`SceneGeometry`), since it changes only with the scene.
+//! * **set 2**: the scene's shading data and lights ([`SceneSet::Shading`]), persistent, owned by
+//!   the uploaded scene (`GpuScene`).
+//!
+//! Only kernels that trace (those `kernels::traces` names) have sets 1 and 2 in their pipeline
+//! layout, and are dispatched with [`Kernel::dispatch_traced`]; every other kernel's layout is
+//! set 0 alone, so it carries no placeholder layouts. Why this order: the pass's set is the one
+//! every kernel has, so it comes first and no layout needs an empty set below it (a pipeline
+//! layout lists its sets from 0, and `VK_NULL_HANDLE` is only valid there with
+//! `graphicsPipelineLibrary`); the scene's geometry sits at one place in both variants, so no
+//! host code shifts binding numbers by variant; and the scene's many shading buffers stay out of
+//! the 32 push-descriptor bindings a pass may use.
 
-use super::context::Context;
+use super::context::{Context, SharedDevice};
 use super::image::Image;
 use super::memory::{Buffer, memory_barrier};
 use crate::error::{Error, Result, VkContext};
 use crate::kernels::KernelVariant;
 use ash::vk;
 use std::ffi::CString;
+use std::sync::Arc;
 
-/// What a binding of set 0 holds, in binding order.
+/// The most bindings set 0 may have: the least `maxPushDescriptors` a device may report.
+pub const MAX_PUSH_BINDINGS: usize = 32;
+
+/// What a binding holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BindingKind {
     /// A storage buffer (`#[spirv(storage_buffer)]`).
@@ -20,7 +43,7 @@ pub enum BindingKind {
     StorageImage,
 }
 
-/// A resource bound at dispatch time, matching a [`BindingKind`].
+/// A resource bound to a binding, matching its [`BindingKind`].
 #[derive(Clone, Copy)]
 pub enum Resource<'a> {
     /// A whole storage buffer.
@@ -31,48 +54,78 @@ pub enum Resource<'a> {
     Image(&'a Image),
 }
 
-/// The shader module of the context's kernel variant.
+/// The kernel code of the context's variant: the common module (every kernel, tracing in
+/// software) and, with ray queries, the module of the kernels that trace with them. Freed when
+/// dropped (pipelines made from it stay valid).
 pub struct KernelModule {
-    module: vk::ShaderModule,
-    entries: Vec<String>,
-    variant: KernelVariant,
+    common: vk::ShaderModule,
+    common_entries: Vec<String>,
+    /// The ray-query module; `None` in software, where the common module traces.
+    ray_query: Option<(vk::ShaderModule, Vec<String>)>,
+    shared: Arc<SharedDevice>,
 }
 
 impl KernelModule {
-    /// Loads the context's kernel variant.
+    /// Loads the modules of the context's variant.
     pub fn new(ctx: &Context) -> Result<Self> {
-        let variant = ctx.variant();
-        let words = variant.spirv_words();
-        let info = vk::ShaderModuleCreateInfo::default().code(&words);
-        let module =
-            unsafe { ctx.device.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
-        Ok(Self {
-            module,
-            entries: crate::kernels::entry_points(&words),
-            variant,
-        })
+        let load = |words: &[u32]| -> Result<vk::ShaderModule> {
+            let info = vk::ShaderModuleCreateInfo::default().code(words);
+            unsafe { ctx.device.create_shader_module(&info, None) }.vk("vkCreateShaderModule")
+        };
+        let words = crate::kernels::common_spirv_words();
+        let mut module = Self {
+            common: load(&words)?,
+            common_entries: crate::kernels::entry_points(&words),
+            ray_query: None,
+            shared: ctx.shared.clone(),
+        };
+        if ctx.variant() == KernelVariant::RayQuery {
+            let words = KernelVariant::RayQuery.tracing_spirv_words();
+            module.ray_query = Some((load(&words)?, crate::kernels::entry_points(&words)));
+        }
+        Ok(module)
     }
 
-    /// Frees the module (pipelines made from it stay valid).
-    pub fn destroy(self, ctx: &Context) {
-        unsafe { ctx.device.destroy_shader_module(self.module, None) };
+    /// The module and module name `entry` comes from, if it has it: the ray-query module for a
+    /// kernel that traces in the ray-query variant, the common module otherwise.
+    fn find(&self, entry: &str) -> (Option<vk::ShaderModule>, &'static str) {
+        let (module, entries, name) = match &self.ray_query {
+            Some((m, entries)) if crate::kernels::traces(entry) => (*m, entries, "ray-query"),
+            _ => (self.common, &self.common_entries, "common"),
+        };
+        (entries.iter().any(|e| e == entry).then_some(module), name)
     }
 }
 
-/// One compute entry point as a pipeline.
+impl Drop for KernelModule {
+    fn drop(&mut self) {
+        let device = &self.shared.device;
+        unsafe {
+            device.destroy_shader_module(self.common, None);
+            if let Some((m, _)) = &self.ray_query {
+                device.destroy_shader_module(*m, None);
+            }
+        }
+    }
+}
+
+/// One compute entry point as a pipeline, freed when dropped.
 pub struct Kernel {
     pipeline: vk::Pipeline,
     layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
     bindings: Vec<BindingKind>,
     push_constant_bytes: u32,
+    traces: bool,
     /// The entry point's name.
     pub entry: String,
+    shared: Arc<SharedDevice>,
 }
 
 impl Kernel {
-    /// Creates the pipeline of `entry`, with set 0 laid out as `bindings` and `push_constant_bytes`
-    /// of push constants (0 for none).
+    /// Creates the pipeline of `entry`, with set 0 laid out as `bindings` (at most
+    /// [`MAX_PUSH_BINDINGS`]) and `push_constant_bytes` of push constants (0 for none). A kernel
+    /// that traces also gets the scene's sets 1 and 2.
     pub fn new(
         ctx: &Context,
         module: &KernelModule,
@@ -80,85 +133,69 @@ impl Kernel {
         bindings: &[BindingKind],
         push_constant_bytes: u32,
     ) -> Result<Self> {
-        if !module.entries.iter().any(|e| e == entry) {
-            return Err(Error::NoSuchKernel(
-                entry.to_string(),
-                match module.variant {
-                    KernelVariant::RayQuery => "ray-query",
-                    KernelVariant::Software => "software",
-                },
-            ));
+        let module = match module.find(entry) {
+            (Some(m), _) => m,
+            (None, name) => return Err(Error::NoSuchKernel(entry.to_string(), name)),
+        };
+        if bindings.len() > MAX_PUSH_BINDINGS {
+            return Err(Error::InvalidArgument {
+                name: "kernel bindings",
+                why: format!(
+                    "kernel {entry}: {} bindings in set 0, more than the {MAX_PUSH_BINDINGS} push \
+                     descriptors every device has; move long-lived resources to a persistent set",
+                    bindings.len()
+                ),
+            });
         }
-        let layout_bindings: Vec<_> = bindings
-            .iter()
-            .enumerate()
-            .map(|(i, kind)| {
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(i as u32)
-                    .descriptor_type(descriptor_type(*kind))
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            })
-            .collect();
-        let set_info = vk::DescriptorSetLayoutCreateInfo::default()
-            .flags(vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR)
-            .bindings(&layout_bindings);
-        let set_layout = unsafe { ctx.device.create_descriptor_set_layout(&set_info, None) }
-            .vk("vkCreateDescriptorSetLayout")?;
+        let name = CString::new(entry).map_err(|_| Error::NoSuchKernel(entry.into(), "any"))?;
+        let traces = crate::kernels::traces(entry);
+        // From here on, dropping `kernel` frees what exists (null handles are no-ops).
+        let mut kernel = Self {
+            pipeline: vk::Pipeline::null(),
+            layout: vk::PipelineLayout::null(),
+            set_layout: create_set_layout(&ctx.device, bindings, true)?,
+            bindings: bindings.to_vec(),
+            push_constant_bytes,
+            traces,
+            entry: entry.to_string(),
+            shared: ctx.shared.clone(),
+        };
         let ranges = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
             .size(push_constant_bytes)];
-        let set_layouts = [set_layout];
-        let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        let scene = ctx.scene_set_layouts();
+        let all_sets = [kernel.set_layout, scene[0], scene[1]];
+        let set_layouts = if traces {
+            &all_sets[..]
+        } else {
+            &all_sets[..1]
+        };
+        let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(set_layouts);
         if push_constant_bytes > 0 {
             layout_info = layout_info.push_constant_ranges(&ranges);
         }
-        let layout = match unsafe { ctx.device.create_pipeline_layout(&layout_info, None) } {
-            Ok(l) => l,
-            Err(result) => {
-                unsafe { ctx.device.destroy_descriptor_set_layout(set_layout, None) };
-                return Err(Error::Vulkan {
-                    call: "vkCreatePipelineLayout",
-                    result,
-                });
-            }
-        };
-        let name = CString::new(entry).map_err(|_| Error::NoSuchKernel(entry.into(), "any"))?;
+        kernel.layout = unsafe { ctx.device.create_pipeline_layout(&layout_info, None) }
+            .vk("vkCreatePipelineLayout")?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
-            .module(module.module)
+            .module(module)
             .name(&name);
         let info = [vk::ComputePipelineCreateInfo::default()
             .stage(stage)
-            .layout(layout)];
-        let pipeline = match unsafe {
+            .layout(kernel.layout)];
+        kernel.pipeline = unsafe {
             ctx.device
                 .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
-        } {
-            Ok(p) => p[0],
-            Err((_, result)) => {
-                unsafe {
-                    ctx.device.destroy_pipeline_layout(layout, None);
-                    ctx.device.destroy_descriptor_set_layout(set_layout, None);
-                }
-                return Err(Error::Vulkan {
-                    call: "vkCreateComputePipelines",
-                    result,
-                });
-            }
-        };
-        Ok(Self {
-            pipeline,
-            layout,
-            set_layout,
-            bindings: bindings.to_vec(),
-            push_constant_bytes,
-            entry: entry.to_string(),
-        })
+        }
+        .map_err(|(_, result)| Error::Vulkan {
+            call: "vkCreateComputePipelines",
+            result,
+        })?[0];
+        Ok(kernel)
     }
 
-    /// Records a dispatch of `groups` workgroups with `resources` bound in order and `push` as
-    /// push constants.
+    /// Records a dispatch of `groups` workgroups with `resources` bound in order as set 0 and
+    /// `push` as push constants. A kernel that traces needs the scene: [`Kernel::dispatch_traced`].
     pub fn dispatch(
         &self,
         ctx: &Context,
@@ -167,16 +204,97 @@ impl Kernel {
         push: &[u8],
         groups: [u32; 3],
     ) -> Result<()> {
-        let bad = |why: String| Error::InvalidArgument {
+        self.dispatch_in(ctx, cmd, None, resources, push, groups)
+    }
+
+    /// Records a dispatch of a kernel that traces, in `scene` (bound as sets 1 and up), with
+    /// `resources` as set 0 and `push` as push constants.
+    pub fn dispatch_traced(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: SceneSets<'_>,
+        resources: &[Resource<'_>],
+        push: &[u8],
+        groups: [u32; 3],
+    ) -> Result<()> {
+        self.dispatch_in(ctx, cmd, Some(scene), resources, push, groups)
+    }
+
+    fn dispatch_in(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: Option<SceneSets<'_>>,
+        resources: &[Resource<'_>],
+        push: &[u8],
+        groups: [u32; 3],
+    ) -> Result<()> {
+        let max = ctx.capabilities().max_workgroup_count;
+        if groups.iter().zip(max).any(|(g, m)| *g > m) || groups.contains(&0) {
+            return Err(
+                self.bad_dispatch(format!("workgroup count {groups:?} outside 1..={max:?}"))
+            );
+        }
+        self.bind(ctx, cmd, scene, resources, push)?;
+        unsafe {
+            ctx.device
+                .cmd_dispatch(cmd, groups[0], groups[1], groups[2])
+        };
+        Ok(())
+    }
+
+    /// Records a dispatch whose workgroup counts the GPU reads, when the dispatch executes, from
+    /// the `VkDispatchIndirectCommand` (`gi_shared::indirect::DispatchIndirect`) at byte `offset`
+    /// of `args` (a buffer with `INDIRECT_BUFFER` usage: `frame::indirect_args`). A count of
+    /// zero dispatches nothing. Whatever wrote the arguments must be followed by
+    /// `frame::indirect_barrier` first.
+    pub fn dispatch_indirect(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        resources: &[Resource<'_>],
+        push: &[u8],
+        args: &Buffer,
+        offset: u64,
+    ) -> Result<()> {
+        let size = std::mem::size_of::<gi_shared::indirect::DispatchIndirect>() as u64;
+        if !offset.is_multiple_of(4) || offset + size > args.size {
+            return Err(self.bad_dispatch(format!(
+                "indirect arguments at byte {offset} of {:?} ({} bytes)",
+                args.name(),
+                args.size
+            )));
+        }
+        self.bind(ctx, cmd, None, resources, push)?;
+        unsafe { ctx.device.cmd_dispatch_indirect(cmd, args.handle, offset) };
+        Ok(())
+    }
+
+    fn bad_dispatch(&self, why: String) -> Error {
+        Error::InvalidArgument {
             name: "dispatch",
             why: format!("kernel {}: {why}", self.entry),
-        };
-        if resources.len() != self.bindings.len() {
-            return Err(bad(format!(
-                "{} resources for {} bindings",
-                resources.len(),
-                self.bindings.len()
-            )));
+        }
+    }
+
+    /// Binds the pipeline and `scene` (which a kernel that traces needs, and no other takes),
+    /// pushes `resources` as set 0 and `push` as push constants.
+    fn bind(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: Option<SceneSets<'_>>,
+        resources: &[Resource<'_>],
+        push: &[u8],
+    ) -> Result<()> {
+        let bad = |why: String| self.bad_dispatch(why);
+        if scene.is_some() != self.traces {
+            return Err(bad(if self.traces {
+                "it traces: dispatch it with the scene (dispatch_traced)".into()
+            } else {
+                "it does not trace: it takes no scene".into()
+            }));
         }
         if push.len() as u32 != self.push_constant_bytes {
             return Err(bad(format!(
@@ -185,79 +303,26 @@ impl Kernel {
                 self.push_constant_bytes
             )));
         }
-        let max = ctx.capabilities().max_workgroup_count;
-        if groups.iter().zip(max).any(|(g, m)| *g > m) || groups.contains(&0) {
-            return Err(bad(format!(
-                "workgroup count {groups:?} outside 1..={max:?}"
-            )));
-        }
-        let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = resources
-            .iter()
-            .map(|r| match r {
-                Resource::Buffer(b) => [vk::DescriptorBufferInfo::default()
-                    .buffer(b.handle)
-                    .range(vk::WHOLE_SIZE)],
-                Resource::AccelerationStructure(_) | Resource::Image(_) => {
-                    [vk::DescriptorBufferInfo::default()]
-                }
-            })
-            .collect();
-        let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = resources
-            .iter()
-            .map(|r| match r {
-                Resource::Image(image) => [image.descriptor()],
-                Resource::Buffer(_) | Resource::AccelerationStructure(_) => {
-                    [vk::DescriptorImageInfo::default()]
-                }
-            })
-            .collect();
-        let accels: Vec<[vk::AccelerationStructureKHR; 1]> = resources
-            .iter()
-            .map(|r| match r {
-                Resource::AccelerationStructure(a) => [*a],
-                Resource::Buffer(_) | Resource::Image(_) => [vk::AccelerationStructureKHR::null()],
-            })
-            .collect();
-        let mut accel_writes: Vec<vk::WriteDescriptorSetAccelerationStructureKHR<'_>> = accels
-            .iter()
-            .map(|a| {
-                vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(a)
-            })
-            .collect();
-        let mut writes = vec![];
-        for (i, ((kind, res), accel_write)) in self
-            .bindings
-            .iter()
-            .zip(resources)
-            .zip(accel_writes.iter_mut())
-            .enumerate()
-        {
-            let w = vk::WriteDescriptorSet::default()
-                .dst_binding(i as u32)
-                .descriptor_type(descriptor_type(*kind));
-            let w = match (kind, res) {
-                (BindingKind::StorageBuffer, Resource::Buffer(_)) => {
-                    w.buffer_info(&buffer_infos[i])
-                }
-                (BindingKind::StorageImage, Resource::Image(_)) => w.image_info(&image_infos[i]),
-                (BindingKind::AccelerationStructure, Resource::AccelerationStructure(_)) => {
-                    let mut w = w.push_next(accel_write);
-                    w.descriptor_count = 1;
-                    w
-                }
-                _ => return Err(bad(format!("resource {i} does not match binding {kind:?}"))),
-            };
-            writes.push(w);
-        }
-        unsafe {
+        let sets: Vec<vk::DescriptorSet> = scene.iter().flat_map(SceneSets::handles).collect();
+        with_writes(&self.bindings, resources, |writes| unsafe {
             ctx.device
                 .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            if !sets.is_empty() {
+                ctx.device.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::COMPUTE,
+                    self.layout,
+                    1,
+                    &sets,
+                    &[],
+                );
+            }
             ctx.push_descriptor.cmd_push_descriptor_set(
                 cmd,
                 vk::PipelineBindPoint::COMPUTE,
                 self.layout,
                 0,
-                &writes,
+                writes,
             );
             if !push.is_empty() {
                 ctx.device.cmd_push_constants(
@@ -268,19 +333,18 @@ impl Kernel {
                     push,
                 );
             }
-            ctx.device
-                .cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
-        }
-        Ok(())
+        })
+        .map_err(bad)
     }
+}
 
-    /// Frees the pipeline and its layouts.
-    pub fn destroy(self, ctx: &Context) {
+impl Drop for Kernel {
+    fn drop(&mut self) {
+        let device = &self.shared.device;
         unsafe {
-            ctx.device.destroy_pipeline(self.pipeline, None);
-            ctx.device.destroy_pipeline_layout(self.layout, None);
-            ctx.device
-                .destroy_descriptor_set_layout(self.set_layout, None);
+            device.destroy_pipeline(self.pipeline, None);
+            device.destroy_pipeline_layout(self.layout, None);
+            device.destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
 }
@@ -305,6 +369,208 @@ pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
                 | vk::AccessFlags::HOST_READ,
         ),
     );
+}
+
+/// The scene's persistent descriptor sets, above the pass's set 0.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneSet {
+    /// Set 1: the geometry that kernels trace against (variant-dependent bindings, see
+    /// [`SceneSet::binding_kinds`]).
+    Geometry,
+    /// Set 2: the shading data and lights, [`SHADING_BINDINGS`] storage buffers: instances,
+    /// meshes, vertices, triangles, materials, texture table, texels, lights, triangle→light
+    /// table, environment texels, environment distribution.
+    Shading,
+}
+
+/// Storage buffers in [`SceneSet::Shading`].
+pub const SHADING_BINDINGS: usize = 11;
+
+impl SceneSet {
+    /// The set's bindings in `variant`.
+    pub fn binding_kinds(self, variant: KernelVariant) -> Vec<BindingKind> {
+        match (self, variant) {
+            (Self::Geometry, KernelVariant::RayQuery) => vec![BindingKind::AccelerationStructure],
+            (Self::Geometry, KernelVariant::Software) => vec![BindingKind::StorageBuffer; 2],
+            (Self::Shading, _) => vec![BindingKind::StorageBuffer; SHADING_BINDINGS],
+        }
+    }
+}
+
+/// A persistent descriptor set of the scene, written once, with the pool it came from; both
+/// freed when dropped.
+pub struct DescriptorSet {
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    kind: SceneSet,
+    shared: Arc<SharedDevice>,
+}
+
+impl DescriptorSet {
+    /// Allocates set `kind` and points it at `resources` (in the order of
+    /// [`SceneSet::binding_kinds`]), which must outlive every dispatch that binds it.
+    pub fn new(ctx: &Context, kind: SceneSet, resources: &[Resource<'_>]) -> Result<Self> {
+        let kinds = kind.binding_kinds(ctx.variant());
+        let mut sizes: Vec<vk::DescriptorPoolSize> = vec![];
+        for k in &kinds {
+            let ty = descriptor_type(*k);
+            match sizes.iter_mut().find(|s| s.ty == ty) {
+                Some(s) => s.descriptor_count += 1,
+                None => sizes.push(vk::DescriptorPoolSize::default().ty(ty).descriptor_count(1)),
+            }
+        }
+        let info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        // From here on, dropping `set` frees the pool.
+        let mut set = Self {
+            pool: unsafe { ctx.device.create_descriptor_pool(&info, None) }
+                .vk("vkCreateDescriptorPool")?,
+            set: vk::DescriptorSet::null(),
+            kind,
+            shared: ctx.shared.clone(),
+        };
+        let layouts = [ctx.scene_set_layouts()[kind as usize]];
+        let alloc = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(set.pool)
+            .set_layouts(&layouts);
+        set.set = unsafe { ctx.device.allocate_descriptor_sets(&alloc) }
+            .vk("vkAllocateDescriptorSets")?[0];
+        with_writes(&kinds, resources, |writes| {
+            let writes: Vec<_> = writes.iter().map(|w| w.dst_set(set.set)).collect();
+            unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+        })
+        .map_err(|why| Error::InvalidArgument {
+            name: "descriptor set",
+            why: format!("{kind:?}: {why}"),
+        })?;
+        Ok(set)
+    }
+}
+
+impl Drop for DescriptorSet {
+    fn drop(&mut self) {
+        // Frees the set with it.
+        unsafe { self.shared.device.destroy_descriptor_pool(self.pool, None) };
+    }
+}
+
+/// The scene sets a kernel that traces is dispatched with.
+#[derive(Clone, Copy)]
+pub struct SceneSets<'a> {
+    /// Set 1 ([`SceneSet::Geometry`]).
+    pub geometry: &'a DescriptorSet,
+    /// Set 2 ([`SceneSet::Shading`]); `None` for kernels that only trace.
+    pub shading: Option<&'a DescriptorSet>,
+}
+
+impl SceneSets<'_> {
+    fn handles(&self) -> Vec<vk::DescriptorSet> {
+        debug_assert_eq!(self.geometry.kind, SceneSet::Geometry);
+        debug_assert!(self.shading.is_none_or(|s| s.kind == SceneSet::Shading));
+        [Some(self.geometry), self.shading]
+            .into_iter()
+            .flatten()
+            .map(|s| s.set)
+            .collect()
+    }
+}
+
+/// A descriptor set layout of `bindings` (binding `i` = `bindings[i]`), for push descriptors when
+/// `push`.
+pub(crate) fn create_set_layout(
+    device: &ash::Device,
+    bindings: &[BindingKind],
+    push: bool,
+) -> Result<vk::DescriptorSetLayout> {
+    let layout_bindings: Vec<_> = bindings
+        .iter()
+        .enumerate()
+        .map(|(i, kind)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(i as u32)
+                .descriptor_type(descriptor_type(*kind))
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        })
+        .collect();
+    let mut info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings);
+    if push {
+        info = info.flags(vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR);
+    }
+    unsafe { device.create_descriptor_set_layout(&info, None) }.vk("vkCreateDescriptorSetLayout")
+}
+
+/// Calls `f` with the writes that point bindings `kinds` at `resources` (no destination set), or
+/// says which resource does not fit.
+fn with_writes<R>(
+    kinds: &[BindingKind],
+    resources: &[Resource<'_>],
+    f: impl FnOnce(&[vk::WriteDescriptorSet<'_>]) -> R,
+) -> std::result::Result<R, String> {
+    if resources.len() != kinds.len() {
+        return Err(format!(
+            "{} resources for {} bindings",
+            resources.len(),
+            kinds.len()
+        ));
+    }
+    let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = resources
+        .iter()
+        .map(|r| match r {
+            Resource::Buffer(b) => [vk::DescriptorBufferInfo::default()
+                .buffer(b.handle)
+                .range(vk::WHOLE_SIZE)],
+            Resource::AccelerationStructure(_) | Resource::Image(_) => {
+                [vk::DescriptorBufferInfo::default()]
+            }
+        })
+        .collect();
+    let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = resources
+        .iter()
+        .map(|r| match r {
+            Resource::Image(image) => [image.descriptor()],
+            Resource::Buffer(_) | Resource::AccelerationStructure(_) => {
+                [vk::DescriptorImageInfo::default()]
+            }
+        })
+        .collect();
+    let accels: Vec<[vk::AccelerationStructureKHR; 1]> = resources
+        .iter()
+        .map(|r| match r {
+            Resource::AccelerationStructure(a) => [*a],
+            Resource::Buffer(_) | Resource::Image(_) => [vk::AccelerationStructureKHR::null()],
+        })
+        .collect();
+    let mut accel_writes: Vec<vk::WriteDescriptorSetAccelerationStructureKHR<'_>> = accels
+        .iter()
+        .map(|a| {
+            vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(a)
+        })
+        .collect();
+    let mut writes = vec![];
+    for (i, ((kind, res), accel_write)) in kinds
+        .iter()
+        .zip(resources)
+        .zip(accel_writes.iter_mut())
+        .enumerate()
+    {
+        let w = vk::WriteDescriptorSet::default()
+            .dst_binding(i as u32)
+            .descriptor_type(descriptor_type(*kind));
+        let w = match (kind, res) {
+            (BindingKind::StorageBuffer, Resource::Buffer(_)) => w.buffer_info(&buffer_infos[i]),
+            (BindingKind::StorageImage, Resource::Image(_)) => w.image_info(&image_infos[i]),
+            (BindingKind::AccelerationStructure, Resource::AccelerationStructure(_)) => {
+                let mut w = w.push_next(accel_write);
+                w.descriptor_count = 1;
+                w
+            }
+            _ => return Err(format!("resource {i} does not match binding {kind:?}")),
+        };
+        writes.push(w);
+    }
+    Ok(f(&writes))
 }
 
 fn descriptor_type(kind: BindingKind) -> vk::DescriptorType {

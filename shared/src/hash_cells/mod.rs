@@ -7,8 +7,29 @@
 //! Inside a tile, cells form an 8 × 8 grid projected along the ray's dominant axis, followed by
 //! prefiltered 4 × 4, 2 × 2 and 1 × 1 mips (85 cells per tile).
 //!
+//! The cache's life cycle per frame, each step a function here that the kernels call as they are:
+//! [`purge`] evicts tiles untouched for [`TILE_DECAY_FRAMES`] frames, [`storage`] inserts and
+//! finds tiles, [`touch`] stamps them and lists them for the update, [`accumulate`] adds radiance
+//! samples, [`update`] blends them into the cells and builds the mips, and [`read`] returns the
+//! adaptively prefiltered radiance. [`lists`] lays out the frame's counters and tile lists,
+//! [`passes`] strings the steps into the per-invocation bodies of the GPU passes, and `model`
+//! (tests and `std` only) runs whole frames of them on the CPU.
+//!
 //! The LOD is taken from float exponent bits and positions are scaled by exact powers of two, so
 //! CPU and GPU agree bit-for-bit given the same `|p − eye|²` (no `log2`/`exp2` approximations).
+
+pub mod accumulate;
+pub mod lists;
+#[cfg(any(test, feature = "std"))]
+pub mod model;
+pub mod passes;
+pub mod purge;
+pub mod read;
+#[cfg(test)]
+pub(crate) mod shared_words;
+pub mod storage;
+pub mod touch;
+pub mod update;
 
 use glam::Vec3;
 
@@ -26,6 +47,8 @@ pub const MIN_CELL_SIZE: f32 = 0.1;
 pub const TILE_CELL_RATIO: u32 = 8;
 /// Mip levels per tile: 8 × 8, 4 × 4, 2 × 2, 1 × 1.
 pub const NUM_MIPS: u32 = 4;
+/// Mip-0 cells per tile (8 × 8): the cells that receive samples.
+pub const MIP0_CELLS_PER_TILE: u32 = TILE_CELL_RATIO * TILE_CELL_RATIO;
 /// Cells per tile including its mips: 64 + 16 + 4 + 1.
 pub const CELLS_PER_TILE: u32 = 85;
 /// First cell of each mip inside a tile.

@@ -1,0 +1,677 @@
+//! `gi cache-view`: the hash-grid radiance cache on its own (`gi_shared::cache_view` describes
+//! the frame). [`CacheView`] owns the frame's resources and pipelines and records every pass of
+//! a frame, in the talk's order and under its pass names, into one submission:
+//!
+//! PurgeRadianceCache, GBuffer, TraceCacheRays, InsertRadianceCache, UpdateLightGrid,
+//! (ClearReservoirs,) GenerateReservoirs, (CompactReservoirs, ResampleReservoirs,)
+//! PopulateRadianceCache, UpdateRadianceCache, ResolveRadianceCache, CacheViewComposite; the
+//! parenthesised passes run with world-space ReSTIR on.
+//!
+//! Each frame jitters the camera inside the pixel (Halton 2, 3), so that the running mean filters
+//! the pixel like the path tracer does; moving the camera restarts the mean. The cache's state
+//! and the frame's query batch can be read back ([`CacheView::read_back_state`],
+//! [`CacheView::read_back_queries`]) and a recorded batch replayed through the cache's passes
+//! alone ([`CacheView::replay_queries`]).
+
+use super::debug_views::{DebugView, debug_views};
+use super::hash_cells::{HashCellPasses, PUSH_BYTES};
+use super::lighting::LightingPasses;
+use super::resources::{CacheResources, RestirResources};
+use super::settings::GiSettings;
+use crate::error::{Error, Result};
+use crate::gbuffer::GBufferImages;
+use crate::image_io::HdrImage;
+use crate::scene::lights::LightSet;
+use crate::scene::upload::GpuScene;
+use crate::vulkan::{
+    BindingKind, Buffer, Context, FrameTimings, GpuTimer, Kernel, KernelModule, Resource,
+    compute_barrier, transfer_barrier,
+};
+use ash::vk;
+use gi_shared::cache_view::{
+    BYPASS_COUNT, CACHE_VIEW_TILE, CachePassParams, CacheQuery, CacheViewParams, FEEDBACK_COUNT,
+    FLAG_BYPASS, FLAG_FEEDBACK, FLAG_HISTORY, FLAG_PUNCTUAL, FLAG_RESTIR, FLAG_RESTIR_HISTORY,
+    FLAG_SHORT_RAY, INSERTED_TILES, QUERY_COUNT, SHADOW_RAY_COUNT, is_punctual, running_mean,
+};
+use gi_shared::camera::CameraParams;
+use gi_shared::color::luminance;
+use gi_shared::hash_cells::cell_size_const;
+use gi_shared::hash_cells::lists::{
+    DROPPED_SAMPLES, EVICTED_TILES, FAILED_INSERTS, UPDATE_TILES, live_list,
+};
+use gi_shared::layout::{HashCellValue, HashGridParams};
+use gi_shared::random::halton23;
+use gi_shared::world_restir::reservoir_cell_const;
+use glam::{Vec2, Vec3};
+
+/// Timestamp spans per frame: one per pass.
+const PASSES_PER_FRAME: u32 = 16;
+
+/// What the view shows besides the settings: the sky and the emitters, like `gi render`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewOptions {
+    /// Constant sky radiance where there is no environment image.
+    pub sky: Vec3,
+    /// Factor on every surface's emission.
+    pub emissive_multiplier: f32,
+    /// Seed of the random streams.
+    pub seed: u32,
+}
+
+impl Default for ViewOptions {
+    /// No sky, emission as in the file, seed 0.
+    fn default() -> Self {
+        Self {
+            sky: Vec3::ZERO,
+            emissive_multiplier: 1.0,
+            seed: 0,
+        }
+    }
+}
+
+/// The cache's occupancy and the frame's work, read back after a frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Occupancy {
+    /// The frame's index.
+    pub frame: u32,
+    /// Tiles in this frame's live list (kept from the previous frame + inserted).
+    pub live_tiles: u32,
+    /// Tiles inserted this frame.
+    pub inserted: u32,
+    /// Inserts refused because the bucket was full (those rays got no cache light).
+    pub failed_inserts: u32,
+    /// Tiles evicted this frame.
+    pub evicted: u32,
+    /// Tiles updated this frame.
+    pub updated: u32,
+    /// Queries (secondary hits that are not emitters).
+    pub queries: u32,
+    /// Queries lit by temporal feedback.
+    pub fed_back: u32,
+    /// Shadow rays traced.
+    pub shadow_rays: u32,
+    /// Queries that bypassed their cell (light-leak fix 2).
+    pub bypassed: u32,
+    /// Samples dropped as not finite.
+    pub dropped: u32,
+}
+
+/// The hash grid's whole state on the host.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CacheState {
+    /// One checksum per tile slot (0 = empty).
+    pub keys: Vec<u32>,
+    /// The frame each tile was last touched.
+    pub last_touch: Vec<u32>,
+    /// 85 values per tile.
+    pub values: Vec<HashCellValue>,
+    /// The per-frame accumulators (zero after UpdateRadianceCache).
+    pub accumulators: Vec<u32>,
+    /// Counters and tile lists (`gi_shared::hash_cells::lists`).
+    pub lists: Vec<u32>,
+    /// The cache view's counters (`gi_shared::cache_view::QUERY_COUNT` ...).
+    pub counters: Vec<u32>,
+}
+
+/// The cache view: resources, pipelines and the frame loop.
+pub struct CacheView {
+    settings: GiSettings,
+    options: ViewOptions,
+    width: u32,
+    height: u32,
+    res: CacheResources,
+    restir: RestirResources,
+    /// Whether the previous frame filled a reservoir grid.
+    restir_history: bool,
+    gbuffer: GBufferImages,
+    gbuffer_kernel: Kernel,
+    trace: Kernel,
+    composite: Kernel,
+    hash_cells: HashCellPasses,
+    lighting: LightingPasses,
+    timer: Option<GpuTimer>,
+    timings: FrameTimings,
+    /// The next frame's index.
+    frame: u32,
+    /// Frames since the running mean restarted.
+    accumulated: u32,
+    previous: Option<CameraParams>,
+    /// The last frame's jittered camera and parameters (for the debug views).
+    last_frame: Option<(CameraParams, CachePassParams)>,
+    light_count: u32,
+    punctual_lights: bool,
+    environment_size: [u32; 2],
+    environment_irradiance: f32,
+}
+
+/// `¼ ∫ luminance(L) dω` over the sphere of an equirectangular `size` image: the irradiance a
+/// uniform sky of the same mean gives a surface, the light grid's weight of the environment.
+pub fn environment_irradiance(size: [u32; 2], texels: &[[f32; 4]]) -> f32 {
+    let [w, h] = size;
+    if w == 0 || h == 0 {
+        return 0.0;
+    }
+    let mut sum = 0.0f64;
+    for y in 0..h {
+        let theta = (f64::from(y) + 0.5) / f64::from(h) * std::f64::consts::PI;
+        let solid_angle = (2.0 * std::f64::consts::PI / f64::from(w))
+            * (std::f64::consts::PI / f64::from(h))
+            * theta.sin();
+        for x in 0..w {
+            if let Some(t) = texels.get((y * w + x) as usize) {
+                let l = f64::from(luminance(Vec3::new(t[0], t[1], t[2])));
+                if l.is_finite() && l > 0.0 {
+                    sum += l * solid_angle;
+                }
+            }
+        }
+    }
+    (0.25 * sum) as f32
+}
+
+impl CacheView {
+    /// Creates the view of a `width × height` frame of `scene` (uploaded from `lights`), with
+    /// `settings` (an error names a bad one).
+    pub fn new(
+        ctx: &Context,
+        lights: &LightSet,
+        width: u32,
+        height: u32,
+        settings: GiSettings,
+        options: ViewOptions,
+    ) -> Result<Self> {
+        settings.validate(width, height)?;
+        if !(options.emissive_multiplier.is_finite() && options.emissive_multiplier >= 0.0) {
+            return Err(Error::InvalidArgument {
+                name: "emissive_multiplier",
+                why: format!("{}: must be finite and ≥ 0", options.emissive_multiplier),
+            });
+        }
+        let module = KernelModule::new(ctx)?;
+        let image = BindingKind::StorageImage;
+        let buffer = BindingKind::StorageBuffer;
+        let mut gbuffer_bindings = vec![buffer];
+        gbuffer_bindings.extend(GBufferImages::binding_kinds());
+        let restir = RestirResources::new(ctx, settings.restir, width * height)?;
+        let made = (|| -> Result<_> {
+            Ok((
+                Kernel::new(ctx, &module, "gbuffer::gbuffer", &gbuffer_bindings, 0)?,
+                Kernel::new(
+                    ctx,
+                    &module,
+                    "cache_view::trace_cache_rays",
+                    &[
+                        buffer, image, image, image, image, image, image, buffer, buffer, buffer,
+                        buffer,
+                    ],
+                    PUSH_BYTES,
+                )?,
+                Kernel::new(
+                    ctx,
+                    &module,
+                    "cache_view::composite",
+                    &[buffer, image, image, image, buffer, buffer, buffer],
+                    0,
+                )?,
+                HashCellPasses::new(ctx, &module)?,
+                LightingPasses::new(ctx, &module, restir.slots)?,
+            ))
+        })();
+        drop(module);
+        let (gbuffer_kernel, trace, composite, hash_cells, lighting) = made?;
+        let (environment_size, environment_irradiance) = match &lights.environment {
+            Some(e) => (e.size(), environment_irradiance(e.size(), e.texels())),
+            None => ([0, 0], 0.0),
+        };
+        Ok(Self {
+            settings,
+            options,
+            width,
+            height,
+            res: CacheResources::new(ctx, &settings, width, height, 0)?,
+            restir,
+            restir_history: false,
+            gbuffer: GBufferImages::new(ctx, width, height)?,
+            gbuffer_kernel,
+            trace,
+            composite,
+            hash_cells,
+            lighting,
+            timer: GpuTimer::new(ctx, PASSES_PER_FRAME).ok(),
+            timings: FrameTimings::new(),
+            frame: 0,
+            accumulated: 0,
+            previous: None,
+            last_frame: None,
+            light_count: lights.lights.len() as u32,
+            punctual_lights: lights.lights.iter().any(|l| is_punctual(l.kind)),
+            environment_size,
+            environment_irradiance,
+        })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &GiSettings {
+        &self.settings
+    }
+
+    /// The frame's resources (for tests that drive passes themselves).
+    pub fn resources(&self) -> &CacheResources {
+        &self.res
+    }
+
+    /// World-space ReSTIR's resources (one-element placeholders when it is off), for tests that
+    /// check them.
+    pub fn restir_resources(&self) -> &RestirResources {
+        &self.restir
+    }
+
+    /// GPU time per pass, per frame and averaged.
+    pub fn timings(&self) -> &FrameTimings {
+        &self.timings
+    }
+
+    /// Frames in the running mean.
+    pub fn accumulated_frames(&self) -> u32 {
+        self.accumulated
+    }
+
+    /// The camera of frame `frame`: `camera` jittered inside the pixel, with the previous frame's
+    /// view-projection for motion and reprojection.
+    fn frame_camera(&self, camera: &CameraParams) -> CameraParams {
+        let mut c = *camera;
+        c.jitter = (halton23((self.frame & 0xff) + 1) - Vec2::splat(0.5)).to_array();
+        if let Some(p) = &self.previous {
+            c.previous_view_proj = p.view_proj;
+        }
+        c
+    }
+
+    /// The push constants of frame `frame` seen by `camera`.
+    pub fn params(&self, camera: &CameraParams) -> CachePassParams {
+        let s = &self.settings;
+        let fov_y = 2.0 * camera.tan_half_fov_y.atan();
+        let mut grid = HashGridParams::new(
+            camera.position(),
+            cell_size_const(fov_y, self.width, self.height, s.cell_size_pixels),
+            self.frame,
+        );
+        grid.min_cell_size = s.min_cell_size;
+        grid.num_buckets_log2 = s.buckets_log2;
+        grid.tiles_per_bucket_log2 = s.tiles_per_bucket_log2;
+        let mut flags = 0;
+        for (on, flag) in [
+            (s.temporal_feedback, FLAG_FEEDBACK),
+            (self.previous.is_some(), FLAG_HISTORY),
+            (s.short_ray_flag, FLAG_SHORT_RAY),
+            (s.bypass, FLAG_BYPASS),
+            (s.restir, FLAG_RESTIR),
+            (s.restir && self.restir_history, FLAG_RESTIR_HISTORY),
+            (self.punctual_lights, FLAG_PUNCTUAL),
+        ] {
+            if on {
+                flags |= flag;
+            }
+        }
+        CachePassParams {
+            grid,
+            view: CacheViewParams {
+                sky: self.options.sky.to_array(),
+                frame_index: self.frame,
+                emissive_multiplier: self.options.emissive_multiplier,
+                light_count: self.light_count,
+                seed: self.options.seed,
+                flags,
+                environment_size: self.environment_size,
+                environment_irradiance: self.environment_irradiance,
+                light_candidates: s.light_candidates,
+                image_size: [self.width, self.height],
+                max_groups: 0,
+                reservoir_cell_const: reservoir_cell_const(fov_y, self.width, self.height),
+                previous_eye: self.previous.map_or(camera.position, |p| p.position),
+                reservoir_buckets: self.restir.buckets,
+            },
+        }
+    }
+
+    /// Renders one frame of `scene` seen by `camera` (its image size must be the view's) and
+    /// returns the cache's occupancy after it. A camera that differs from the previous frame's
+    /// restarts the running mean.
+    pub fn render_frame(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        camera: &CameraParams,
+    ) -> Result<Occupancy> {
+        if camera.image_size != [self.width, self.height] {
+            return Err(Error::InvalidArgument {
+                name: "camera",
+                why: format!(
+                    "image size {:?} differs from the view's {}x{}",
+                    camera.image_size, self.width, self.height
+                ),
+            });
+        }
+        let moved = self
+            .previous
+            .is_some_and(|p| p.view_proj != camera.view_proj || p.position != camera.position);
+        if moved {
+            self.accumulated = 0;
+        }
+        let frame_camera = self.frame_camera(camera);
+        let mut params = self.params(&frame_camera);
+        params.view.max_groups = ctx.capabilities().max_workgroup_count[0];
+        self.res.camera.write(bytemuck::bytes_of(&frame_camera))?;
+        let restart = self.accumulated == 0;
+        let mut timer = self.timer.take();
+        let recorded =
+            ctx.submit(|cmd| self.record_frame(ctx, cmd, scene, &params, restart, timer.as_mut()));
+        let spans = match (&recorded, &timer) {
+            (Ok(Ok(())), Some(t)) => Some(t.results(ctx)),
+            _ => None,
+        };
+        self.timer = timer;
+        recorded??;
+        if let Some(spans) = spans {
+            self.timings.add_frame(&spans?);
+        }
+        let occupancy = self.occupancy(ctx, self.frame)?;
+        self.last_frame = Some((frame_camera, params));
+        if self.settings.restir {
+            self.restir.grids.swap();
+        }
+        self.restir_history = self.settings.restir;
+        self.previous = Some(*camera);
+        self.frame = self.frame.wrapping_add(1);
+        self.accumulated += 1;
+        Ok(occupancy)
+    }
+
+    /// Records every pass of a frame (see the [module](self)).
+    fn record_frame(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: &GpuScene,
+        params: &CachePassParams,
+        restart: bool,
+        mut timer: Option<&mut GpuTimer>,
+    ) -> Result<()> {
+        if let Some(t) = timer.as_deref_mut() {
+            t.reset(ctx, cmd);
+        }
+        if restart {
+            self.res.accumulation.record_fill_zero(ctx, cmd);
+            transfer_barrier(ctx, cmd);
+        }
+        let res = &self.res;
+        let images = &self.gbuffer.images;
+        let pixel_groups = [
+            self.width.div_ceil(CACHE_VIEW_TILE),
+            self.height.div_ceil(CACHE_VIEW_TILE),
+            1,
+        ];
+        let push = bytemuck::bytes_of(params);
+        macro_rules! pass {
+            ($label:expr, $body:expr) => {{
+                if let Some(t) = timer.as_deref_mut() {
+                    t.begin(ctx, cmd, $label)?;
+                }
+                $body;
+                if let Some(t) = timer.as_deref() {
+                    t.end(ctx, cmd);
+                }
+            }};
+        }
+        pass!(
+            "PurgeRadianceCache",
+            self.hash_cells.record_purge(ctx, cmd, res, params)?
+        );
+        pass!("GBuffer", {
+            let mut resources = vec![Resource::Buffer(&res.camera)];
+            resources.extend(self.gbuffer.resources());
+            self.gbuffer_kernel.dispatch_traced(
+                ctx,
+                cmd,
+                scene.sets(),
+                &resources,
+                &[],
+                pixel_groups,
+            )?;
+            compute_barrier(ctx, cmd);
+        });
+        pass!("TraceCacheRays", {
+            self.trace.dispatch_traced(
+                ctx,
+                cmd,
+                scene.sets(),
+                &[
+                    Resource::Buffer(&res.camera),
+                    Resource::Image(&images[0]),
+                    Resource::Image(&images[1]),
+                    Resource::Image(&images[2]),
+                    Resource::Image(&images[3]),
+                    Resource::Image(&images[4]),
+                    Resource::Image(&images[6]),
+                    Resource::Buffer(&res.pixels),
+                    Resource::Buffer(&res.queries),
+                    Resource::Buffer(&res.counters),
+                    Resource::Buffer(&res.bounds),
+                ],
+                push,
+                pixel_groups,
+            )?;
+            compute_barrier(ctx, cmd);
+        });
+        pass!(
+            "InsertRadianceCache",
+            self.hash_cells.record_insert(ctx, cmd, res, params)?
+        );
+        pass!(
+            "UpdateLightGrid",
+            self.lighting
+                .record_light_grid(ctx, cmd, res, &scene.lights, params)?
+        );
+        let restir = &self.restir;
+        if self.settings.restir {
+            pass!(
+                "ClearReservoirs",
+                self.lighting.record_clear_reservoirs(ctx, cmd, restir)
+            );
+        }
+        pass!("GenerateReservoirs", {
+            self.lighting
+                .record_generate(ctx, cmd, res, restir, &scene.lights, params)?;
+            self.hash_cells.record_shadow_ray_args(ctx, cmd, res)?;
+        });
+        if self.settings.restir {
+            pass!(
+                "CompactReservoirs",
+                self.lighting
+                    .record_compact(ctx, cmd, res, restir, params)?
+            );
+            pass!(
+                "ResampleReservoirs",
+                self.lighting
+                    .record_resample(ctx, cmd, res, restir, &scene.lights, params)?
+            );
+        }
+        pass!(
+            "PopulateRadianceCache",
+            self.hash_cells.record_populate(
+                ctx,
+                cmd,
+                scene.sets(),
+                res,
+                &restir.grids.current().reservoirs,
+                params
+            )?
+        );
+        pass!(
+            "UpdateRadianceCache",
+            self.hash_cells.record_update(ctx, cmd, res, params)?
+        );
+        pass!(
+            "ResolveRadianceCache",
+            self.hash_cells.record_resolve(ctx, cmd, res, params)?
+        );
+        pass!("CacheViewComposite", {
+            self.composite.dispatch(
+                ctx,
+                cmd,
+                &[
+                    Resource::Buffer(&res.camera),
+                    Resource::Image(&images[0]),
+                    Resource::Image(&images[1]),
+                    Resource::Image(&images[3]),
+                    Resource::Buffer(&res.pixels),
+                    Resource::Buffer(&res.accumulation),
+                    Resource::Buffer(&res.history),
+                ],
+                &[],
+                pixel_groups,
+            )?;
+            compute_barrier(ctx, cmd);
+        });
+        Ok(())
+    }
+
+    /// The occupancy after frame `frame`, read back from the counters.
+    fn occupancy(&self, ctx: &Context, frame: u32) -> Result<Occupancy> {
+        let counters: Vec<u32> = self.res.counters.read_back(ctx)?;
+        let lists: Vec<u32> = self.res.lists.read_back(ctx)?;
+        let tiles = self.res.tile_count();
+        let pixels = self.res.pixel_count();
+        let word = |list: u32| lists.get(list as usize).copied().unwrap_or(0);
+        Ok(Occupancy {
+            frame,
+            live_tiles: word(live_list(frame)).min(tiles),
+            inserted: counters[INSERTED_TILES],
+            failed_inserts: word(FAILED_INSERTS),
+            evicted: word(EVICTED_TILES),
+            updated: word(UPDATE_TILES).min(tiles),
+            queries: counters[QUERY_COUNT].min(pixels),
+            fed_back: counters[FEEDBACK_COUNT],
+            shadow_rays: counters[SHADOW_RAY_COUNT].min(pixels),
+            bypassed: counters[BYPASS_COUNT],
+            dropped: word(DROPPED_SAMPLES),
+        })
+    }
+
+    /// The running mean of the frames since the last restart.
+    pub fn image(&self, ctx: &Context) -> Result<HdrImage> {
+        let sums: Vec<[f32; 4]> = self.res.accumulation.read_back(ctx)?;
+        HdrImage::from_pixels(
+            self.width,
+            self.height,
+            sums.iter().map(|s| running_mean(*s).to_array()).collect(),
+        )
+    }
+
+    /// The hash grid's whole state and the counters.
+    pub fn read_back_state(&self, ctx: &Context) -> Result<CacheState> {
+        Ok(CacheState {
+            keys: self.res.keys.read_back(ctx)?,
+            last_touch: self.res.last_touch.read_back(ctx)?,
+            values: self.res.values.read_back(ctx)?,
+            accumulators: self.res.accumulators.read_back(ctx)?,
+            lists: self.res.lists.read_back(ctx)?,
+            counters: self.res.counters.read_back(ctx)?,
+        })
+    }
+
+    /// The last frame's queries, as InsertRadianceCache left them (with their tiles and cells).
+    pub fn read_back_queries(&self, ctx: &Context) -> Result<Vec<CacheQuery>> {
+        let counters: Vec<u32> = self.res.counters.read_back(ctx)?;
+        let mut queries: Vec<CacheQuery> = self.res.queries.read_back(ctx)?;
+        queries.truncate(counters[QUERY_COUNT].min(self.res.pixel_count()) as usize);
+        Ok(queries)
+    }
+
+    /// Runs a recorded batch of queries through the cache alone, as frame `frame` seen from
+    /// `camera`: PurgeRadianceCache, InsertRadianceCache and UpdateRadianceCache (no tracing, no
+    /// lighting: the cache's integer state then depends on the batch alone). Returns the
+    /// occupancy. The batch holds at most one query per pixel.
+    pub fn replay_queries(
+        &mut self,
+        ctx: &Context,
+        camera: &CameraParams,
+        frame: u32,
+        queries: &[CacheQuery],
+    ) -> Result<Occupancy> {
+        let n = queries.len() as u32;
+        if n > self.res.pixel_count() || queries.is_empty() {
+            return Err(Error::InvalidArgument {
+                name: "queries",
+                why: format!(
+                    "{n} queries: a batch holds 1 to {} (one per pixel)",
+                    self.res.pixel_count()
+                ),
+            });
+        }
+        self.frame = frame;
+        let mut params = self.params(camera);
+        params.view.max_groups = ctx.capabilities().max_workgroup_count[0];
+        let staging = Buffer::device_local(
+            ctx,
+            "replayed queries",
+            queries,
+            vk::BufferUsageFlags::empty(),
+        )?;
+        let recorded = ctx.submit(|cmd| -> Result<()> {
+            self.hash_cells.record_purge(ctx, cmd, &self.res, &params)?;
+            staging.record_copy_to(ctx, cmd, &self.res.queries)?;
+            let count_offset = (QUERY_COUNT * std::mem::size_of::<u32>()) as u64;
+            unsafe {
+                ctx.device.cmd_update_buffer(
+                    cmd,
+                    self.res.counters.handle,
+                    count_offset,
+                    &n.to_le_bytes(),
+                )
+            };
+            transfer_barrier(ctx, cmd);
+            self.hash_cells
+                .record_insert(ctx, cmd, &self.res, &params)?;
+            self.hash_cells.record_update(ctx, cmd, &self.res, &params)
+        });
+        drop(staging);
+        recorded??;
+        let occupancy = self.occupancy(ctx, frame)?;
+        self.frame = frame.wrapping_add(1);
+        Ok(occupancy)
+    }
+
+    /// The [`DebugView`]s of the cell at each pixel's primary hit after the last frame;
+    /// `keys_before` are the keys read back before it ([`CacheState::keys`]), for the evicted
+    /// tiles. Errors before any frame.
+    pub fn debug_views(
+        &self,
+        ctx: &Context,
+        keys_before: &[u32],
+    ) -> Result<Vec<(DebugView, HdrImage)>> {
+        let Some((camera, params)) = &self.last_frame else {
+            return Err(Error::InvalidArgument {
+                name: "debug views",
+                why: "no frame rendered yet".into(),
+            });
+        };
+        let data = self.gbuffer.read_back(ctx)?;
+        let keys: Vec<u32> = self.res.keys.read_back(ctx)?;
+        let values: Vec<HashCellValue> = self.res.values.read_back(ctx)?;
+        debug_views(camera, &params.grid, &data, keys_before, &keys, &values)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_uniform_environment_gives_pi_l() {
+        let texels = vec![[2.0f32, 2.0, 2.0, 0.0]; 64 * 32];
+        let e = environment_irradiance([64, 32], &texels);
+        assert!((e - std::f32::consts::PI * 2.0).abs() < 0.01, "{e}");
+        assert_eq!(environment_irradiance([0, 0], &[]), 0.0);
+    }
+}

@@ -1,0 +1,258 @@
+//! The GI frame's persistent GPU resources, sized from the settings (the hash grid) and the
+//! resolution (one query, shadow ray and pixel record per pixel), each named so the memory table
+//! lists it.
+//!
+//! Ping-pong: the hash grid's live-tile lists alternate on the frame parity inside the list
+//! buffer (`gi_shared::hash_cells::lists`); world-space ReSTIR's reservoir grids are a
+//! [`PingPong`] pair ([`RestirResources`]). The feedback history needs no second copy: the
+//! composite writes it after GenerateReservoirs has read the previous frame's.
+
+use super::settings::GiSettings;
+use crate::error::Result;
+use crate::frame::indirect_args;
+use crate::vulkan::{Buffer, Context, PingPong};
+use ash::vk;
+use gi_shared::cache_view::{
+    ARGS_COUNT, CACHE_COUNTER_WORDS, CacheQuery, CacheViewPixel, FeedbackTexel, ShadowRay,
+    reservoir_grid_buckets,
+};
+use gi_shared::camera::CameraParams;
+use gi_shared::hash_cells::lists::list_buffer_words;
+use gi_shared::hash_cells::touch::initial_last_touch;
+use gi_shared::hash_cells::{CELLS_PER_TILE, MIP0_CELLS_PER_TILE};
+use gi_shared::layout::{ACCUMULATOR_WORDS, HashCellValue, MAX_STORAGE_BUFFER_BYTES};
+use gi_shared::light_grid::{
+    LIGHT_GRID_BOUNDS_WORDS, LIGHT_GRID_MAX_CELLS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry,
+    LightGridParams,
+};
+use gi_shared::world_restir::{PackedReservoir, RESERVOIR_GRID_SLOTS_PER_BUCKET, ReservoirHit};
+
+/// Every buffer of a cache-view frame.
+pub struct CacheResources {
+    /// The camera of the frame (host-written parameters).
+    pub camera: Buffer,
+    /// Hash grid: one checksum per tile slot (0 = empty).
+    pub keys: Buffer,
+    /// Hash grid: the frame each tile was last touched.
+    pub last_touch: Buffer,
+    /// Hash grid: 85 [`HashCellValue`]s per tile.
+    pub values: Buffer,
+    /// Hash grid: [`ACCUMULATOR_WORDS`] words per mip-0 cell.
+    pub accumulators: Buffer,
+    /// Hash grid: counters and the live (×2, ping-pong) and update tile lists.
+    pub lists: Buffer,
+    /// The cache view's counters (`gi_shared::cache_view::QUERY_COUNT` ...).
+    pub counters: Buffer,
+    /// One [`CacheQuery`] per pixel at most.
+    pub queries: Buffer,
+    /// One [`ShadowRay`] per pixel at most.
+    pub shadow_rays: Buffer,
+    /// One [`CacheViewPixel`] per pixel.
+    pub pixels: Buffer,
+    /// One [`FeedbackTexel`] per pixel: the previous frame's image for temporal feedback.
+    pub history: Buffer,
+    /// Running sum and count per pixel (`[f32; 4]`): the output.
+    pub accumulation: Buffer,
+    /// The light grid's hit bounds ([`LIGHT_GRID_BOUNDS_WORDS`] words).
+    pub bounds: Buffer,
+    /// The light grid's [`LightGridParams`].
+    pub light_grid: Buffer,
+    /// The light grid's entries, for the largest grid.
+    pub light_grid_entries: Buffer,
+    /// Indirect dispatch arguments (`ARGS_COUNT` of them).
+    pub args: Buffer,
+    tile_count: u32,
+    pixel_count: u32,
+}
+
+/// Each resource's name, in the order [`CacheResources::buffers`] lists them.
+pub const RESOURCE_NAMES: [&str; 16] = [
+    "cache-view camera",
+    "hash grid keys",
+    "hash grid last touch",
+    "hash grid values",
+    "hash grid accumulators",
+    "hash grid lists",
+    "cache-view counters",
+    "cache queries",
+    "shadow rays",
+    "cache-view pixels",
+    "feedback history",
+    "cache-view accumulation",
+    "light grid bounds",
+    "light grid",
+    "light grid entries",
+    "indirect arguments",
+];
+
+impl CacheResources {
+    /// Allocates the resources of a `width × height` frame with `settings` (validated first:
+    /// a bad setting is an error naming it), the hash grid empty for a first frame `first_frame`.
+    pub fn new(
+        ctx: &Context,
+        settings: &GiSettings,
+        width: u32,
+        height: u32,
+        first_frame: u32,
+    ) -> Result<Self> {
+        settings.validate(width, height)?;
+        let tiles = settings.tile_count() as usize;
+        let pixels = width as usize * height as usize;
+        let cells = tiles * CELLS_PER_TILE as usize;
+        let accumulator_words = tiles * MIP0_CELLS_PER_TILE as usize * ACCUMULATOR_WORDS;
+        debug_assert!(accumulator_words * 4 <= MAX_STORAGE_BUFFER_BYTES);
+        let entries = (LIGHT_GRID_MAX_CELLS * LIGHT_GRID_RESERVOIRS_PER_CELL) as usize;
+        let n = &RESOURCE_NAMES;
+        Ok(Self {
+            camera: Buffer::parameters(ctx, n[0], &[CameraParams::default()])?,
+            keys: Buffer::device_zeroed::<u32>(ctx, n[1], tiles)?,
+            last_touch: Buffer::device_local(
+                ctx,
+                n[2],
+                &vec![initial_last_touch(first_frame); tiles],
+                vk::BufferUsageFlags::empty(),
+            )?,
+            values: Buffer::device_zeroed::<HashCellValue>(ctx, n[3], cells)?,
+            accumulators: Buffer::device_zeroed::<u32>(ctx, n[4], accumulator_words)?,
+            lists: Buffer::device_zeroed::<u32>(ctx, n[5], list_buffer_words(tiles as u32))?,
+            counters: Buffer::device_zeroed::<u32>(ctx, n[6], CACHE_COUNTER_WORDS)?,
+            queries: Buffer::device_zeroed::<CacheQuery>(ctx, n[7], pixels)?,
+            shadow_rays: Buffer::device_zeroed::<ShadowRay>(ctx, n[8], pixels)?,
+            pixels: Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], pixels)?,
+            history: Buffer::device_zeroed::<FeedbackTexel>(ctx, n[10], pixels)?,
+            accumulation: Buffer::device_zeroed::<[f32; 4]>(ctx, n[11], pixels)?,
+            bounds: Buffer::device_zeroed::<u32>(ctx, n[12], LIGHT_GRID_BOUNDS_WORDS)?,
+            light_grid: Buffer::device_zeroed::<LightGridParams>(ctx, n[13], 1)?,
+            light_grid_entries: Buffer::device_zeroed::<LightGridEntry>(ctx, n[14], entries)?,
+            args: indirect_args(ctx, n[15], ARGS_COUNT as usize)?,
+            tile_count: tiles as u32,
+            pixel_count: pixels as u32,
+        })
+    }
+
+    /// Tiles of the hash grid.
+    pub fn tile_count(&self) -> u32 {
+        self.tile_count
+    }
+
+    /// Pixels of the frame: the capacity of the query, shadow-ray and pixel buffers.
+    pub fn pixel_count(&self) -> u32 {
+        self.pixel_count
+    }
+
+    /// Every buffer, in [`RESOURCE_NAMES`] order.
+    pub fn buffers(&self) -> [&Buffer; 16] {
+        [
+            &self.camera,
+            &self.keys,
+            &self.last_touch,
+            &self.values,
+            &self.accumulators,
+            &self.lists,
+            &self.counters,
+            &self.queries,
+            &self.shadow_rays,
+            &self.pixels,
+            &self.history,
+            &self.accumulation,
+            &self.bounds,
+            &self.light_grid,
+            &self.light_grid_entries,
+            &self.args,
+        ]
+    }
+
+    /// Total bytes of the buffers.
+    pub fn bytes(&self) -> u64 {
+        self.buffers().iter().map(|b| b.size).sum()
+    }
+}
+
+/// One frame's world-space ReSTIR reservoir grid.
+pub struct ReservoirGrid {
+    /// One checksum per slot (0 = empty).
+    pub keys: Buffer,
+    /// Per slot the count of its reservoirs, scanned in place into exclusive offsets by
+    /// CompactReservoirs; one more word holds the total.
+    pub offsets: Buffer,
+    /// The shadow-ray indices, slot after slot.
+    pub entries: Buffer,
+    /// Per shadow ray its reservoir (`PackedReservoir`).
+    pub reservoirs: Buffer,
+    /// Per shadow ray its hit (`ReservoirHit`).
+    pub hits: Buffer,
+}
+
+impl ReservoirGrid {
+    /// A grid of `slots` slots for `rays` shadow rays, its buffers named with `which`.
+    fn new(ctx: &Context, which: &str, slots: usize, rays: usize) -> Result<Self> {
+        Ok(Self {
+            keys: Buffer::device_zeroed::<u32>(
+                ctx,
+                &format!("reservoir grid keys ({which})"),
+                slots,
+            )?,
+            offsets: Buffer::device_zeroed::<u32>(
+                ctx,
+                &format!("reservoir grid offsets ({which})"),
+                slots + 1,
+            )?,
+            entries: Buffer::device_zeroed::<u32>(
+                ctx,
+                &format!("reservoir grid entries ({which})"),
+                rays,
+            )?,
+            reservoirs: Buffer::device_zeroed::<PackedReservoir>(
+                ctx,
+                &format!("reservoirs ({which})"),
+                rays,
+            )?,
+            hits: Buffer::device_zeroed::<ReservoirHit>(
+                ctx,
+                &format!("reservoir hits ({which})"),
+                rays,
+            )?,
+        })
+    }
+}
+
+/// World-space ReSTIR's resources: this frame's and the previous frame's reservoir grids, and
+/// each shadow ray's place in this frame's. Sized for the frame when ReSTIR is on
+/// ([`reservoir_grid_buckets`] buckets of 16 slots, one entry per pixel); one-element
+/// placeholders (that the kernels bind but never use) when it is off.
+pub struct RestirResources {
+    /// This frame's grid and the previous frame's.
+    pub grids: PingPong<ReservoirGrid>,
+    /// Per shadow ray `[slot, index in the slot]` (`[u32; 2]`).
+    pub places: Buffer,
+    /// Slots of a grid.
+    pub slots: u32,
+    /// Buckets of a grid.
+    pub buckets: u32,
+}
+
+impl RestirResources {
+    /// The resources of a `pixels`-pixel frame, real when `on`.
+    pub fn new(ctx: &Context, on: bool, pixels: u32) -> Result<Self> {
+        let buckets = if on {
+            reservoir_grid_buckets(pixels)
+        } else {
+            1
+        };
+        let slots = if on {
+            buckets * RESERVOIR_GRID_SLOTS_PER_BUCKET
+        } else {
+            1
+        };
+        let rays = if on { pixels as usize } else { 1 };
+        Ok(Self {
+            grids: PingPong::new(
+                ReservoirGrid::new(ctx, "a", slots as usize, rays)?,
+                ReservoirGrid::new(ctx, "b", slots as usize, rays)?,
+            ),
+            places: Buffer::device_zeroed::<[u32; 2]>(ctx, "reservoir places", rays)?,
+            slots,
+            buckets,
+        })
+    }
+}

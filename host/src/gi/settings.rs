@@ -1,0 +1,224 @@
+//! The GI settings: one struct, each knob with what it costs and what it buys, and a default that
+//! suits a frame of the given resolution.
+
+use crate::error::{Error, Result};
+use gi_shared::hash_cells::{
+    DEFAULT_CELL_SIZE_PIXELS, MAX_NUM_TILES_LOG2, MIN_CELL_SIZE, TILES_PER_BUCKET_LOG2,
+};
+use gi_shared::layout::{MAX_FRAME_HEIGHT, MAX_FRAME_WIDTH};
+use gi_shared::lights::MAX_LIGHT_CANDIDATES;
+
+/// Fewest tiles [`GiSettings::for_resolution`] gives a cache (2^10 = 1024 tiles: 1.4 MB of
+/// values), so that a tiny image still has room for a whole small scene.
+pub const MIN_AUTO_TILES_LOG2: u32 = 10;
+/// Pixels per tile [`GiSettings::for_resolution`] budgets: one tile per 32 pixels gives the
+/// reference's 65 536 tiles at 1920 × 1080.
+pub const AUTO_PIXELS_PER_TILE: u64 = 32;
+
+/// Everything a GI frame can be tuned by.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GiSettings {
+    /// `log2` of the hash grid's bucket count (each bucket holds
+    /// `2^tiles_per_bucket_log2` tiles). Cost: every tile takes 85 cell values (1360 bytes) and
+    /// 64 accumulators (1792 bytes), so each step doubles the cache's ~3.1 KB per tile. Quality:
+    /// too few tiles and inserts fail (those rays get no cache light, counted as failed inserts)
+    /// or live tiles crowd each other out. Default: [`GiSettings::for_resolution`] scales it
+    /// with the pixel count (12 at 1920 × 1080, the reference's 4096 buckets).
+    pub buckets_log2: u32,
+    /// `log2` of the tiles per bucket (reference: 4, 16 tiles). Cost: an insert or a lookup scans
+    /// up to this many keys. Quality: more slots per bucket means fewer failed inserts when
+    /// hashes collide; the tile count is `2^(buckets_log2 + tiles_per_bucket_log2)`.
+    pub tiles_per_bucket_log2: u32,
+    /// Angular size of a cache cell, in pixels (reference: 32). Cost: smaller cells mean more
+    /// tiles live at once (more memory, more failed inserts). Quality: larger cells average more
+    /// samples (less noise) over a larger footprint (more bias: light and shadow smeared over
+    /// the cell).
+    pub cell_size_pixels: f32,
+    /// Smallest world-space cell, in metres (reference: 0.1). Cost: none. Quality: stops cells
+    /// near the camera from becoming so small that they never gather enough samples.
+    pub min_cell_size: f32,
+    /// Temporal radiance feedback (reference: on). Cost: a reprojection and a read per secondary
+    /// hit, and it saves the shadow ray of every hit that reprojects. Quality: adds the previous
+    /// frame's indirect light to on-screen hits: multi-bounce at no ray cost, with a lag of a
+    /// frame; off, secondary hits get direct light only (one bounce).
+    pub temporal_feedback: bool,
+    /// World-space ReSTIR temporal reuse of the light samples at secondary hits (reference: off).
+    /// Cost: three more passes (ClearReservoirs, CompactReservoirs with a prefix scan,
+    /// ResampleReservoirs: about 10% of a 320 × 240 cache-view frame on lavapipe) and two
+    /// reservoir grids (about 5 MB at 320 × 240). Quality: better light samples where many
+    /// lights compete; measured on the test scenes after 64 frames it does not lower the error
+    /// (the cache already averages samples over its cells) and it darkens where visibility
+    /// differs between the hits that share reservoirs (Cornell box −0.6%, the partitioned
+    /// `indirect-room` −2.5%, −9% without temporal feedback).
+    pub restir: bool,
+    /// The descriptor's short-ray flag, light-leak fix 1 (reference: on). Cost: up to twice the
+    /// tiles near geometry. Quality: hits closer to their ray's origin than a tile use other
+    /// cells than long rays reaching the same place, which keeps a thin wall's lit side from
+    /// lighting its dark side.
+    pub short_ray_flag: bool,
+    /// Light-leak fix 2 (reference: on): rays whose hit is closer than a cell use their own
+    /// unfiltered light sample instead of the cell's filtered radiance. Cost: none. Quality:
+    /// less leaking through thin walls and into corners, more noise there.
+    pub bypass: bool,
+    /// RIS candidates of the primary hit's punctual-light estimate (1 to 64; reference path
+    /// tracer: 8). Cost: a light sample each, no ray. Quality: picks the punctual light that
+    /// matters at each pixel where several compete.
+    pub light_candidates: u32,
+}
+
+impl Default for GiSettings {
+    /// The reference's settings at 1920 × 1080.
+    fn default() -> Self {
+        Self {
+            buckets_log2: gi_shared::hash_cells::NUM_BUCKETS_LOG2,
+            tiles_per_bucket_log2: TILES_PER_BUCKET_LOG2,
+            cell_size_pixels: DEFAULT_CELL_SIZE_PIXELS,
+            min_cell_size: MIN_CELL_SIZE,
+            temporal_feedback: true,
+            restir: false,
+            short_ray_flag: true,
+            bypass: true,
+            light_candidates: 8,
+        }
+    }
+}
+
+impl GiSettings {
+    /// The defaults with the cache sized for a `width × height` frame: one tile per
+    /// [`AUTO_PIXELS_PER_TILE`] pixels, rounded up to a power of two, between
+    /// 2^[`MIN_AUTO_TILES_LOG2`] and 2^[`MAX_NUM_TILES_LOG2`] tiles.
+    pub fn for_resolution(width: u32, height: u32) -> Self {
+        let tiles = (u64::from(width) * u64::from(height)).div_ceil(AUTO_PIXELS_PER_TILE);
+        let tiles_log2 = tiles
+            .max(1)
+            .next_power_of_two()
+            .trailing_zeros()
+            .clamp(MIN_AUTO_TILES_LOG2, MAX_NUM_TILES_LOG2);
+        let defaults = Self::default();
+        Self {
+            buckets_log2: tiles_log2 - defaults.tiles_per_bucket_log2,
+            ..defaults
+        }
+    }
+
+    /// The tile count, `2^(buckets_log2 + tiles_per_bucket_log2)`.
+    pub fn tile_count(&self) -> u32 {
+        1 << (self.buckets_log2 + self.tiles_per_bucket_log2)
+    }
+
+    /// Checks every knob and the frame size, naming the first that is out of range.
+    pub fn validate(&self, width: u32, height: u32) -> Result<()> {
+        let bad = |name: &'static str, why: String| Err(Error::InvalidArgument { name, why });
+        if width == 0 || height == 0 || width > MAX_FRAME_WIDTH || height > MAX_FRAME_HEIGHT {
+            return bad(
+                "resolution",
+                format!(
+                    "{width}x{height}: each side must be 1 to {MAX_FRAME_WIDTH}x{MAX_FRAME_HEIGHT}"
+                ),
+            );
+        }
+        if self.buckets_log2 == 0 {
+            return bad(
+                "buckets_log2",
+                "0: the cache needs at least 2 buckets".into(),
+            );
+        }
+        if self.buckets_log2 + self.tiles_per_bucket_log2 > MAX_NUM_TILES_LOG2 {
+            return bad(
+                "buckets_log2",
+                format!(
+                    "{} buckets × {} tiles per bucket (log2 {} + {}): at most 2^{MAX_NUM_TILES_LOG2} \
+                     tiles fit one storage binding",
+                    1u64 << self.buckets_log2.min(63),
+                    1u64 << self.tiles_per_bucket_log2.min(63),
+                    self.buckets_log2,
+                    self.tiles_per_bucket_log2
+                ),
+            );
+        }
+        if !(self.cell_size_pixels.is_finite() && self.cell_size_pixels > 0.0) {
+            return bad(
+                "cell_size_pixels",
+                format!(
+                    "{}: must be a positive number of pixels",
+                    self.cell_size_pixels
+                ),
+            );
+        }
+        if !(self.min_cell_size.is_finite() && self.min_cell_size >= 0.0) {
+            return bad(
+                "min_cell_size",
+                format!(
+                    "{}: must be a finite size ≥ 0 in metres",
+                    self.min_cell_size
+                ),
+            );
+        }
+        if self.light_candidates == 0 || self.light_candidates > MAX_LIGHT_CANDIDATES {
+            return bad(
+                "light_candidates",
+                format!(
+                    "{}: must be 1 to {MAX_LIGHT_CANDIDATES}",
+                    self.light_candidates
+                ),
+            );
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_cache_scales_with_the_resolution() {
+        assert_eq!(GiSettings::for_resolution(1920, 1080).tile_count(), 1 << 16);
+        assert_eq!(
+            GiSettings::for_resolution(1920, 1080),
+            GiSettings::default()
+        );
+        assert_eq!(GiSettings::for_resolution(64, 64).tile_count(), 1 << 10);
+        assert_eq!(GiSettings::for_resolution(640, 480).tile_count(), 1 << 14);
+        assert_eq!(GiSettings::for_resolution(1, 1).tile_count(), 1 << 10);
+        for (w, h) in [(1, 1), (64, 48), (3840, 2160)] {
+            GiSettings::for_resolution(w, h).validate(w, h).unwrap();
+        }
+    }
+
+    #[test]
+    fn bad_settings_name_the_setting() {
+        let ok = GiSettings::for_resolution(64, 64);
+        let name = |s: GiSettings, w, h| match s.validate(w, h) {
+            Err(Error::InvalidArgument { name, .. }) => name,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(name(ok, 0, 64), "resolution");
+        assert_eq!(name(ok, 64, 100_000), "resolution");
+        let zero = GiSettings {
+            buckets_log2: 0,
+            ..ok
+        };
+        assert_eq!(name(zero, 64, 64), "buckets_log2");
+        let huge = GiSettings {
+            buckets_log2: 40,
+            ..ok
+        };
+        assert_eq!(name(huge, 64, 64), "buckets_log2");
+        let cells = GiSettings {
+            cell_size_pixels: f32::NAN,
+            ..ok
+        };
+        assert_eq!(name(cells, 64, 64), "cell_size_pixels");
+        let min = GiSettings {
+            min_cell_size: -1.0,
+            ..ok
+        };
+        assert_eq!(name(min, 64, 64), "min_cell_size");
+        let cands = GiSettings {
+            light_candidates: 0,
+            ..ok
+        };
+        assert_eq!(name(cands, 64, 64), "light_candidates");
+    }
+}

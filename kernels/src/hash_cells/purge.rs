@@ -1,0 +1,45 @@
+//! PurgeRadianceCache: [`begin_frame`] resets the frame's counters (one invocation), then
+//! [`purge_tiles`] walks the previous frame's live list (one invocation per entry, dispatched from
+//! its counter): tiles untouched for `TILE_DECAY_FRAMES` frames are evicted, the others carried
+//! into this frame's list.
+//!
+//! `begin_frame`, set 0: lists, cache-view counters, light-grid bounds. `purge_tiles`, set 0: keys,
+//! last touch, lists.
+
+use crate::atomics::DeviceWords;
+use gi_shared::cache_view::{CachePassParams, begin_cache_frame};
+use gi_shared::hash_cells::passes::purge_pass;
+use gi_shared::light_grid::clear_hit_bounds;
+use spirv_std::glam::UVec3;
+use spirv_std::spirv;
+
+/// Zeroes the frame's counters (all but the previous live list) and empties the light grid's hit
+/// bounds; one invocation.
+#[spirv(compute(threads(1)))]
+pub fn begin_frame(
+    #[spirv(push_constant)] params: &CachePassParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] lists: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] counters: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] bounds: &mut [u32],
+) {
+    begin_cache_frame(lists, counters, params.grid.frame_index);
+    clear_hit_bounds(bounds, 0);
+}
+
+/// Evicts or keeps entry `id.x` of the previous frame's live list.
+#[spirv(compute(threads(64)))]
+pub fn purge_tiles(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] params: &CachePassParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] keys: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] last_touch: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] lists: &mut [u32],
+) {
+    purge_pass(
+        &mut DeviceWords(keys),
+        &DeviceWords(last_touch),
+        &mut DeviceWords(lists),
+        &params.grid,
+        id.x,
+    );
+}

@@ -1,0 +1,78 @@
+//! UpdateLightGrid (`gi_shared::light_grid`): [`update_light_grid`] turns this frame's hit bounds
+//! into the grid's parameters and the indirect dispatch of [`build_light_grid`], which draws each
+//! entry of each cell by streaming RIS over all lights.
+//!
+//! `update_light_grid`, set 0: hit bounds (`u32`), grid parameters (`LightGridParams`), indirect
+//! arguments (`DispatchIndirect`). `build_light_grid`, set 0: grid parameters, entries
+//! (`LightGridEntry`), lights (`GpuLight`). Push constants: `CachePassParams`.
+
+#![cfg(not(feature = "ray-query"))]
+
+use gi_shared::cache_view::{ARGS_LIGHT_GRID, CachePassParams, PASS_LIGHT_GRID};
+use gi_shared::hash::pcg_chain;
+use gi_shared::indirect::{DispatchIndirect, dispatch_for_count};
+use gi_shared::light_grid::{
+    LIGHT_GRID_MAX_CELLS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams,
+    build_light_grid_entry, light_grid_params, read_hit_bounds,
+};
+use gi_shared::lights::GpuLight;
+use spirv_std::glam::{UVec2, UVec3};
+use spirv_std::spirv;
+
+/// The grid over this frame's hits and the dispatch of its build; one invocation.
+#[spirv(compute(threads(1)))]
+pub fn update_light_grid(
+    #[spirv(push_constant)] params: &CachePassParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] bounds: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] grid: &mut [LightGridParams],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] args: &mut [DispatchIndirect],
+) {
+    let view = params.view;
+    let (lo, hi) = read_hit_bounds(bounds, 0);
+    let g = light_grid_params(
+        lo,
+        hi,
+        view.light_count,
+        UVec2::from_array(view.environment_size),
+        view.environment_irradiance,
+        view.emissive_multiplier,
+    );
+    if !grid.is_empty() {
+        grid[0] = g;
+    }
+    let a = ARGS_LIGHT_GRID as usize;
+    if a < args.len() {
+        args[a] = dispatch_for_count(
+            g.entry_count(),
+            LIGHT_GRID_MAX_CELLS * LIGHT_GRID_RESERVOIRS_PER_CELL,
+            view.max_groups,
+        );
+    }
+}
+
+/// Draws entry `id.x` (cell `id.x / 64`, entry `id.x % 64`) of the grid.
+#[spirv(compute(threads(64)))]
+pub fn build_light_grid(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] params: &CachePassParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] grid: &[LightGridParams],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] entries: &mut [LightGridEntry],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] lights: &[GpuLight],
+) {
+    if grid.is_empty() {
+        return;
+    }
+    let g = grid[0];
+    let i = id.x;
+    if i >= g.entry_count() || i as usize >= entries.len() {
+        return;
+    }
+    let seed = pcg_chain([params.view.seed, params.view.frame_index, PASS_LIGHT_GRID]);
+    entries[i as usize] = build_light_grid_entry(
+        &g,
+        lights,
+        i / LIGHT_GRID_RESERVOIRS_PER_CELL,
+        i % LIGHT_GRID_RESERVOIRS_PER_CELL,
+        seed,
+    );
+}

@@ -1,0 +1,136 @@
+//! The per-invocation bodies of the hash grid's passes, in frame order. The kernels and the CPU
+//! model (`super::model`) call these very functions, so a GPU run and a CPU run of the same
+//! batch end with the same integer state (up to slot order inside a bucket, which depends on the
+//! order of concurrent inserts):
+//!
+//! 1. [`super::lists::begin_frame`], one invocation;
+//! 2. [`purge_pass`], one invocation per entry of the previous live list;
+//! 3. [`query_pass`], one invocation per query;
+//! 4. [`update_pass`], one invocation per entry of the update list (or 64 per entry running
+//!    [`super::update::update_mip0_cell`] and [`super::update::update_mip_cell`] on
+//!    [`update_list_tile`]);
+//! 5. reads with [`super::read::lookup`] in later passes.
+//!
+//! Buffers: `keys` and `last_touch` (one word per tile), `values` (85 [`HashCellValue`]s per tile),
+//! `accumulators` (7 words per mip-0 cell), `lists` ([`super::lists`]).
+
+use super::accumulate::accumulate_sample;
+use super::lists::{
+    DROPPED_SAMPLES, EVICTED_TILES, FAILED_INSERTS, UPDATE_TILES, count, list_tile, live_list,
+    previous_live_list, push_tile,
+};
+use super::purge::purge_tile;
+use super::storage::{TileInsert, insert_tile};
+use super::touch::{clear_tile_values, touch_tile};
+use super::update::update_tile;
+use super::{CellDescriptor, cell_descriptor};
+use crate::atomics::AtomicWords;
+use crate::layout::{HashCellValue, HashGridParams, HashGridQuery};
+
+/// The cell a query falls into, seen from `params.eye`.
+#[inline]
+pub fn query_descriptor(query: &HashGridQuery, params: &HashGridParams) -> CellDescriptor {
+    cell_descriptor(
+        params.eye(),
+        query.hit_position(),
+        query.direction(),
+        query.hit_distance,
+        params,
+    )
+}
+
+/// Purge invocation `index`: entry `index` of the previous frame's live list is evicted or carried
+/// over to this frame's list.
+#[inline]
+pub fn purge_pass<K, T, L>(
+    keys: &mut K,
+    last_touch: &T,
+    lists: &mut L,
+    params: &HashGridParams,
+    index: u32,
+) where
+    K: AtomicWords + ?Sized,
+    T: AtomicWords + ?Sized,
+    L: AtomicWords + ?Sized,
+{
+    let frame = params.frame_index;
+    let tile_count = params.tile_count();
+    if let Some(tile) = list_tile(lists, previous_live_list(frame), tile_count, index) {
+        if purge_tile(keys, last_touch, tile, frame) {
+            push_tile(lists, live_list(frame), tile_count, tile);
+        } else {
+            count(lists, EVICTED_TILES);
+        }
+    }
+}
+
+/// One query: finds or inserts its tile (a new tile joins the live list with zeroed values),
+/// touches it (the first touch of the frame lists it for the update), and adds its radiance to
+/// its mip-0 cell. Queries without a cell (non-finite inputs) do nothing; full buckets and
+/// non-finite radiance are counted.
+#[inline]
+pub fn query_pass<K, T, A, L>(
+    keys: &mut K,
+    last_touch: &mut T,
+    values: &mut [HashCellValue],
+    accumulators: &mut A,
+    lists: &mut L,
+    params: &HashGridParams,
+    query: &HashGridQuery,
+) where
+    K: AtomicWords + ?Sized,
+    T: AtomicWords + ?Sized,
+    A: AtomicWords + ?Sized,
+    L: AtomicWords + ?Sized,
+{
+    let desc = query_descriptor(query, params);
+    if desc.is_none() {
+        return;
+    }
+    let tile_count = params.tile_count();
+    let tile = match insert_tile(keys, &desc, params) {
+        TileInsert::Found(tile) => tile,
+        TileInsert::Inserted(tile) => {
+            push_tile(lists, live_list(params.frame_index), tile_count, tile);
+            clear_tile_values(values, tile);
+            tile
+        }
+        TileInsert::Full => {
+            count(lists, FAILED_INSERTS);
+            return;
+        }
+    };
+    if touch_tile(last_touch, tile, params.frame_index) {
+        push_tile(lists, UPDATE_TILES, tile_count, tile);
+    }
+    if !accumulate_sample(accumulators, tile, desc.cell, query.radiance()) {
+        count(lists, DROPPED_SAMPLES);
+    }
+}
+
+/// Tile of update invocation (or workgroup) `index`, if any.
+#[inline]
+pub fn update_list_tile<L: AtomicWords + ?Sized>(
+    lists: &L,
+    params: &HashGridParams,
+    index: u32,
+) -> Option<u32> {
+    list_tile(lists, UPDATE_TILES, params.tile_count(), index)
+}
+
+/// Update invocation `index`: blends and re-mips entry `index` of the update list.
+#[inline]
+pub fn update_pass<A, L>(
+    values: &mut [HashCellValue],
+    accumulators: &mut A,
+    lists: &L,
+    params: &HashGridParams,
+    index: u32,
+) where
+    A: AtomicWords + ?Sized,
+    L: AtomicWords + ?Sized,
+{
+    if let Some(tile) = update_list_tile(lists, params, index) {
+        update_tile(values, accumulators, tile);
+    }
+}

@@ -1,0 +1,252 @@
+//! The update pass, per tile touched this frame: blend each mip-0 cell's history with the frame's
+//! accumulated samples, clear the accumulators, then rebuild mips 1–3 as sums of their four
+//! children. Either one invocation per tile runs [`update_tile`], or 64 per tile run
+//! [`update_mip0_cell`] each, then (with a barrier between levels) [`update_mip_cell`] for mips
+//! 1, 2 and 3 on the first 16, 4 and 1 invocations.
+//!
+//! Blend: with history mean `m` over `c0` samples and `k` new samples of mean `a`, the new count
+//! is `c = min(c0 + k, 16)` and the mean is the running mean that keeps the newest `c` samples'
+//! worth of weight: `(m · (c − k') + a · k') / c` with `k' = min(k, 16)`. Below the cap this is the
+//! exact mean of all samples; at the cap the history keeps weight `16 − k'`. For `k = 1` it equals
+//! the reference's `lerp(m, a, 1/c)`; for `k > 1` the reference gives the `k` samples the weight
+//! of one, this gives them `k`. A cell without samples (`k = 0`) is left unchanged, where the
+//! reference decrements its count (so stale cells of a touched tile drifted to coarser mips).
+
+use super::accumulate::{accumulator_word, clear_accumulator, load_accumulator};
+use super::{MAX_SAMPLE_COUNT, MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_CELL_RATIO, cell_index};
+use crate::atomics::AtomicWords;
+use crate::layout::{HashCellAccumulator, HashCellValue};
+use crate::math::{clamp, min, min_u32};
+
+/// A mip-0 cell's new value from its old value (`(rgb · n, n)`) and the frame's accumulator (see
+/// the module documentation for the weights).
+#[inline]
+pub fn blend_cell(old: HashCellValue, acc: HashCellAccumulator) -> HashCellValue {
+    if acc.count == 0 {
+        return old;
+    }
+    let cap = MAX_SAMPLE_COUNT as f32;
+    let k = acc.count as f32;
+    let k_kept = min_u32(acc.count, MAX_SAMPLE_COUNT) as f32;
+    // Mip-0 counts are integers in 0..=16; the clamp also turns a NaN count into 0.
+    let c0 = clamp(old.count, 0.0, cap);
+    let c = min(c0 + k_kept, cap);
+    let history_weight = c - k_kept;
+    // Unit scales are written out: divisions need not be exact on the GPU, `x / x` included.
+    let history_scale = if c0 <= 0.0 {
+        0.0
+    } else if history_weight == c0 {
+        1.0
+    } else {
+        history_weight / c0
+    };
+    let new_scale = if k_kept == k { 1.0 } else { k_kept / k };
+    let sum = old.radiance_sum() * history_scale + acc.radiance_sum() * new_scale;
+    HashCellValue::new(sum, c)
+}
+
+/// Blends mip-0 cell `cell` (`x + 8 · y`, in 0..64) of tile `tile` with its accumulator
+/// ([`blend_cell`]) and clears the accumulator.
+#[inline]
+pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
+    values: &mut [HashCellValue],
+    accumulators: &mut W,
+    tile: u32,
+    cell: u32,
+) {
+    let cell = min_u32(cell, MIP0_CELLS_PER_TILE - 1);
+    let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
+    let index = cell_index(tile, 0, xy[0], xy[1]) as usize;
+    let base = accumulator_word(tile, xy);
+    let acc = load_accumulator(accumulators, base);
+    if acc.count != 0 {
+        values[index] = blend_cell(values[index], acc);
+        clear_accumulator(accumulators, base);
+    }
+}
+
+/// Cells of mip `mip` (64, 16, 4, 1; mip clamped to 3).
+#[inline]
+pub fn mip_cell_count(mip: u32) -> u32 {
+    let side = TILE_CELL_RATIO >> min_u32(mip, NUM_MIPS - 1);
+    side * side
+}
+
+/// Cell `(x, y)` of mip `mip ≥ 1` as the sum of its four children in mip `mip − 1`, added in a
+/// fixed order (so every invocation layout gives the same bits). Mip 0 reads the cell itself.
+#[inline]
+pub fn mip_cell(values: &[HashCellValue], tile: u32, mip: u32, x: u32, y: u32) -> HashCellValue {
+    if mip == 0 {
+        return values[cell_index(tile, 0, x, y) as usize];
+    }
+    let child = min_u32(mip, NUM_MIPS - 1) - 1;
+    let (cx, cy) = (2 * x, 2 * y);
+    let a = values[cell_index(tile, child, cx, cy) as usize];
+    let b = values[cell_index(tile, child, cx + 1, cy) as usize];
+    let c = values[cell_index(tile, child, cx, cy + 1) as usize];
+    let d = values[cell_index(tile, child, cx + 1, cy + 1) as usize];
+    a + b + c + d
+}
+
+/// Writes cell `cell` (`x + side · y`) of mip `mip` (1..=3) of tile `tile` from its children
+/// ([`mip_cell`]); the finer mip must be complete.
+#[inline]
+pub fn update_mip_cell(values: &mut [HashCellValue], tile: u32, mip: u32, cell: u32) {
+    let side = TILE_CELL_RATIO >> min_u32(mip, NUM_MIPS - 1);
+    let (x, y) = (cell % side, cell / side);
+    let value = mip_cell(values, tile, mip, x, y);
+    values[cell_index(tile, mip, x, y) as usize] = value;
+}
+
+/// The whole update of one tile by one invocation: the 64 mip-0 blends, then mips 1, 2, 3.
+#[inline]
+pub fn update_tile<W: AtomicWords + ?Sized>(
+    values: &mut [HashCellValue],
+    accumulators: &mut W,
+    tile: u32,
+) {
+    let mut cell = 0;
+    while cell < MIP0_CELLS_PER_TILE {
+        update_mip0_cell(values, accumulators, tile, cell);
+        cell += 1;
+    }
+    let mut mip = 1;
+    while mip < NUM_MIPS {
+        let mut cell = 0;
+        while cell < mip_cell_count(mip) {
+            update_mip_cell(values, tile, mip, cell);
+            cell += 1;
+        }
+        mip += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fixed_point;
+    use crate::hash_cells::CELLS_PER_TILE;
+    use crate::hash_cells::accumulate::accumulate_sample;
+    use crate::layout::ACCUMULATOR_WORDS;
+    use glam::Vec3;
+
+    fn acc(sum: Vec3, count: u32) -> HashCellAccumulator {
+        HashCellAccumulator {
+            r: fixed_point::encode(sum.x),
+            g: fixed_point::encode(sum.y),
+            b: fixed_point::encode(sum.z),
+            count,
+        }
+    }
+
+    fn close(a: Vec3, b: Vec3) -> bool {
+        (a - b).abs().max_element() <= 1e-6 * b.abs().max_element().max(1.0)
+    }
+
+    #[test]
+    fn blend_weights() {
+        let m = Vec3::new(1.0, 2.0, 4.0);
+        let a = Vec3::new(3.0, 0.0, 0.5);
+        // k = 0: unchanged (the reference would drop the count to 4).
+        let old = HashCellValue::new(m * 5.0, 5.0);
+        assert_eq!(blend_cell(old, acc(Vec3::ZERO, 0)), old);
+        // Empty history: the new samples' mean, count k.
+        let v = blend_cell(HashCellValue::ZERO, acc(a * 3.0, 3));
+        assert_eq!(v.count, 3.0);
+        assert!(close(v.mean(), a));
+        // k = 1 below the cap: lerp(m, a, 1/c), as the reference.
+        let v = blend_cell(old, acc(a, 1));
+        assert_eq!(v.count, 6.0);
+        assert!(close(v.mean(), m + (a - m) / 6.0));
+        // k = 1 at the cap: lerp(m, a, 1/16).
+        let full = HashCellValue::new(m * 16.0, 16.0);
+        let v = blend_cell(full, acc(a, 1));
+        assert_eq!(v.count, 16.0);
+        assert!(close(v.mean(), m + (a - m) / 16.0));
+        // k = 4 below the cap: the exact mean of 5 + 4 samples.
+        let v = blend_cell(old, acc(a * 4.0, 4));
+        assert_eq!(v.count, 9.0);
+        assert!(close(v.mean(), (m * 5.0 + a * 4.0) / 9.0));
+        // k = 4 crossing the cap from 14: history keeps weight 12.
+        let v = blend_cell(HashCellValue::new(m * 14.0, 14.0), acc(a * 4.0, 4));
+        assert_eq!(v.count, 16.0);
+        assert!(close(v.mean(), (m * 12.0 + a * 4.0) / 16.0));
+        // k > 16: the history is replaced by the new mean.
+        let v = blend_cell(full, acc(a * 40.0, 40));
+        assert_eq!(v.count, 16.0);
+        assert!(close(v.mean(), a));
+        // A corrupt count is treated as empty history.
+        let nan = HashCellValue::new(m, f32::NAN);
+        assert!(close(blend_cell(nan, acc(a, 1)).mean(), a));
+    }
+
+    #[test]
+    fn mips_are_sums_of_children_and_accumulators_are_cleared() {
+        let tiles = 2;
+        let mut values = vec![HashCellValue::ZERO; tiles * CELLS_PER_TILE as usize];
+        let mut accs = vec![0u32; tiles * 64 * ACCUMULATOR_WORDS];
+        // Tile 1: cell (x, y) gets x + 1 samples of radiance (y + 1).
+        for y in 0..8 {
+            for x in 0..8 {
+                for _ in 0..=x {
+                    accumulate_sample(&mut accs[..], 1, [x, y], Vec3::splat((y + 1) as f32));
+                }
+            }
+        }
+        // An untouched cell of tile 1 keeps its old value.
+        let untouched = cell_index(1, 0, 0, 0) as usize;
+        accs[accumulator_word(1, [0, 0])..][..7].fill(0);
+        values[untouched] = HashCellValue::new(Vec3::splat(3.0), 3.0);
+        update_tile(&mut values, &mut accs[..], 1);
+        assert!(accs.iter().all(|&w| w == 0));
+        assert!(
+            values[..CELLS_PER_TILE as usize]
+                .iter()
+                .all(|v| *v == HashCellValue::ZERO)
+        );
+        assert_eq!(values[untouched], HashCellValue::new(Vec3::splat(3.0), 3.0));
+        let c = |mip, x, y| values[cell_index(1, mip, x, y) as usize];
+        assert_eq!(c(0, 3, 2).count, 4.0);
+        assert_eq!(c(0, 3, 2).mean(), Vec3::splat(3.0));
+        for mip in 1..NUM_MIPS {
+            let side = 8 >> mip;
+            for y in 0..side {
+                for x in 0..side {
+                    let expected = c(mip - 1, 2 * x, 2 * y)
+                        + c(mip - 1, 2 * x + 1, 2 * y)
+                        + c(mip - 1, 2 * x, 2 * y + 1)
+                        + c(mip - 1, 2 * x + 1, 2 * y + 1);
+                    assert_eq!(c(mip, x, y), expected);
+                    assert_eq!(mip_cell(&values, 1, mip, x, y), expected);
+                }
+            }
+        }
+        // Root: counts 3 (old cell) + Σ_{y, x ≠ (0,0)} min(x + 1, 16).
+        let counts: f32 = 3.0 + (0..8).map(|x| (x + 1) as f32).sum::<f32>() * 8.0 - 1.0;
+        assert_eq!(c(3, 0, 0).count, counts);
+        assert_eq!(mip_cell_count(0), 64);
+        assert_eq!(mip_cell_count(3), 1);
+        assert_eq!(mip_cell_count(9), 1);
+
+        // 64 invocations per tile give the same bits.
+        let mut other = vec![HashCellValue::ZERO; tiles * CELLS_PER_TILE as usize];
+        other[untouched] = HashCellValue::new(Vec3::splat(3.0), 3.0);
+        for y in 0..8 {
+            for x in 0..8 {
+                for _ in 0..=x {
+                    accumulate_sample(&mut accs[..], 1, [x, y], Vec3::splat((y + 1) as f32));
+                }
+            }
+        }
+        accs[accumulator_word(1, [0, 0])..][..7].fill(0);
+        for cell in (0..64).rev() {
+            update_mip0_cell(&mut other, &mut accs[..], 1, cell);
+        }
+        for mip in 1..NUM_MIPS {
+            for cell in 0..mip_cell_count(mip) {
+                update_mip_cell(&mut other, 1, mip, cell);
+            }
+        }
+        assert_eq!(other, values);
+    }
+}

@@ -1,0 +1,158 @@
+//! Temporal radiance feedback (GI-1.0 talk; Capsaicin's `GenerateReservoirs`, step 10b): a
+//! secondary hit that the previous frame saw takes the previous frame's final (direct + indirect)
+//! radiance at that pixel instead of a shadow ray — "(limited) infinite multi-bounce for free".
+//!
+//! The hit is projected with the previous frame's view-projection
+//! ([`CameraParams::previous_view_proj`]) into the previous frame's image ([`reproject`]); the
+//! reuse is accepted ([`accepts`]) when the pixel lies on screen, the previous frame's linear
+//! depth there is within [`RADIANCE_FEEDBACK_DEPTH_TOLERANCE`] of the hit's depth under the
+//! previous camera (the same surface, not an occluder or the sky), and the previous normal
+//! agrees with the hit's (dot above [`RADIANCE_FEEDBACK_MIN_NORMAL_DOT`]: the same side of the
+//! same surface). Depths are the G-buffer's: distance along the camera's forward axis, 0 for sky
+//! ([`crate::gbuffer`]).
+
+use glam::{UVec2, Vec3};
+
+use crate::camera::{CameraParams, to_clip, uv_of_clip};
+use crate::math::{abs, to_u32_clamped};
+
+/// Largest relative difference between the previous frame's depth and the hit's depth there.
+pub const RADIANCE_FEEDBACK_DEPTH_TOLERANCE: f32 = 0.05;
+/// The previous frame's normal must have a dot product above this with the hit's normal.
+pub const RADIANCE_FEEDBACK_MIN_NORMAL_DOT: f32 = 0.5;
+
+/// Where a secondary hit lies in the previous frame's image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FeedbackPixel {
+    /// The previous frame's pixel holding the hit.
+    pub pixel: UVec2,
+    /// The hit's linear depth under the previous camera: the depth that pixel must have.
+    pub depth: f32,
+}
+
+/// The previous frame's pixel of the world position `position` under `camera`'s previous
+/// view-projection, or `None` when it lies behind the previous camera, off its image, or is not
+/// finite.
+#[inline]
+pub fn reproject(camera: &CameraParams, position: Vec3) -> Option<FeedbackPixel> {
+    let clip = to_clip(&camera.previous_view_proj, position);
+    // False for NaN too.
+    if !(clip.w > 0.0 && clip.is_finite()) {
+        return None;
+    }
+    let uv = uv_of_clip(clip);
+    let inside = uv.x >= 0.0 && uv.x < 1.0 && uv.y >= 0.0 && uv.y < 1.0;
+    if !inside {
+        return None;
+    }
+    let size = UVec2::from_array(camera.image_size);
+    let pixel = UVec2::new(
+        to_u32_clamped(uv.x * size.x as f32),
+        to_u32_clamped(uv.y * size.y as f32),
+    );
+    // Rounding of `uv × size` can reach the size for uv just below 1.
+    if pixel.x >= size.x || pixel.y >= size.y {
+        return None;
+    }
+    Some(FeedbackPixel {
+        pixel,
+        depth: clip.w,
+    })
+}
+
+/// Whether the previous frame's radiance at `at` may stand for the hit of unit normal
+/// `hit_normal`, given the previous frame's linear depth `previous_depth` and unit normal
+/// `previous_normal` there (see the [module](self)). Sky pixels (depth 0) and NaNs are rejected.
+#[inline]
+pub fn accepts(
+    at: &FeedbackPixel,
+    hit_normal: Vec3,
+    previous_depth: f32,
+    previous_normal: Vec3,
+) -> bool {
+    let same_depth = abs(previous_depth - at.depth) <= RADIANCE_FEEDBACK_DEPTH_TOLERANCE * at.depth;
+    same_depth && hit_normal.dot(previous_normal) > RADIANCE_FEEDBACK_MIN_NORMAL_DOT
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{primary_ray, view_projection};
+    use glam::Vec2;
+
+    fn camera() -> CameraParams {
+        CameraParams::new(
+            Vec3::new(0.0, 1.0, 4.0),
+            Vec3::new(0.0, -0.2, -1.0),
+            Vec3::Y,
+            1.0,
+            64,
+            48,
+        )
+    }
+
+    #[test]
+    fn points_reproject_to_the_pixel_that_saw_them() {
+        let c = camera();
+        for (x, y) in [(0u32, 0u32), (63, 47), (20, 31)] {
+            let ray = primary_ray(&c, UVec2::new(x, y), Vec2::ZERO);
+            let p = Vec3::from_array(ray.origin) + Vec3::from_array(ray.direction) * 3.0;
+            let at = reproject(&c, p).unwrap();
+            assert_eq!(at.pixel, UVec2::new(x, y));
+            assert!((at.depth - 3.0).abs() < 1e-5);
+        }
+        // Behind the camera, at the eye, off screen, NaN: nothing.
+        let eye = c.position();
+        assert_eq!(reproject(&c, eye - c.forward()), None);
+        assert_eq!(reproject(&c, eye), None);
+        assert_eq!(reproject(&c, eye + c.forward() + c.right() * 10.0), None);
+        assert_eq!(reproject(&c, eye + c.forward() - c.up() * 10.0), None);
+        assert_eq!(reproject(&c, Vec3::splat(f32::NAN)), None);
+        assert_eq!(reproject(&c, Vec3::splat(f32::INFINITY)), None);
+    }
+
+    /// The previous frame's matrix is used, not this frame's.
+    #[test]
+    fn reprojection_uses_the_previous_camera() {
+        let previous = camera();
+        let mut moved = previous;
+        moved.position = (previous.position() + Vec3::new(0.1, 0.0, 0.0)).to_array();
+        moved.view_proj = view_projection(&moved);
+        let current = moved.with_previous(&previous);
+        let ray = primary_ray(&previous, UVec2::new(30, 20), Vec2::ZERO);
+        let p = Vec3::from_array(ray.origin) + Vec3::from_array(ray.direction) * 2.0;
+        assert_eq!(reproject(&current, p).unwrap().pixel, UVec2::new(30, 20));
+        let static_moved = moved.with_previous(&moved);
+        assert_ne!(
+            reproject(&static_moved, p).unwrap().pixel,
+            UVec2::new(30, 20)
+        );
+    }
+
+    #[test]
+    fn acceptance_edges() {
+        let at = FeedbackPixel {
+            pixel: UVec2::ZERO,
+            depth: 10.0,
+        };
+        let n = Vec3::Y;
+        assert!(accepts(&at, n, 10.0, n));
+        // 5 % either way is in; just past it is out.
+        assert!(accepts(&at, n, 10.5, n));
+        assert!(accepts(&at, n, 9.5, n));
+        assert!(!accepts(&at, n, 10.51, n));
+        assert!(!accepts(&at, n, 9.49, n));
+        // Sky, an occluder in front, NaN depth.
+        assert!(!accepts(&at, n, 0.0, n));
+        assert!(!accepts(&at, n, 3.0, n));
+        assert!(!accepts(&at, n, f32::NAN, n));
+        // Normals: above 0.5 in, at 0.5 and below out, the other side out, NaN out.
+        let tilted = |c: f32| Vec3::new((1.0 - c * c).sqrt(), c, 0.0);
+        assert!(accepts(&at, n, 10.0, tilted(0.51)));
+        assert!(!accepts(&at, n, 10.0, tilted(0.5)));
+        assert!(!accepts(&at, n, 10.0, tilted(0.49)));
+        assert!(!accepts(&at, n, 10.0, -n));
+        assert!(!accepts(&at, n, 10.0, Vec3::splat(f32::NAN)));
+        assert!(!accepts(&at, Vec3::ZERO, 10.0, n));
+    }
+}
