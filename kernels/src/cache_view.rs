@@ -1,6 +1,6 @@
 //! `gi cache-view`'s own passes (`gi_shared::cache_view`): TraceCacheRays, one cosine ray per
 //! G-buffer pixel (the stand-in for the screen probes' PopulateScreenProbes) with the primary
-//! hit's punctual light, and CacheViewComposite, the running mean of each frame's estimate.
+//! hit's next-event estimate, and CacheViewComposite, the running mean of each frame's estimate.
 //!
 //! TraceCacheRays, set 0: camera (`CameraParams`), G-buffer depth, geometric normal, shading
 //! normal, albedo, emissive, ids (images), pixels (`CacheViewPixel`), queries (`CacheQuery`),
@@ -14,7 +14,7 @@ use crate::gbuffer::{DepthImage, HalfImage, IdImage, UnormImage};
 use gi_shared::append_list::append;
 use gi_shared::cache_view::{
     CachePassParams, CacheQuery, CacheViewPixel, PASS_TRACE, QUERY_COUNT, cache_ray, pass_random,
-    primary_emission, primary_surface, punctual_light, shade_cache_hit, sky_radiance,
+    primary_direct_light, primary_emission, primary_surface, shade_cache_hit, sky_radiance,
 };
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
@@ -27,7 +27,7 @@ use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
 
 traced_kernel! {
-    /// TraceCacheRays: the cosine ray of pixel `id` and its primary hit's punctual light.
+    /// TraceCacheRays: the cosine ray of pixel `id` and its primary hit's next-event estimate.
     #[spirv(compute(threads(8, 8)))]
     #[allow(
         clippy::too_many_arguments,
@@ -56,7 +56,9 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] texels: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 10)] environment_cdf: &[f32],
     ) {
         let pixel = UVec2::new(id.x, id.y);
         if !in_image(camera, pixel) {
@@ -86,15 +88,18 @@ traced_kernel! {
         let ray = cache_ray(&surface, rng.next_vec2());
         let hit = scene.closest_hit(&ray);
         let shaded = shade_cache_hit(
-            &view, &ray, &hit, index, instances, meshes, vertices, triangles, materials,
-            textures, texels, environment,
+            &view, &ray, &surface, &hit, index, instances, meshes, vertices, triangles, materials,
+            textures, texels, lights, light_table, environment, environment_cdf,
         );
         let emission = primary_emission(materials, ids_texel, e, view.emissive_multiplier);
         out.emissive = if emission.max_element() > 0.0 { 1 } else { 0 };
         let mut base = emission;
-        let punctual = punctual_light(&view, &surface, a.truncate(), lights, &mut rng);
-        if punctual.radiance.max_element() > 0.0 && !scene.any_hit(&punctual.ray) {
-            base += punctual.radiance;
+        let direct = primary_direct_light(
+            &view, &surface, a.truncate(), instances, meshes, vertices, triangles, materials,
+            textures, texels, lights, environment, environment_cdf, &mut rng,
+        );
+        if direct.radiance.max_element() > 0.0 && !scene.any_hit(&direct.ray) {
+            base += direct.radiance;
         }
         out.ray_radiance = shaded.radiance.to_array();
         out.surface = 1;

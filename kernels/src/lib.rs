@@ -47,10 +47,10 @@ mod smoke;
 mod trace_rays;
 
 #[cfg(not(feature = "ray-query"))]
-pub use difftest::difftest;
-#[cfg(not(feature = "ray-query"))]
 pub use cache_view::composite;
 pub use cache_view::trace_cache_rays;
+#[cfg(not(feature = "ray-query"))]
+pub use difftest::difftest;
 #[cfg(not(feature = "ray-query"))]
 pub use finite_check::count_non_finite;
 pub use gbuffer::gbuffer;

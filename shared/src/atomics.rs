@@ -125,7 +125,11 @@ impl AtomicWords for [core::sync::atomic::AtomicU32] {
 #[inline]
 pub fn ordered_bits(x: f32) -> u32 {
     let b = x.to_bits();
-    if b & 0x8000_0000 != 0 { !b } else { b | 0x8000_0000 }
+    if b & 0x8000_0000 != 0 {
+        !b
+    } else {
+        b | 0x8000_0000
+    }
 }
 
 /// Inverse of [`ordered_bits`].

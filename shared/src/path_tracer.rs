@@ -32,7 +32,8 @@
 //! BSDF sampling by multiple importance sampling (power heuristic) with the candidate's source
 //! density (selection probability × sample density), which both sides evaluate alike, so the
 //! weights sum to one; punctual lights are sampled by NEE only (no ray can hit them). A
-//! constant sky is found by BSDF sampling only. Russian roulette starts after
+//! constant [`PathTracerParams::sky`] is found by BSDF sampling only (`gi` turns `--sky` into a
+//! uniform environment image, which NEE samples). Russian roulette starts after
 //! [`ROULETTE_START`] bounces.
 //!
 //! # Shading normals
@@ -293,13 +294,17 @@ impl LightCandidate {
     };
 }
 
-/// The shading point's frame, as next-event estimation needs it.
-#[derive(Clone, Copy)]
-struct ShadingFrame {
-    origin: Vec3,
-    ns: Vec3,
-    ng: Vec3,
-    brdf: Vec3,
+/// A diffuse shading point as next-event estimation needs it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadingFrame {
+    /// Where shadow rays start (already offset off the surface).
+    pub origin: Vec3,
+    /// Unit shading normal on the geometric normal's side.
+    pub ns: Vec3,
+    /// Unit geometric normal facing the incoming ray.
+    pub ng: Vec3,
+    /// The Lambertian BRDF, albedo / π.
+    pub brdf: Vec3,
 }
 
 /// Samples light `index` from `frame` (`u` uniform in `[0, 1)²`).
@@ -359,6 +364,70 @@ fn light_candidate(
     c
 }
 
+/// The MIS weight of a BSDF-sampled ray (density `bsdf_pdf`, 0 for a camera ray) that found a
+/// light next-event estimation would have drawn with density `light_pdf` (0: it cannot).
+#[inline]
+pub fn bsdf_mis_weight(strategy: u32, bsdf_pdf: f32, light_pdf: f32) -> f32 {
+    if bsdf_pdf > 0.0 && light_pdf > 0.0 {
+        if strategy == STRATEGY_BSDF_ONLY {
+            1.0
+        } else if strategy == STRATEGY_LIGHTS_ONLY {
+            0.0
+        } else {
+            power_heuristic(bsdf_pdf, light_pdf)
+        }
+    } else {
+        1.0
+    }
+}
+
+/// The density with which next-event estimation draws the unit `direction` toward the sky
+/// (selection probability × the environment's solid-angle density); 0 when the environment is
+/// not a light. BSDF-sampled rays that miss weigh their sky by MIS against it.
+#[inline]
+pub fn environment_light_pdf(
+    params: &PathTracerParams,
+    lights: &[GpuLight],
+    environment_cdf: &[f32],
+    direction: Vec3,
+) -> f32 {
+    let [w, h] = params.environment_size;
+    let env = params.environment_light;
+    if env < min_u32(params.light_count, lights.len() as u32) && w > 0 && h > 0 {
+        lights[env as usize].select_pmf
+            * environment_pdf(UVec2::new(w, h), environment_cdf, direction)
+    } else {
+        0.0
+    }
+}
+
+/// The density with which next-event estimation draws the point `hit` of an emissive triangle of
+/// area `area` (selection probability × solid-angle density); `cos_light` the cosine between the
+/// ray and the triangle's normal, `direction_length` the length of the ray's direction (`hit.t`
+/// is in its units). 0 when the triangle is not a light.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
+#[inline]
+pub fn emitter_light_pdf(
+    params: &PathTracerParams,
+    lights: &[GpuLight],
+    light_table: &[u32],
+    hit: &HitRecord,
+    area: f32,
+    cos_light: f32,
+    direction_length: f32,
+) -> f32 {
+    let light = light_of_triangle(light_table, hit.instance, hit.primitive);
+    if light < min_u32(params.light_count, lights.len() as u32) {
+        let distance = hit.t * direction_length;
+        lights[light as usize].select_pmf * triangle_light_pdf(area, distance * distance, cos_light)
+    } else {
+        0.0
+    }
+}
+
 /// Shades the hit `hit` of `path.ray`: adds emission (MIS-weighted) or sky, prepares a shadow ray
 /// for next-event estimation, and samples the next ray, or ends the path.
 ///
@@ -389,30 +458,11 @@ pub fn shade(
     let bsdf_pdf = path.bsdf_pdf;
     // BSDF sampling's MIS weight against light sampling, which would have drawn this sample
     // with density `light_pdf` (0: it cannot).
-    let bsdf_weight = |light_pdf: f32| {
-        if bsdf_pdf > 0.0 && light_pdf > 0.0 {
-            if params.strategy == STRATEGY_BSDF_ONLY {
-                1.0
-            } else if params.strategy == STRATEGY_LIGHTS_ONLY {
-                0.0
-            } else {
-                power_heuristic(bsdf_pdf, light_pdf)
-            }
-        } else {
-            1.0
-        }
-    };
+    let bsdf_weight = |light_pdf: f32| bsdf_mis_weight(params.strategy, bsdf_pdf, light_pdf);
     let ray_direction = Vec3::from_array(path.ray.direction);
     let direction = ray_direction.normalize_or_zero();
     if !hit.is_hit() {
-        let [w, h] = params.environment_size;
-        let env = params.environment_light;
-        let light_pdf = if env < light_count && w > 0 && h > 0 {
-            lights[env as usize].select_pmf
-                * environment_pdf(UVec2::new(w, h), environment_cdf, direction)
-        } else {
-            0.0
-        };
+        let light_pdf = environment_light_pdf(params, lights, environment_cdf, direction);
         path.radiance +=
             path.throughput * sky_radiance(params, environment, direction) * bsdf_weight(light_pdf);
         path.active = false;
@@ -445,14 +495,15 @@ pub fn shade(
             -direction,
         )
     {
-        let light = light_of_triangle(light_table, hit.instance, hit.primitive);
-        let light_pdf = if light < light_count {
-            let distance = hit.t * ray_direction.length();
-            lights[light as usize].select_pmf
-                * triangle_light_pdf(surface.area, distance * distance, ng.dot(direction))
-        } else {
-            0.0
-        };
+        let light_pdf = emitter_light_pdf(
+            params,
+            lights,
+            light_table,
+            hit,
+            surface.area,
+            ng.dot(direction),
+            ray_direction.length(),
+        );
         path.radiance += path.throughput * emission * bsdf_weight(light_pdf);
     }
 
@@ -469,11 +520,9 @@ pub fn shade(
     };
 
     if light_count > 0 && params.strategy != STRATEGY_BSDF_ONLY {
-        next_event_estimation(
-            path,
+        let s = sample_direct_light(
             &frame,
             params,
-            light_count,
             instances,
             meshes,
             vertices,
@@ -484,7 +533,11 @@ pub fn shade(
             lights,
             environment,
             environment_cdf,
+            &mut path.rng,
         );
+        path.shadow_radiance = path.throughput * s.radiance;
+        path.shadow_ray = s.ray;
+        path.shadow_pending = path.shadow_radiance.max_element() > 0.0;
     }
 
     // BSDF sampling of the folded lobe: throughput × f × cos / pdf = throughput × albedo.
@@ -513,18 +566,27 @@ pub fn shade(
     };
 }
 
-/// Next-event estimation by resampling `params.light_candidates` light samples (see the
-/// [module](self)): leaves the shadow ray of the chosen one in `path`.
+/// One next-event estimate: a shadow ray and the outgoing radiance it adds when unoccluded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DirectLightSample {
+    /// The shadow ray (meaningless when `radiance` is zero).
+    pub ray: Ray,
+    /// BRDF × folded cosine × MIS weight × light / source density: what an unoccluded `ray`
+    /// adds to the outgoing radiance.
+    pub radiance: Vec3,
+}
+
+/// Next-event estimation at `frame` over the first `params.light_count` lights: RIS over
+/// `params.light_candidates` power-proportional candidates, emissive triangles and the
+/// environment MIS-weighted against the folded cosine lobe (the weight that BSDF-sampled rays
+/// complete with [`environment_light_pdf`] and [`emitter_light_pdf`]), punctual lights in full.
 #[allow(
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
 )]
-#[inline]
-fn next_event_estimation(
-    path: &mut PathState,
+pub fn sample_direct_light(
     frame: &ShadingFrame,
     params: &PathTracerParams,
-    light_count: u32,
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
     vertices: &[GpuVertex],
@@ -535,7 +597,16 @@ fn next_event_estimation(
     lights: &[GpuLight],
     environment: &[[f32; 4]],
     environment_cdf: &[f32],
-) {
+    rng: &mut Random,
+) -> DirectLightSample {
+    let mut out = DirectLightSample {
+        ray: LightCandidate::NONE.ray,
+        radiance: Vec3::ZERO,
+    };
+    let light_count = min_u32(params.light_count, lights.len() as u32);
+    if light_count == 0 {
+        return out;
+    }
     let candidates = if params.light_candidates == 0 {
         1
     } else {
@@ -546,7 +617,7 @@ fn next_event_estimation(
     let mut target = 0.0;
     let mut i = 0;
     while i < candidates {
-        let index = select_light(lights, light_count, path.rng.next_vec2());
+        let index = select_light(lights, light_count, rng.next_vec2());
         let c = light_candidate(
             frame,
             lights,
@@ -554,11 +625,11 @@ fn next_event_estimation(
             params,
             environment,
             environment_cdf,
-            path.rng.next_vec2(),
+            rng.next_vec2(),
         );
         let p_hat = luminance(c.weight * c.radiance);
         let w = if c.pdf > 0.0 { p_hat / c.pdf } else { 0.0 };
-        if reservoir.update(index, w, path.rng.next_f32()) {
+        if reservoir.update(index, w, rng.next_f32()) {
             chosen = c;
             target = p_hat;
         }
@@ -566,7 +637,7 @@ fn next_event_estimation(
     }
     reservoir.finalize(target);
     if reservoir.ucw <= 0.0 {
-        return;
+        return out;
     }
     // The target used the light's radiance without its emissive texture: the contribution uses
     // the texture (the target only steers the choice; RIS stays unbiased).
@@ -585,9 +656,9 @@ fn next_event_estimation(
         radiance = sample_material(materials, textures, texels, s.material, s.uv).emissive
             * params.emissive_multiplier;
     }
-    path.shadow_radiance = path.throughput * chosen.weight * radiance * reservoir.ucw;
-    path.shadow_ray = chosen.ray;
-    path.shadow_pending = path.shadow_radiance.max_element() > 0.0;
+    out.radiance = chosen.weight * radiance * reservoir.ucw;
+    out.ray = chosen.ray;
+    out
 }
 
 #[cfg(test)]

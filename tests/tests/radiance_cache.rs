@@ -502,6 +502,7 @@ impl Replay {
             staged[2].record_copy_to(ctx, cmd, &res.counters)?;
             transfer_barrier(ctx, cmd);
             self.passes.record_insert(ctx, cmd, res, params)?;
+            self.passes.record_shadow_ray_args(ctx, cmd, res)?;
             self.passes
                 .record_populate(ctx, cmd, gpu.scene.sets(), res, reservoirs, params)?;
             if update {
@@ -749,12 +750,13 @@ const OVERFLOW_FRAMES: u32 = 64;
 /// The tiny cache: 4 buckets of 16 tiles, 64 tiles where the view needs about 430.
 const TINY_BUCKETS_LOG2: u32 = 2;
 /// relMSE against the path tracer, tiny cache over normal cache: at least this (measurably
-/// worse; measured 1.11 to 1.19 over 14 runs: which inserts win a full bucket varies from run
-/// to run) ...
-const OVERFLOW_MIN_FACTOR: f64 = 1.05;
+/// worse; measured 2.34 to 2.91 over 4 runs since the primary hit samples its emitters, which
+/// left the cache's error dominant; 1.11 to 1.19 before: which inserts win a full bucket varies
+/// from run to run) ...
+const OVERFLOW_MIN_FACTOR: f64 = 1.5;
 /// ... and at most this (not catastrophic: a ray whose insert failed loses its cached light,
 /// nothing else).
-const OVERFLOW_MAX_FACTOR: f64 = 1.5;
+const OVERFLOW_MAX_FACTOR: f64 = 3.8;
 /// The tiny cache's image mean below the normal cache's, as a fraction: at least this
 /// (measured 7.3% to 9.6%) ...
 const OVERFLOW_MIN_LOSS: f64 = 0.02;

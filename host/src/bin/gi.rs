@@ -86,7 +86,8 @@ enum Command {
         /// Factor on the emission of every surface.
         #[arg(long, default_value_t = 1.0)]
         emissive_multiplier: f32,
-        /// Constant sky radiance as r,g,b (W/(sr·m²)); none by default (glTF has no environment).
+        /// Constant sky radiance as r,g,b (W/(sr·m²)), sampled as a uniform environment image;
+        /// none by default (glTF has no environment).
         #[arg(long, value_parser = parse_vec3, conflicts_with = "environment")]
         sky: Option<Vec3>,
         /// Equirectangular environment image lighting the scene instead of --sky: Radiance .hdr
@@ -144,7 +145,8 @@ enum Command {
         /// Factor on the emission of every surface.
         #[arg(long, default_value_t = 1.0)]
         emissive_multiplier: f32,
-        /// Constant sky radiance as r,g,b (W/(sr·m²)); none by default.
+        /// Constant sky radiance as r,g,b (W/(sr·m²)), sampled as a uniform environment image;
+        /// none by default.
         #[arg(long, value_parser = parse_vec3, conflicts_with = "environment")]
         sky: Option<Vec3>,
         /// Equirectangular environment image lighting the scene instead of --sky.
@@ -320,10 +322,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         let view = camera_position
             .zip(*camera_target)
             .map(|(p, t)| (p, t, *fov));
-        let environment = environment
-            .as_ref()
-            .map(|p| HdrImage::read(p).and_then(|i| Environment::from_image(&i)))
-            .transpose()?;
+        let environment = sky_environment(environment.as_deref(), *sky)?;
         let output = Output {
             path: out,
             width: *width,
@@ -381,10 +380,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             emissive_multiplier: *emissive_multiplier,
             seed: *seed,
         };
-        let environment = environment
-            .as_ref()
-            .map(|p| HdrImage::read(p).and_then(|i| Environment::from_image(&i)))
-            .transpose()?;
+        let environment = sky_environment(environment.as_deref(), *sky)?;
         let output = Output {
             path: out,
             width: *width,
@@ -540,6 +536,18 @@ fn parse_strategy(s: &str) -> Result<Strategy, String> {
 }
 
 /// The environment image lighting a render, and whether it is importance-sampled.
+/// The environment of `--environment`, else a constant `--sky` as a uniform environment image
+/// (so that light sampling finds it too), else none.
+fn sky_environment(path: Option<&Path>, sky: Option<Vec3>) -> gi_host::Result<Option<Environment>> {
+    match (path, sky) {
+        (Some(p), _) => HdrImage::read(p)
+            .and_then(|i| Environment::from_image(&i))
+            .map(Some),
+        (None, Some(s)) if s.max_element() > 0.0 => Environment::constant(s).map(Some),
+        _ => Ok(None),
+    }
+}
+
 struct Sky {
     environment: Option<Environment>,
     sample: bool,

@@ -30,8 +30,9 @@ use crate::vulkan::{
 use ash::vk;
 use gi_shared::cache_view::{
     BYPASS_COUNT, CACHE_VIEW_TILE, CachePassParams, CacheQuery, CacheViewParams, FEEDBACK_COUNT,
-    FLAG_BYPASS, FLAG_FEEDBACK, FLAG_HISTORY, FLAG_PUNCTUAL, FLAG_RESTIR, FLAG_RESTIR_HISTORY,
-    FLAG_SHORT_RAY, INSERTED_TILES, QUERY_COUNT, SHADOW_RAY_COUNT, is_punctual, running_mean,
+    FLAG_BYPASS, FLAG_ENVIRONMENT_LIGHT, FLAG_FEEDBACK, FLAG_HISTORY, FLAG_RESTIR,
+    FLAG_RESTIR_HISTORY, FLAG_SHORT_RAY, INSERTED_TILES, QUERY_COUNT, SHADOW_RAY_COUNT,
+    running_mean,
 };
 use gi_shared::camera::CameraParams;
 use gi_shared::color::luminance;
@@ -41,6 +42,7 @@ use gi_shared::hash_cells::lists::{
 };
 use gi_shared::layout::{HashCellValue, HashGridParams};
 use gi_shared::random::halton23;
+use gi_shared::scene_data::NONE;
 use gi_shared::world_restir::reservoir_cell_const;
 use glam::{Vec2, Vec3};
 
@@ -139,7 +141,8 @@ pub struct CacheView {
     /// The last frame's jittered camera and parameters (for the debug views).
     last_frame: Option<(CameraParams, CachePassParams)>,
     light_count: u32,
-    punctual_lights: bool,
+    /// The environment is importance-sampled: the last light ([`FLAG_ENVIRONMENT_LIGHT`]).
+    environment_light: bool,
     environment_size: [u32; 2],
     environment_irradiance: f32,
 }
@@ -244,7 +247,7 @@ impl CacheView {
             previous: None,
             last_frame: None,
             light_count: lights.lights.len() as u32,
-            punctual_lights: lights.lights.iter().any(|l| is_punctual(l.kind)),
+            environment_light: lights.environment_light != NONE,
             environment_size,
             environment_irradiance,
         })
@@ -307,7 +310,7 @@ impl CacheView {
             (s.bypass, FLAG_BYPASS),
             (s.restir, FLAG_RESTIR),
             (s.restir && self.restir_history, FLAG_RESTIR_HISTORY),
-            (self.punctual_lights, FLAG_PUNCTUAL),
+            (self.environment_light, FLAG_ENVIRONMENT_LIGHT),
         ] {
             if on {
                 flags |= flag;

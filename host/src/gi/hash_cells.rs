@@ -10,7 +10,6 @@ use crate::vulkan::{
     BindingKind, Buffer, Context, Kernel, KernelModule, Resource, SceneSets, compute_barrier,
 };
 use ash::vk;
-use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::cache_view::{
     ARGS_PURGE, ARGS_QUERIES, ARGS_SHADOW_RAYS, ARGS_UPDATE, CachePassParams, QUERY_COUNT,
     SHADOW_RAY_COUNT,
@@ -167,7 +166,7 @@ impl HashCellPasses {
     }
 
     /// The indirect arguments of the passes over the shadow rays (CompactReservoirs,
-    /// ResampleReservoirs).
+    /// ResampleReservoirs, PopulateRadianceCache).
     pub fn record_shadow_ray_args(
         &self,
         ctx: &Context,
@@ -186,9 +185,8 @@ impl HashCellPasses {
     }
 
     /// PopulateRadianceCache: traces the frame's shadow rays (`reservoirs`: this frame's ReSTIR
-    /// reservoirs, whose occluded samples it invalidates). Dispatched over the shadow-ray
-    /// capacity (its invocations past the counter return at once): the pipeline layer has no
-    /// indirect dispatch for kernels that trace yet.
+    /// reservoirs, whose occluded samples it invalidates), one invocation per shadow ray from the
+    /// arguments [`Self::record_shadow_ray_args`] wrote.
     pub fn record_populate(
         &self,
         ctx: &Context,
@@ -198,11 +196,7 @@ impl HashCellPasses {
         reservoirs: &Buffer,
         params: &CachePassParams,
     ) -> Result<()> {
-        let groups = res
-            .pixel_count()
-            .div_ceil(WORKGROUP_SIZE)
-            .min(ctx.capabilities().max_workgroup_count[0]);
-        self.populate.dispatch_traced(
+        self.populate.dispatch_indirect_traced(
             ctx,
             cmd,
             scene,
@@ -216,7 +210,8 @@ impl HashCellPasses {
                 Resource::Buffer(reservoirs),
             ],
             bytemuck::bytes_of(params),
-            [groups, 1, 1],
+            &res.args,
+            indirect_offset(ARGS_SHADOW_RAYS),
         )?;
         compute_barrier(ctx, cmd);
         Ok(())

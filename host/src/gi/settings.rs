@@ -49,7 +49,7 @@ pub struct GiSettings {
     /// lights compete; measured on the test scenes after 64 frames it does not lower the error
     /// (the cache already averages samples over its cells) and it darkens where visibility
     /// differs between the hits that share reservoirs (Cornell box −0.6%, the partitioned
-    /// `indirect-room` −2.5%, −9% without temporal feedback).
+    /// `indirect-room` −3%, −12% without temporal feedback).
     pub restir: bool,
     /// The descriptor's short-ray flag, light-leak fix 1 (reference: on). Cost: up to twice the
     /// tiles near geometry. Quality: hits closer to their ray's origin than a tile use other
@@ -60,9 +60,9 @@ pub struct GiSettings {
     /// unfiltered light sample instead of the cell's filtered radiance. Cost: none. Quality:
     /// less leaking through thin walls and into corners, more noise there.
     pub bypass: bool,
-    /// RIS candidates of the primary hit's punctual-light estimate (1 to 64; reference path
-    /// tracer: 8). Cost: a light sample each, no ray. Quality: picks the punctual light that
-    /// matters at each pixel where several compete.
+    /// RIS candidates of the primary hit's next-event estimate (1 to 64; reference path
+    /// tracer: 8). Cost: a light sample each, no ray. Quality: picks the light that matters at
+    /// each pixel where several compete.
     pub light_candidates: u32,
 }
 

@@ -27,6 +27,9 @@ use gi_shared::scene_data::NONE;
 use glam::Vec3;
 use std::f64::consts::PI;
 
+/// Size of [`Environment::constant`]'s image.
+pub const CONSTANT_SKY_SIZE: [u32; 2] = [32, 16];
+
 /// An equirectangular environment image (see `gi_shared::environment` for its orientation) and
 /// its sampling distribution.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -106,6 +109,17 @@ impl Environment {
             distribution,
             luminance_integral: total,
         })
+    }
+
+    /// A uniform sky of radiance `sky` as a small environment image, so that light sampling
+    /// (next-event estimation, the light grid) can draw it like an image: 32 × 16 texels, enough
+    /// for the rows' `sin θ` weights to follow the sphere's solid angle.
+    pub fn constant(sky: Vec3) -> Result<Self> {
+        let [w, h] = CONSTANT_SKY_SIZE;
+        Self::new(
+            CONSTANT_SKY_SIZE,
+            vec![[sky.x, sky.y, sky.z, 0.0]; (w * h) as usize],
+        )
     }
 
     /// The environment of an equirectangular image.
@@ -463,5 +477,15 @@ mod tests {
             Vec2::splat(0.3),
         );
         assert!(s.pdf > 0.0);
+    }
+
+    /// A constant sky becomes a uniform image of its radiance, sampled like any environment.
+    #[test]
+    fn a_constant_sky_is_a_uniform_environment() {
+        let env = Environment::constant(Vec3::new(0.5, 1.0, 2.0)).unwrap();
+        assert_eq!(env.size(), CONSTANT_SKY_SIZE);
+        assert!(env.texels().iter().all(|t| *t == [0.5, 1.0, 2.0, 0.0]));
+        let l = f64::from(luminance(Vec3::new(0.5, 1.0, 2.0)));
+        assert!((env.luminance_integral / (4.0 * PI * l) - 1.0).abs() < 0.01);
     }
 }

@@ -258,6 +258,42 @@ impl Kernel {
         args: &Buffer,
         offset: u64,
     ) -> Result<()> {
+        self.dispatch_indirect_in(ctx, cmd, None, resources, push, args, offset)
+    }
+
+    /// [`Kernel::dispatch_indirect`] for a kernel that traces, in `scene` (bound as sets 1 and
+    /// up, as [`Kernel::dispatch_traced`] binds it).
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "dispatch_indirect's arguments and the scene"
+    )]
+    pub fn dispatch_indirect_traced(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: SceneSets<'_>,
+        resources: &[Resource<'_>],
+        push: &[u8],
+        args: &Buffer,
+        offset: u64,
+    ) -> Result<()> {
+        self.dispatch_indirect_in(ctx, cmd, Some(scene), resources, push, args, offset)
+    }
+
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "dispatch_indirect's arguments and the scene"
+    )]
+    fn dispatch_indirect_in(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: Option<SceneSets<'_>>,
+        resources: &[Resource<'_>],
+        push: &[u8],
+        args: &Buffer,
+        offset: u64,
+    ) -> Result<()> {
         let size = std::mem::size_of::<gi_shared::indirect::DispatchIndirect>() as u64;
         if !offset.is_multiple_of(4) || offset + size > args.size {
             return Err(self.bad_dispatch(format!(
@@ -266,7 +302,7 @@ impl Kernel {
                 args.size
             )));
         }
-        self.bind(ctx, cmd, None, resources, push)?;
+        self.bind(ctx, cmd, scene, resources, push)?;
         unsafe { ctx.device.cmd_dispatch_indirect(cmd, args.handle, offset) };
         Ok(())
     }
