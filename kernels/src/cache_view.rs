@@ -14,7 +14,7 @@ use crate::gbuffer::{DepthImage, HalfImage, IdImage, UnormImage};
 use gi_shared::append_list::append;
 use gi_shared::cache_view::{
     CachePassParams, CacheQuery, CacheViewPixel, PASS_TRACE, QUERY_COUNT, cache_ray, pass_random,
-    primary_direct_light, primary_emission, primary_surface, shade_cache_hit, sky_radiance,
+    primary_direct_light, primary_emission, primary_surface, shade_cache_hit,
 };
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
@@ -77,7 +77,7 @@ traced_kernel! {
         if !surface.valid {
             let ray = primary_ray(camera, pixel, camera.jitter());
             let direction = Vec3::from_array(ray.direction).normalize_or_zero();
-            out.ray_radiance = sky_radiance(&view, environment, direction).to_array();
+            out.ray_radiance = gi_shared::lights::sky_radiance(view.environment_size, view.sky, environment, direction).to_array();
             pixels[index as usize] = out;
             return;
         }

@@ -88,7 +88,7 @@ use crate::light_grid::{
     DiffuseHit, LightGridEntry, LightGridParams, LightGridSample, light_contribution,
     sample_light_grid, sample_params_uv,
 };
-use crate::lights::{GpuLight, environment_radiance};
+use crate::lights::{GpuLight, sky_radiance};
 use crate::math::INV_PI;
 use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
 use crate::path_tracer::{
@@ -496,16 +496,6 @@ pub fn cache_ray(surface: &PrimarySurface, u: Vec2) -> Ray {
     }
 }
 
-/// Radiance of the sky along the unit `direction`: the environment image, else the constant sky.
-#[inline]
-pub fn sky_radiance(view: &CacheViewParams, environment: &[[f32; 4]], direction: Vec3) -> Vec3 {
-    let [w, h] = view.environment_size;
-    if w == 0 || h == 0 {
-        return Vec3::from_array(view.sky);
-    }
-    environment_radiance(UVec2::new(w, h), environment, direction)
-}
-
 /// What the cosine ray found: radiance straight into the ray (a miss or an emissive hit), or a
 /// query for the cache.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -559,7 +549,7 @@ pub fn shade_cache_hit(
         folded_cosine(primary.shading_normal, primary.geometric_normal, direction) * INV_PI;
     if !hit.is_hit() {
         let light_pdf = environment_light_pdf(&params, lights, environment_cdf, direction);
-        out.radiance = sky_radiance(view, environment, direction)
+        out.radiance = sky_radiance(view.environment_size, view.sky, environment, direction)
             * bsdf_mis_weight(STRATEGY_MIS, bsdf_pdf, light_pdf);
         return out;
     }

@@ -370,6 +370,23 @@ pub fn punctual_incidence(light: &GpuLight, point: Vec3) -> PunctualIncidence {
     }
 }
 
+/// Radiance arriving from the sky along the unit `direction` (pointing away from the scene): the
+/// `environment_size` image's texel when there is one, else the constant `sky`. Every pass that
+/// lets a ray escape reads the sky through this one function.
+#[inline]
+pub fn sky_radiance(
+    environment_size: [u32; 2],
+    sky: [f32; 3],
+    environment: &[[f32; 4]],
+    direction: Vec3,
+) -> Vec3 {
+    let [w, h] = environment_size;
+    if w == 0 || h == 0 {
+        return Vec3::from_array(sky);
+    }
+    environment_radiance(UVec2::new(w, h), environment, direction)
+}
+
 /// Radiance of the environment image along the unit `direction` (pointing away from the scene):
 /// its texel ([`crate::environment`] gives the mapping). `environment` holds the `size` image's
 /// texels row by row (RGB, the fourth channel unused); a too-short buffer reads as black.

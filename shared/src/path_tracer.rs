@@ -66,9 +66,8 @@ use crate::color::luminance;
 use crate::environment::environment_pdf;
 use crate::hash::pcg_chain;
 use crate::lights::{
-    GpuLight, LIGHT_ENVIRONMENT, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, environment_radiance,
-    light_of_triangle, power_heuristic, russian_roulette_survival, sample_light, select_light,
-    triangle_light_pdf,
+    self, GpuLight, LIGHT_ENVIRONMENT, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, light_of_triangle,
+    power_heuristic, russian_roulette_survival, sample_light, select_light, triangle_light_pdf,
 };
 use crate::math::{INV_PI, max, min_u32};
 use crate::random::Random;
@@ -145,11 +144,7 @@ pub struct PathTracerParams {
 /// the constant `params.sky`. `environment` holds its texels row by row (RGB, the fourth
 /// channel unused); a too-short buffer reads as black.
 pub fn sky_radiance(params: &PathTracerParams, environment: &[[f32; 4]], direction: Vec3) -> Vec3 {
-    let [w, h] = params.environment_size;
-    if w == 0 || h == 0 {
-        return Vec3::from_array(params.sky);
-    }
-    environment_radiance(UVec2::new(w, h), environment, direction)
+    lights::sky_radiance(params.environment_size, params.sky, environment, direction)
 }
 
 /// One path in flight (see the [module](self) for the loop that drives it).

@@ -83,33 +83,8 @@ enum Command {
         /// Reflections per path (0: emitters only, 1: direct lighting); at most 64.
         #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(0..=64))]
         max_bounces: u32,
-        /// Factor on the emission of every surface.
-        #[arg(long, default_value_t = 1.0)]
-        emissive_multiplier: f32,
-        /// Constant sky radiance as r,g,b (W/(sr·m²)), sampled as a uniform environment image;
-        /// none by default (glTF has no environment).
-        #[arg(long, value_parser = parse_vec3, conflicts_with = "environment")]
-        sky: Option<Vec3>,
-        /// Equirectangular environment image lighting the scene instead of --sky: Radiance .hdr
-        /// or OpenEXR, linear, +Y up, its middle column looking along -Z.
-        #[arg(long)]
-        environment: Option<PathBuf>,
-        /// Exposure of the PNG in stops.
-        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-        exposure: f32,
-        /// Seed of the random streams.
-        #[arg(long, default_value_t = 0)]
-        seed: u32,
-        /// Camera position x,y,z (with --camera-target); default: the scene's first camera, else a
-        /// view of the whole scene.
-        #[arg(long, value_parser = parse_vec3, requires = "camera_target", allow_negative_numbers = true)]
-        camera_position: Option<Vec3>,
-        /// Point the camera looks at, x,y,z.
-        #[arg(long, value_parser = parse_vec3, requires = "camera_position", allow_negative_numbers = true)]
-        camera_target: Option<Vec3>,
-        /// Vertical field of view in degrees, with --camera-position.
-        #[arg(long, default_value_t = 45.0)]
-        fov: f32,
+        #[command(flatten)]
+        view: ViewArgs,
         /// Light samples resampled per next-event estimate: 1 is power-proportional selection;
         /// more choose by each light's unshadowed contribution (cheap: no extra rays).
         #[arg(long, default_value_t = PathTracerSettings::default().light_candidates,
@@ -119,9 +94,6 @@ enum Command {
         /// (one technique alone, for comparisons).
         #[arg(long, default_value = "mis", value_parser = parse_strategy)]
         strategy: Strategy,
-        /// Do not importance-sample the environment image (BSDF sampling alone finds it).
-        #[arg(long, requires = "environment")]
-        no_environment_sampling: bool,
     },
     /// Show the world-space radiance cache on its own (GI-1.0's hash cells): each G-buffer pixel
     /// casts one cosine-distributed ray per frame, whose hit queries and feeds the cache; the
@@ -142,34 +114,8 @@ enum Command {
         /// Frames to render (the image is their running mean).
         #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
         frames: u32,
-        /// Factor on the emission of every surface.
-        #[arg(long, default_value_t = 1.0)]
-        emissive_multiplier: f32,
-        /// Constant sky radiance as r,g,b (W/(sr·m²)), sampled as a uniform environment image;
-        /// none by default.
-        #[arg(long, value_parser = parse_vec3, conflicts_with = "environment")]
-        sky: Option<Vec3>,
-        /// Equirectangular environment image lighting the scene instead of --sky.
-        #[arg(long)]
-        environment: Option<PathBuf>,
-        /// Exposure of the PNGs in stops.
-        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-        exposure: f32,
-        /// Seed of the random streams.
-        #[arg(long, default_value_t = 0)]
-        seed: u32,
-        /// Camera position x,y,z (with --camera-target); default: the scene's first camera.
-        #[arg(long, value_parser = parse_vec3, requires = "camera_target", allow_negative_numbers = true)]
-        camera_position: Option<Vec3>,
-        /// Point the camera looks at, x,y,z.
-        #[arg(long, value_parser = parse_vec3, requires = "camera_position", allow_negative_numbers = true)]
-        camera_target: Option<Vec3>,
-        /// Vertical field of view in degrees, with --camera-position.
-        #[arg(long, default_value_t = 45.0)]
-        fov: f32,
-        /// Do not importance-sample the environment image.
-        #[arg(long, requires = "environment")]
-        no_environment_sampling: bool,
+        #[command(flatten)]
+        view: ViewArgs,
         /// log2 of the hash grid's bucket count (default: scaled with the resolution).
         #[arg(long)]
         buckets_log2: Option<u32>,
@@ -229,6 +175,68 @@ enum Command {
         #[arg(long)]
         heat_map: Option<PathBuf>,
     },
+}
+
+/// How a scene is lit and seen: the options `render` and `cache-view` share.
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// Factor on the emission of every surface.
+    #[arg(long, default_value_t = 1.0)]
+    emissive_multiplier: f32,
+    /// Constant sky radiance as r,g,b (W/(sr·m²)), sampled as a uniform environment image;
+    /// none by default (glTF has no environment).
+    #[arg(long, value_parser = parse_vec3, conflicts_with = "environment")]
+    sky: Option<Vec3>,
+    /// Equirectangular environment image lighting the scene instead of --sky: Radiance .hdr
+    /// or OpenEXR, linear, +Y up, its middle column looking along -Z.
+    #[arg(long)]
+    environment: Option<PathBuf>,
+    /// Exposure of the PNG in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Seed of the random streams.
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// Camera position x,y,z (with --camera-target); default: the scene's first camera, else a
+    /// view of the whole scene.
+    #[arg(long, value_parser = parse_vec3, requires = "camera_target", allow_negative_numbers = true)]
+    camera_position: Option<Vec3>,
+    /// Point the camera looks at, x,y,z.
+    #[arg(long, value_parser = parse_vec3, requires = "camera_position", allow_negative_numbers = true)]
+    camera_target: Option<Vec3>,
+    /// Vertical field of view in degrees, with --camera-position.
+    #[arg(long, default_value_t = 45.0)]
+    fov: f32,
+    /// Do not importance-sample the environment image (BSDF sampling alone finds it).
+    #[arg(long, requires = "environment")]
+    no_environment_sampling: bool,
+}
+
+impl ViewArgs {
+    /// The camera given on the command line, if any: position, target and field of view.
+    fn camera(&self) -> Option<(Vec3, Vec3, f32)> {
+        self.camera_position
+            .zip(self.camera_target)
+            .map(|(p, t)| (p, t, self.fov))
+    }
+
+    /// The sky as a light: the environment image, else a non-zero constant sky.
+    fn sky(&self) -> gi_host::Result<Sky> {
+        Ok(Sky {
+            environment: sky_environment(self.environment.as_deref(), self.sky)?,
+            sample: !self.no_environment_sampling,
+        })
+    }
+
+    /// Where the image goes and how it is exposed.
+    fn output<'a>(&self, path: &'a Path, width: u32, height: u32) -> Output<'a> {
+        Output {
+            path,
+            width,
+            height,
+            exposure: self.exposure,
+        }
+    }
 }
 
 fn main() -> ExitCode {
@@ -297,43 +305,22 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         height,
         spp,
         max_bounces,
-        emissive_multiplier,
-        sky,
-        environment,
-        exposure,
-        seed,
-        camera_position,
-        camera_target,
-        fov,
+        view,
         light_candidates,
         strategy,
-        no_environment_sampling,
     }) = &cli.command
     {
         let settings = PathTracerSettings {
             samples: *spp,
             max_bounces: *max_bounces,
-            emissive_multiplier: *emissive_multiplier,
-            sky: sky.unwrap_or(Vec3::ZERO),
-            seed: *seed,
+            emissive_multiplier: view.emissive_multiplier,
+            sky: view.sky.unwrap_or(Vec3::ZERO),
+            seed: view.seed,
             light_candidates: *light_candidates,
             strategy: *strategy,
         };
-        let view = camera_position
-            .zip(*camera_target)
-            .map(|(p, t)| (p, t, *fov));
-        let environment = sky_environment(environment.as_deref(), *sky)?;
-        let output = Output {
-            path: out,
-            width: *width,
-            height: *height,
-            exposure: *exposure,
-        };
-        let sky = Sky {
-            environment,
-            sample: !*no_environment_sampling,
-        };
-        render(&ctx, scene, &output, view, sky, &settings)?;
+        let output = view.output(out, *width, *height);
+        render(&ctx, scene, &output, view.camera(), view.sky()?, &settings)?;
     }
     if let Some(Command::CacheView {
         scene,
@@ -341,15 +328,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         width,
         height,
         frames,
-        emissive_multiplier,
-        sky,
-        environment,
-        exposure,
-        seed,
-        camera_position,
-        camera_target,
-        fov,
-        no_environment_sampling,
+        view,
         buckets_log2,
         tiles_per_bucket_log2,
         cell_size_pixels,
@@ -376,31 +355,18 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             ..defaults
         };
         let options = ViewOptions {
-            sky: sky.unwrap_or(Vec3::ZERO),
-            emissive_multiplier: *emissive_multiplier,
-            seed: *seed,
+            sky: view.sky.unwrap_or(Vec3::ZERO),
+            emissive_multiplier: view.emissive_multiplier,
+            seed: view.seed,
         };
-        let environment = sky_environment(environment.as_deref(), *sky)?;
-        let output = Output {
-            path: out,
-            width: *width,
-            height: *height,
-            exposure: *exposure,
-        };
-        let sky = Sky {
-            environment,
-            sample: !*no_environment_sampling,
-        };
-        let view = camera_position
-            .zip(*camera_target)
-            .map(|(p, t)| (p, t, *fov));
+        let output = view.output(out, *width, *height);
         let run = CacheViewRun {
             frames: *frames,
             settings,
             options,
             debug_views: debug_views.as_deref(),
         };
-        cache_view(&ctx, scene, &output, view, sky, &run)?;
+        cache_view(&ctx, scene, &output, view.camera(), view.sky()?, &run)?;
     }
     check_validation(&ctx)
 }

@@ -5,7 +5,7 @@
 
 use super::resources::CacheResources;
 use crate::error::Result;
-use crate::frame::DispatchFromCounter;
+use crate::frame::{DispatchFromCounter, indirect_offset};
 use crate::vulkan::{
     BindingKind, Buffer, Context, Kernel, KernelModule, Resource, SceneSets, compute_barrier,
 };
@@ -15,12 +15,6 @@ use gi_shared::cache_view::{
     SHADOW_RAY_COUNT,
 };
 use gi_shared::hash_cells::lists::{UPDATE_TILES, previous_live_list};
-use gi_shared::indirect::DispatchIndirect;
-
-/// Byte offset of indirect arguments `index` in [`CacheResources::args`].
-pub fn indirect_offset(index: u32) -> u64 {
-    u64::from(index) * std::mem::size_of::<DispatchIndirect>() as u64
-}
 
 /// Bytes of the push constants every cache pass takes.
 pub const PUSH_BYTES: u32 = std::mem::size_of::<CachePassParams>() as u32;

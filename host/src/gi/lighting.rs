@@ -3,9 +3,10 @@
 //! GenerateReservoirs (temporal feedback or one RIS light sample and shadow ray per query) and
 //! world-space ReSTIR's ClearReservoirs, CompactReservoirs and ResampleReservoirs.
 
-use super::hash_cells::{buffers_kernel, indirect_offset};
+use super::hash_cells::buffers_kernel;
 use super::resources::{CacheResources, RestirResources};
 use crate::error::Result;
+use crate::frame::indirect_offset;
 use crate::frame::{Scan, indirect_barrier};
 use crate::scene::lights::GpuLights;
 use crate::vulkan::{Context, Kernel, KernelModule, Resource, compute_barrier, transfer_barrier};
