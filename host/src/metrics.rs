@@ -52,6 +52,9 @@ pub struct Metrics {
     pub psnr: f64,
     /// Mean LDR-FLIP error in `[0, 1]`: see [`flip`].
     pub flip: f64,
+    /// The test image's mean over the reference's, minus one (finite pixels): a light path
+    /// counted twice or missed shows here even where noise hides it per pixel.
+    pub mean_bias: f64,
     /// Pixels with a NaN or infinite channel in either image.
     pub non_finite: usize,
 }
@@ -60,8 +63,12 @@ impl fmt::Display for Metrics {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "RMSE {:.4e}  relMSE {:.4e}  PSNR {:.2} dB  FLIP {:.4}",
-            self.rmse, self.relative_mse, self.psnr, self.flip
+            "RMSE {:.4e}  relMSE {:.4e}  PSNR {:.2} dB  FLIP {:.4}  mean {:+.2}%",
+            self.rmse,
+            self.relative_mse,
+            self.psnr,
+            self.flip,
+            self.mean_bias * 100.0
         )?;
         if self.non_finite > 0 {
             write!(f, "  non-finite pixels {}", self.non_finite)?;
@@ -150,10 +157,24 @@ pub fn compare(
             relative_mse: relative_mse(reference, test)?,
             psnr: psnr(reference, test, &settings.tone)?,
             flip: flip_map.mean(),
+            mean_bias: mean_bias(reference, test)?,
             non_finite,
         },
         flip_map,
     })
+}
+
+/// `mean(test) / mean(reference) − 1` over the finite pixels and the three channels (0 when the
+/// reference's mean is 0).
+pub fn mean_bias(reference: &HdrImage, test: &HdrImage) -> Result<f64> {
+    let (mut r, mut t) = (0.0f64, 0.0f64);
+    for (a, b) in pairs(reference, test)? {
+        if a.iter().chain(b.iter()).all(|c| c.is_finite()) {
+            r += a.iter().map(|&c| f64::from(c)).sum::<f64>();
+            t += b.iter().map(|&c| f64::from(c)).sum::<f64>();
+        }
+    }
+    Ok(if r > 0.0 { t / r - 1.0 } else { 0.0 })
 }
 
 /// Root mean square error of the linear values over all pixels and the three channels:

@@ -258,11 +258,12 @@ fn identical_images_have_zero_distance_and_infinite_psnr() {
     assert_eq!(m.relative_mse, 0.0);
     assert_eq!(m.psnr, f64::INFINITY);
     assert_eq!(m.flip, 0.0);
+    assert_eq!(m.mean_bias, 0.0);
     assert_eq!(m.non_finite, 0);
     assert!(result.flip_map.values().iter().all(|&v| v == 0.0));
     assert_eq!(
         m.to_string(),
-        "RMSE 0.0000e0  relMSE 0.0000e0  PSNR inf dB  FLIP 0.0000"
+        "RMSE 0.0000e0  relMSE 0.0000e0  PSNR inf dB  FLIP 0.0000  mean +0.00%"
     );
 }
 
@@ -282,6 +283,9 @@ fn known_difference_gives_analytic_values() {
     let want = -10.0 * (d * d / 3.0).log10();
     let psnr = metrics::psnr(&reference, &test, &tone).unwrap();
     assert!((psnr - want).abs() < 1e-3, "{psnr} vs {want}");
+    // The mean is 0.1 / 3 above 0.5.
+    let bias = metrics::mean_bias(&reference, &test).unwrap();
+    assert!((bias - 0.1 / 1.5).abs() < 1e-6, "{bias}");
 }
 
 #[test]

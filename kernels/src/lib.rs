@@ -32,6 +32,8 @@ mod difftest;
 #[cfg(not(feature = "ray-query"))]
 mod finite_check;
 mod gbuffer;
+#[cfg(not(feature = "ray-query"))]
+pub mod gi_denoiser;
 mod hash_cells;
 #[cfg(not(feature = "ray-query"))]
 mod indirect;
@@ -40,8 +42,10 @@ mod lighting;
 #[cfg(not(feature = "ray-query"))]
 mod machinery_tests;
 mod path_tracer;
+pub mod primary_lighting;
 #[cfg(not(feature = "ray-query"))]
 mod scan;
+pub mod screen_probes;
 #[cfg(not(feature = "ray-query"))]
 mod smoke;
 mod trace_rays;

@@ -92,9 +92,9 @@ use crate::lights::{GpuLight, sky_radiance};
 use crate::math::INV_PI;
 use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
 use crate::path_tracer::{
-    DirectLightSample, PathTracerParams, STRATEGY_MIS, ShadingFrame, bsdf_mis_weight, emits_toward,
-    emitter_light_pdf, environment_light_pdf, folded_cosine, sample_direct_light,
-    sample_folded_cosine,
+    DirectLightSample, PathTracerParams, STRATEGY_BSDF_ONLY, STRATEGY_MIS, ShadingFrame,
+    bsdf_mis_weight, emits_toward, emitter_light_pdf, environment_light_pdf, folded_cosine,
+    sample_direct_light, sample_folded_cosine,
 };
 use crate::radiance_feedback::{accepts, reproject};
 use crate::random::Random;
@@ -142,6 +142,10 @@ pub const FLAG_RESTIR_HISTORY: u32 = 32;
 /// [`CacheViewParams::flags`]: the light buffer's last light is the environment (the path
 /// tracer's `environment_light`), which MIS weighs misses against.
 pub const FLAG_ENVIRONMENT_LIGHT: u32 = 64;
+/// [`CacheViewParams::flags`]: the rays are screen-probe rays: their origin samples no emitter
+/// and no environment (the GI frame's primary hit samples punctual lights alone), so a miss and
+/// an emissive hit count in full rather than MIS-weighted.
+pub const FLAG_PROBE_RAYS: u32 = 128;
 
 /// Counter words of the cache view's counter buffer (the hash grid keeps its own counters in its
 /// list buffer, `hash_cells::lists`): queries appended this frame.
@@ -221,7 +225,7 @@ pub struct CacheViewParams {
     /// Seed of every random stream.
     pub seed: u32,
     /// [`FLAG_FEEDBACK`], [`FLAG_HISTORY`], [`FLAG_SHORT_RAY`], [`FLAG_BYPASS`], [`FLAG_RESTIR`],
-    /// [`FLAG_RESTIR_HISTORY`], [`FLAG_ENVIRONMENT_LIGHT`].
+    /// [`FLAG_RESTIR_HISTORY`], [`FLAG_ENVIRONMENT_LIGHT`], [`FLAG_PROBE_RAYS`].
     pub flags: u32,
     /// Width and height of the environment image (zero for none: misses see `sky`).
     pub environment_size: [u32; 2],
@@ -545,12 +549,17 @@ pub fn shade_cache_hit(
         return out;
     }
     let params = path_params(view);
+    let strategy = if view.has(FLAG_PROBE_RAYS) {
+        STRATEGY_BSDF_ONLY
+    } else {
+        STRATEGY_MIS
+    };
     let bsdf_pdf =
         folded_cosine(primary.shading_normal, primary.geometric_normal, direction) * INV_PI;
     if !hit.is_hit() {
         let light_pdf = environment_light_pdf(&params, lights, environment_cdf, direction);
         out.radiance = sky_radiance(view.environment_size, view.sky, environment, direction)
-            * bsdf_mis_weight(STRATEGY_MIS, bsdf_pdf, light_pdf);
+            * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
         return out;
     }
     let (surface, material) = hit_surface(
@@ -574,7 +583,7 @@ pub fn shade_cache_hit(
             surface.geometric_normal.dot(direction),
             Vec3::from_array(ray.direction).length(),
         );
-        out.radiance = emission * bsdf_mis_weight(STRATEGY_MIS, bsdf_pdf, light_pdf);
+        out.radiance = emission * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
         return out;
     }
     let mut ng = surface.geometric_normal;

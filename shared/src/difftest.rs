@@ -23,6 +23,13 @@ use crate::sampling::{
     area_to_solid_angle_pdf, orthonormal_basis, sample_cosine_hemisphere, sample_triangle,
     sample_uniform_sphere,
 };
+use crate::screen_probes::hemisphere::ProbeFrame;
+use crate::screen_probes::hysteresis::apply_hysteresis;
+use crate::screen_probes::interpolate::probe_weight;
+use crate::screen_probes::sh_projection::{
+    SH_TERMS, cell_sh_terms, sh_term_index, sum_sh_coefficient,
+};
+use crate::screen_probes::{GiFrameParams, PROBE_CELLS, ProbeRecord};
 use crate::sh::ShL2Rgb;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec2, Vec2, Vec3};
@@ -106,7 +113,7 @@ const fn floats(
 /// measured at up to 111 ulp for tiny arguments, hence 2^-16 relative wherever a square root
 /// feeds the result); `sin`, `cos` and `atan` only an absolute bound (2^-11 in GLSL.std.450; on
 /// lavapipe the measured worst absolute error of the maps that use them is below 1e-5).
-pub const FUNCTIONS: [FunctionInfo; 22] = [
+pub const FUNCTIONS: [FunctionInfo; 25] = [
     exact("hash::pcg"),
     exact("hash::xxhash32"),
     exact("hash::pcg_chain"),
@@ -142,6 +149,12 @@ pub const FUNCTIONS: [FunctionInfo; 22] = [
     floats("sh::ShL2Rgb", 0b11_1111, 1e-5, 1e-4),
     floats("color", 0b11, 4.0 * ULP, 0.0),
     exact("hash_cells::cell_index"),
+    // A power of 8 of a quotient: 8 × 2.5 ulp of division, plus the plane test's dot product.
+    floats("screen_probes::probe_weight", 0b1, 64.0 * ULP, 1e-6),
+    // 64 cells × 9 terms summed in lane order: products exact, the basis's sqrt-free
+    // polynomials and the direction's decode (sin, cos, atan: absolute 1e-5).
+    floats("screen_probes::project_probe", 0b111_1111, 1e-4, 1e-4),
+    floats("screen_probes::hysteresis", 0b111, 16.0 * ULP, 1e-6),
 ];
 
 fn f(w: u32) -> f32 {
@@ -305,6 +318,60 @@ pub fn evaluate(function: u32, input: [u32; 4]) -> [u32; OUTPUT_WORDS] {
             o[1] = temporal_hysteresis_weight(f(a), f(b)).to_bits();
         }
         21 => o[0] = cell_index(a, b, c, d),
+        22 => {
+            let frame = GiFrameParams {
+                probe_cell_const: 0.05,
+                ..GiFrameParams::default()
+            };
+            let normal = direction(input);
+            let position = Vec3::new(0.0, 0.0, 4.0);
+            let probe = ProbeRecord {
+                position: (position + Vec3::new(f(a), f(b), f(c)) * 0.05).to_array(),
+                normal: pack_snorm10x3((normal + Vec3::new(0.0, 0.1, 0.0)).normalize()),
+                seed: 0,
+                depth: 4.0 + unorm24(d) * 0.5,
+                age: 0,
+                _pad: 0,
+            };
+            o[0] = probe_weight(&frame, position, 4.0, normal, &probe).to_bits();
+        }
+        23 => {
+            // The projection of a probe of random cells, term by term as ProjectScreenProbes
+            // sums it.
+            let probe = ProbeFrame {
+                position: Vec3::ZERO,
+                normal: direction(input),
+            };
+            let mut terms = [[0.0f32; 4]; SH_TERMS];
+            let mut cell = 0;
+            while cell < PROBE_CELLS {
+                let h = pcg(d ^ cell);
+                let radiance = [unorm24(h), unorm24(h >> 4), unorm24(h >> 8), 1.0];
+                let t = cell_sh_terms(&probe, cell, radiance);
+                let mut k = 0;
+                while k < t.len() {
+                    terms[sh_term_index(k as u32, cell)] = t[k];
+                    k += 1;
+                }
+                cell += 1;
+            }
+            let mut irradiance = ShL2Rgb::ZERO;
+            let mut k = 0;
+            while k < irradiance.coefficients.len() {
+                let c = sum_sh_coefficient(&terms, k as u32);
+                irradiance.coefficients[k] = Vec3::new(c[0], c[1], c[2]);
+                k += 1;
+            }
+            put3(&mut o, 0, irradiance.irradiance(probe.normal));
+            let c = irradiance.coefficients;
+            put3(&mut o, 3, Vec3::new(c[0].x, c[2].y, c[6].z));
+            o[6] = c[8].x.to_bits();
+        }
+        24 => put3(
+            &mut o,
+            0,
+            apply_hysteresis(vec3(input).abs(), Vec3::splat(unorm24(d) * 4.0)),
+        ),
         _ => {}
     }
     o

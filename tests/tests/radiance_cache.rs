@@ -442,7 +442,7 @@ impl Replay {
     fn new(ctx: &Context, settings: &GiSettings, side: u32) -> Self {
         let module = KernelModule::new(ctx).unwrap();
         Self {
-            res: CacheResources::new(ctx, settings, side, side, 0).unwrap(),
+            res: CacheResources::new(ctx, settings, side, side, side * side, 0).unwrap(),
             restir: RestirResources::new(ctx, false, side * side).unwrap(),
             passes: HashCellPasses::new(ctx, &module).unwrap(),
         }
@@ -494,7 +494,7 @@ impl Replay {
         let res = &self.res;
         let reservoirs = &self.restir.grids.current().reservoirs;
         ctx.submit(|cmd| -> gi_host::Result<()> {
-            res.pixels.record_fill_zero(ctx, cmd);
+            res.ray_records.record_fill_zero(ctx, cmd);
             transfer_barrier(ctx, cmd);
             self.passes.record_purge(ctx, cmd, res, params)?;
             staged[0].record_copy_to(ctx, cmd, &res.queries)?;
@@ -516,7 +516,7 @@ impl Replay {
         drop(staged);
         let mut inserted: Vec<CacheQuery> = res.queries.read_back(ctx).unwrap();
         inserted.truncate(n);
-        let pixels: Vec<CacheViewPixel> = res.pixels.read_back(ctx).unwrap();
+        let pixels: Vec<CacheViewPixel> = res.ray_records.read_back(ctx).unwrap();
         let resolved = inserted
             .iter()
             .map(|q| Vec3::from_array(pixels[q.ray_index as usize].ray_radiance))
@@ -959,7 +959,7 @@ fn float_words() -> Vec<(&'static str, FloatWords)> {
         // origin, direction, t_max, contribution.
         ("shadow rays", f(12, &[0, 1, 2, 4, 5, 6, 7, 8, 9, 10])),
         // ray_radiance, base.
-        ("cache-view pixels", f(8, &[0, 1, 2, 4, 5, 6])),
+        ("ray records", f(8, &[0, 1, 2, 4, 5, 6])),
         // radiance, depth, normal.
         ("feedback history", f(8, &[0, 1, 2, 3, 4, 5, 6])),
         // origin, cell_size, environment_irradiance, emissive_multiplier.

@@ -1,5 +1,8 @@
 //! `gi`: the command-line program of the GI-1.0 port.
 
+#[path = "gi/gi_render.rs"]
+mod gi_render;
+
 use clap::{Parser, Subcommand};
 use gi_host::gbuffer::{GBufferData, GBufferImages, GBufferPass, scene_camera, write_debug_pngs};
 use gi_host::gi::debug_views::write_debug_views;
@@ -13,6 +16,7 @@ use gi_host::scene::lights::{Environment, LightSet};
 use gi_host::scene::upload::{GpuScene, build_bvh};
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
+use gi_render::{GiArgs, Method, render_gi};
 use gi_shared::camera::CameraParams;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -63,8 +67,10 @@ enum Command {
         #[arg(long, default_value_t = 240, value_parser = clap::value_parser!(u32).range(1..=8192))]
         height: u32,
     },
-    /// Render a scene with the reference path tracer: progressive, one path per pixel per
-    /// dispatch. Writes the linear image as OpenEXR and a tone-mapped PNG beside it.
+    /// Render a scene: with the reference path tracer (`--method path`, the default:
+    /// progressive, one path per pixel per dispatch), or with GI-1.0 (`--method gi`: frames along
+    /// a camera path, the last one written, then the GPU time per pass and the memory table).
+    /// Writes the linear image as OpenEXR and a tone-mapped PNG beside it.
     Render {
         /// The glTF scene (.gltf or .glb).
         scene: PathBuf,
@@ -94,6 +100,8 @@ enum Command {
         /// (one technique alone, for comparisons).
         #[arg(long, default_value = "mis", value_parser = parse_strategy)]
         strategy: Strategy,
+        #[command(flatten)]
+        gi: GiArgs,
     },
     /// Show the world-space radiance cache on its own (GI-1.0's hash cells): each G-buffer pixel
     /// casts one cosine-distributed ray per frame, whose hit queries and feeds the cache; the
@@ -308,8 +316,27 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         view,
         light_candidates,
         strategy,
+        gi,
     }) = &cli.command
     {
+        if gi.method == Method::Gi {
+            let options = ViewOptions {
+                sky: view.sky.unwrap_or(Vec3::ZERO),
+                emissive_multiplier: view.emissive_multiplier,
+                seed: view.seed,
+            };
+            let output = view.output(out, *width, *height);
+            render_gi(
+                &ctx,
+                scene,
+                &output,
+                view.camera(),
+                view.sky()?,
+                options,
+                gi,
+            )?;
+            return check_validation(&ctx);
+        }
         let settings = PathTracerSettings {
             samples: *spp,
             max_bounces: *max_bounces,

@@ -14,10 +14,10 @@
 //! alone ([`CacheView::replay_queries`]).
 
 use super::debug_views::{DebugView, debug_views};
-use super::hash_cells::{HashCellPasses, PUSH_BYTES};
-use super::lighting::LightingPasses;
+use super::hash_cells::PUSH_BYTES;
 use super::resources::{CacheResources, RestirResources};
 use super::settings::GiSettings;
+use super::world_cache::{CacheFrame, PassTimer, SceneLighting, WorldCache};
 use crate::error::{Error, Result};
 use crate::gbuffer::GBufferImages;
 use crate::image_io::HdrImage;
@@ -29,21 +29,12 @@ use crate::vulkan::{
 };
 use ash::vk;
 use gi_shared::cache_view::{
-    BYPASS_COUNT, CACHE_VIEW_TILE, CachePassParams, CacheQuery, CacheViewParams, FEEDBACK_COUNT,
-    FLAG_BYPASS, FLAG_ENVIRONMENT_LIGHT, FLAG_FEEDBACK, FLAG_HISTORY, FLAG_RESTIR,
-    FLAG_RESTIR_HISTORY, FLAG_SHORT_RAY, INSERTED_TILES, QUERY_COUNT, SHADOW_RAY_COUNT,
-    running_mean,
+    CACHE_VIEW_TILE, CachePassParams, CacheQuery, QUERY_COUNT, running_mean,
 };
 use gi_shared::camera::CameraParams;
 use gi_shared::color::luminance;
-use gi_shared::hash_cells::cell_size_const;
-use gi_shared::hash_cells::lists::{
-    DROPPED_SAMPLES, EVICTED_TILES, FAILED_INSERTS, UPDATE_TILES, live_list,
-};
-use gi_shared::layout::{HashCellValue, HashGridParams};
+use gi_shared::layout::HashCellValue;
 use gi_shared::random::halton23;
-use gi_shared::scene_data::NONE;
-use gi_shared::world_restir::reservoir_cell_const;
 use glam::{Vec2, Vec3};
 
 /// Timestamp spans per frame: one per pass.
@@ -129,8 +120,7 @@ pub struct CacheView {
     gbuffer_kernel: Kernel,
     trace: Kernel,
     composite: Kernel,
-    hash_cells: HashCellPasses,
-    lighting: LightingPasses,
+    cache: WorldCache,
     timer: Option<GpuTimer>,
     timings: FrameTimings,
     /// The next frame's index.
@@ -140,11 +130,7 @@ pub struct CacheView {
     previous: Option<CameraParams>,
     /// The last frame's jittered camera and parameters (for the debug views).
     last_frame: Option<(CameraParams, CachePassParams)>,
-    light_count: u32,
-    /// The environment is importance-sampled: the last light ([`FLAG_ENVIRONMENT_LIGHT`]).
-    environment_light: bool,
-    environment_size: [u32; 2],
-    environment_irradiance: f32,
+    lighting: SceneLighting,
 }
 
 /// `¼ ∫ luminance(L) dω` over the sphere of an equirectangular `size` image: the irradiance a
@@ -216,40 +202,31 @@ impl CacheView {
                     &[buffer, image, image, image, buffer, buffer, buffer],
                     0,
                 )?,
-                HashCellPasses::new(ctx, &module)?,
-                LightingPasses::new(ctx, &module, restir.slots)?,
+                WorldCache::new(ctx, &module, restir.slots)?,
             ))
         })();
         drop(module);
-        let (gbuffer_kernel, trace, composite, hash_cells, lighting) = made?;
-        let (environment_size, environment_irradiance) = match &lights.environment {
-            Some(e) => (e.size(), environment_irradiance(e.size(), e.texels())),
-            None => ([0, 0], 0.0),
-        };
+        let (gbuffer_kernel, trace, composite, cache) = made?;
         Ok(Self {
             settings,
             options,
             width,
             height,
-            res: CacheResources::new(ctx, &settings, width, height, 0)?,
+            res: CacheResources::new(ctx, &settings, width, height, width * height, 0)?,
             restir,
             restir_history: false,
             gbuffer: GBufferImages::new(ctx, width, height)?,
             gbuffer_kernel,
             trace,
             composite,
-            hash_cells,
-            lighting,
+            cache,
             timer: GpuTimer::new(ctx, PASSES_PER_FRAME).ok(),
             timings: FrameTimings::new(),
             frame: 0,
             accumulated: 0,
             previous: None,
             last_frame: None,
-            light_count: lights.lights.len() as u32,
-            environment_light: lights.environment_light != NONE,
-            environment_size,
-            environment_irradiance,
+            lighting: SceneLighting::new(lights),
         })
     }
 
@@ -292,49 +269,20 @@ impl CacheView {
 
     /// The push constants of frame `frame` seen by `camera`.
     pub fn params(&self, camera: &CameraParams) -> CachePassParams {
-        let s = &self.settings;
-        let fov_y = 2.0 * camera.tan_half_fov_y.atan();
-        let mut grid = HashGridParams::new(
-            camera.position(),
-            cell_size_const(fov_y, self.width, self.height, s.cell_size_pixels),
-            self.frame,
-        );
-        grid.min_cell_size = s.min_cell_size;
-        grid.num_buckets_log2 = s.buckets_log2;
-        grid.tiles_per_bucket_log2 = s.tiles_per_bucket_log2;
-        let mut flags = 0;
-        for (on, flag) in [
-            (s.temporal_feedback, FLAG_FEEDBACK),
-            (self.previous.is_some(), FLAG_HISTORY),
-            (s.short_ray_flag, FLAG_SHORT_RAY),
-            (s.bypass, FLAG_BYPASS),
-            (s.restir, FLAG_RESTIR),
-            (s.restir && self.restir_history, FLAG_RESTIR_HISTORY),
-            (self.environment_light, FLAG_ENVIRONMENT_LIGHT),
-        ] {
-            if on {
-                flags |= flag;
-            }
-        }
-        CachePassParams {
-            grid,
-            view: CacheViewParams {
-                sky: self.options.sky.to_array(),
-                frame_index: self.frame,
-                emissive_multiplier: self.options.emissive_multiplier,
-                light_count: self.light_count,
-                seed: self.options.seed,
-                flags,
-                environment_size: self.environment_size,
-                environment_irradiance: self.environment_irradiance,
-                light_candidates: s.light_candidates,
-                image_size: [self.width, self.height],
-                max_groups: 0,
-                reservoir_cell_const: reservoir_cell_const(fov_y, self.width, self.height),
-                previous_eye: self.previous.map_or(camera.position, |p| p.position),
-                reservoir_buckets: self.restir.buckets,
+        WorldCache::params(
+            &self.settings,
+            &self.options,
+            &self.lighting,
+            &self.restir,
+            [self.width, self.height],
+            CacheFrame {
+                frame: self.frame,
+                camera,
+                previous: self.previous.as_ref(),
+                restir_history: self.restir_history,
+                extra_flags: 0,
             },
-        }
+        )
     }
 
     /// Renders one frame of `scene` seen by `camera` (its image size must be the view's) and
@@ -378,7 +326,7 @@ impl CacheView {
         if let Some(spans) = spans {
             self.timings.add_frame(&spans?);
         }
-        let occupancy = self.occupancy(ctx, self.frame)?;
+        let occupancy = self.res.occupancy(ctx, self.frame)?;
         self.last_frame = Some((frame_camera, params));
         if self.settings.restir {
             self.restir.grids.swap();
@@ -398,11 +346,9 @@ impl CacheView {
         scene: &GpuScene,
         params: &CachePassParams,
         restart: bool,
-        mut timer: Option<&mut GpuTimer>,
+        timer: Option<&mut GpuTimer>,
     ) -> Result<()> {
-        if let Some(t) = timer.as_deref_mut() {
-            t.reset(ctx, cmd);
-        }
+        let mut timer = PassTimer::new(ctx, cmd, timer);
         if restart {
             self.res.accumulation.record_fill_zero(ctx, cmd);
             transfer_barrier(ctx, cmd);
@@ -415,22 +361,10 @@ impl CacheView {
             1,
         ];
         let push = bytemuck::bytes_of(params);
-        macro_rules! pass {
-            ($label:expr, $body:expr) => {{
-                if let Some(t) = timer.as_deref_mut() {
-                    t.begin(ctx, cmd, $label)?;
-                }
-                $body;
-                if let Some(t) = timer.as_deref() {
-                    t.end(ctx, cmd);
-                }
-            }};
-        }
-        pass!(
-            "PurgeRadianceCache",
-            self.hash_cells.record_purge(ctx, cmd, res, params)?
-        );
-        pass!("GBuffer", {
+        timer.pass(ctx, cmd, "PurgeRadianceCache", || {
+            self.cache.hash_cells.record_purge(ctx, cmd, res, params)
+        })?;
+        timer.pass(ctx, cmd, "GBuffer", || {
             let mut resources = vec![Resource::Buffer(&res.camera)];
             resources.extend(self.gbuffer.resources());
             self.gbuffer_kernel.dispatch_traced(
@@ -442,8 +376,9 @@ impl CacheView {
                 pixel_groups,
             )?;
             compute_barrier(ctx, cmd);
-        });
-        pass!("TraceCacheRays", {
+            Ok(())
+        })?;
+        timer.pass(ctx, cmd, "TraceCacheRays", || {
             self.trace.dispatch_traced(
                 ctx,
                 cmd,
@@ -456,7 +391,7 @@ impl CacheView {
                     Resource::Image(&images[3]),
                     Resource::Image(&images[4]),
                     Resource::Image(&images[6]),
-                    Resource::Buffer(&res.pixels),
+                    Resource::Buffer(&res.ray_records),
                     Resource::Buffer(&res.queries),
                     Resource::Buffer(&res.counters),
                     Resource::Buffer(&res.bounds),
@@ -465,60 +400,19 @@ impl CacheView {
                 pixel_groups,
             )?;
             compute_barrier(ctx, cmd);
-        });
-        pass!(
-            "InsertRadianceCache",
-            self.hash_cells.record_insert(ctx, cmd, res, params)?
-        );
-        pass!(
-            "UpdateLightGrid",
-            self.lighting
-                .record_light_grid(ctx, cmd, res, &scene.lights, params)?
-        );
-        let restir = &self.restir;
-        if self.settings.restir {
-            pass!(
-                "ClearReservoirs",
-                self.lighting.record_clear_reservoirs(ctx, cmd, restir)
-            );
-        }
-        pass!("GenerateReservoirs", {
-            self.lighting
-                .record_generate(ctx, cmd, res, restir, &scene.lights, params)?;
-            self.hash_cells.record_shadow_ray_args(ctx, cmd, res)?;
-        });
-        if self.settings.restir {
-            pass!(
-                "CompactReservoirs",
-                self.lighting
-                    .record_compact(ctx, cmd, res, restir, params)?
-            );
-            pass!(
-                "ResampleReservoirs",
-                self.lighting
-                    .record_resample(ctx, cmd, res, restir, &scene.lights, params)?
-            );
-        }
-        pass!(
-            "PopulateRadianceCache",
-            self.hash_cells.record_populate(
-                ctx,
-                cmd,
-                scene.sets(),
-                res,
-                &restir.grids.current().reservoirs,
-                params
-            )?
-        );
-        pass!(
-            "UpdateRadianceCache",
-            self.hash_cells.record_update(ctx, cmd, res, params)?
-        );
-        pass!(
-            "ResolveRadianceCache",
-            self.hash_cells.record_resolve(ctx, cmd, res, params)?
-        );
-        pass!("CacheViewComposite", {
+            Ok(())
+        })?;
+        self.cache.record_after_trace(
+            ctx,
+            cmd,
+            scene,
+            res,
+            &self.restir,
+            &self.settings,
+            params,
+            &mut timer,
+        )?;
+        timer.pass(ctx, cmd, "CacheViewComposite", || {
             self.composite.dispatch(
                 ctx,
                 cmd,
@@ -527,7 +421,7 @@ impl CacheView {
                     Resource::Image(&images[0]),
                     Resource::Image(&images[1]),
                     Resource::Image(&images[3]),
-                    Resource::Buffer(&res.pixels),
+                    Resource::Buffer(&res.ray_records),
                     Resource::Buffer(&res.accumulation),
                     Resource::Buffer(&res.history),
                 ],
@@ -535,29 +429,7 @@ impl CacheView {
                 pixel_groups,
             )?;
             compute_barrier(ctx, cmd);
-        });
-        Ok(())
-    }
-
-    /// The occupancy after frame `frame`, read back from the counters.
-    fn occupancy(&self, ctx: &Context, frame: u32) -> Result<Occupancy> {
-        let counters: Vec<u32> = self.res.counters.read_back(ctx)?;
-        let lists: Vec<u32> = self.res.lists.read_back(ctx)?;
-        let tiles = self.res.tile_count();
-        let pixels = self.res.pixel_count();
-        let word = |list: u32| lists.get(list as usize).copied().unwrap_or(0);
-        Ok(Occupancy {
-            frame,
-            live_tiles: word(live_list(frame)).min(tiles),
-            inserted: counters[INSERTED_TILES],
-            failed_inserts: word(FAILED_INSERTS),
-            evicted: word(EVICTED_TILES),
-            updated: word(UPDATE_TILES).min(tiles),
-            queries: counters[QUERY_COUNT].min(pixels),
-            fed_back: counters[FEEDBACK_COUNT],
-            shadow_rays: counters[SHADOW_RAY_COUNT].min(pixels),
-            bypassed: counters[BYPASS_COUNT],
-            dropped: word(DROPPED_SAMPLES),
+            Ok(())
         })
     }
 
@@ -587,7 +459,7 @@ impl CacheView {
     pub fn read_back_queries(&self, ctx: &Context) -> Result<Vec<CacheQuery>> {
         let counters: Vec<u32> = self.res.counters.read_back(ctx)?;
         let mut queries: Vec<CacheQuery> = self.res.queries.read_back(ctx)?;
-        queries.truncate(counters[QUERY_COUNT].min(self.res.pixel_count()) as usize);
+        queries.truncate(counters[QUERY_COUNT].min(self.res.ray_capacity()) as usize);
         Ok(queries)
     }
 
@@ -603,12 +475,12 @@ impl CacheView {
         queries: &[CacheQuery],
     ) -> Result<Occupancy> {
         let n = queries.len() as u32;
-        if n > self.res.pixel_count() || queries.is_empty() {
+        if n > self.res.ray_capacity() || queries.is_empty() {
             return Err(Error::InvalidArgument {
                 name: "queries",
                 why: format!(
                     "{n} queries: a batch holds 1 to {} (one per pixel)",
-                    self.res.pixel_count()
+                    self.res.ray_capacity()
                 ),
             });
         }
@@ -622,7 +494,9 @@ impl CacheView {
             vk::BufferUsageFlags::empty(),
         )?;
         let recorded = ctx.submit(|cmd| -> Result<()> {
-            self.hash_cells.record_purge(ctx, cmd, &self.res, &params)?;
+            self.cache
+                .hash_cells
+                .record_purge(ctx, cmd, &self.res, &params)?;
             staging.record_copy_to(ctx, cmd, &self.res.queries)?;
             let count_offset = (QUERY_COUNT * std::mem::size_of::<u32>()) as u64;
             unsafe {
@@ -634,13 +508,16 @@ impl CacheView {
                 )
             };
             transfer_barrier(ctx, cmd);
-            self.hash_cells
+            self.cache
+                .hash_cells
                 .record_insert(ctx, cmd, &self.res, &params)?;
-            self.hash_cells.record_update(ctx, cmd, &self.res, &params)
+            self.cache
+                .hash_cells
+                .record_update(ctx, cmd, &self.res, &params)
         });
         drop(staging);
         recorded??;
-        let occupancy = self.occupancy(ctx, frame)?;
+        let occupancy = self.res.occupancy(ctx, frame)?;
         self.frame = frame.wrapping_add(1);
         Ok(occupancy)
     }

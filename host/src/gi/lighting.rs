@@ -109,7 +109,7 @@ impl LightingPasses {
                 Resource::Buffer(&res.camera),
                 Resource::Buffer(&res.queries),
                 Resource::Buffer(&res.counters),
-                Resource::Buffer(&res.pixels),
+                Resource::Buffer(&res.ray_records),
                 Resource::Buffer(&res.history),
                 Resource::Buffer(&res.accumulators),
                 Resource::Buffer(&res.light_grid),

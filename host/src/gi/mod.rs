@@ -5,11 +5,18 @@
 //! (`gi cache-view`, the cache on its own: the frame loop) with its [`debug_views`].
 
 pub mod cache_view;
+pub mod camera_path;
 pub mod debug_views;
+pub mod gi_denoiser;
 pub mod hash_cells;
 pub mod lighting;
+pub mod primary_lighting;
+pub mod probe_debug_views;
+pub mod renderer;
 pub mod resources;
+pub mod screen_probes;
 pub mod settings;
+pub mod world_cache;
 
 pub use cache_view::{CacheState, CacheView, Occupancy, ViewOptions};
-pub use settings::GiSettings;
+pub use settings::{GiSettings, SpawnRate};

@@ -7,17 +7,21 @@
 //! [`PingPong`] pair ([`RestirResources`]). The feedback history needs no second copy: the
 //! composite writes it after GenerateReservoirs has read the previous frame's.
 
+use super::cache_view::Occupancy;
 use super::settings::GiSettings;
 use crate::error::Result;
 use crate::frame::indirect_args;
 use crate::vulkan::{Buffer, Context, PingPong};
 use ash::vk;
 use gi_shared::cache_view::{
-    ARGS_COUNT, CACHE_COUNTER_WORDS, CacheQuery, CacheViewPixel, FeedbackTexel, ShadowRay,
+    ARGS_COUNT, BYPASS_COUNT, CACHE_COUNTER_WORDS, CacheQuery, CacheViewPixel, FEEDBACK_COUNT,
+    FeedbackTexel, INSERTED_TILES, QUERY_COUNT, SHADOW_RAY_COUNT, ShadowRay,
     reservoir_grid_buckets,
 };
 use gi_shared::camera::CameraParams;
-use gi_shared::hash_cells::lists::list_buffer_words;
+use gi_shared::hash_cells::lists::{
+    DROPPED_SAMPLES, EVICTED_TILES, FAILED_INSERTS, UPDATE_TILES, list_buffer_words, live_list,
+};
 use gi_shared::hash_cells::touch::initial_last_touch;
 use gi_shared::hash_cells::{CELLS_PER_TILE, MIP0_CELLS_PER_TILE};
 use gi_shared::layout::{ACCUMULATOR_WORDS, HashCellValue, MAX_STORAGE_BUFFER_BYTES};
@@ -43,12 +47,13 @@ pub struct CacheResources {
     pub lists: Buffer,
     /// The cache view's counters (`gi_shared::cache_view::QUERY_COUNT` ...).
     pub counters: Buffer,
-    /// One [`CacheQuery`] per pixel at most.
+    /// One [`CacheQuery`] per ray at most.
     pub queries: Buffer,
-    /// One [`ShadowRay`] per pixel at most.
+    /// One [`ShadowRay`] per ray at most.
     pub shadow_rays: Buffer,
-    /// One [`CacheViewPixel`] per pixel.
-    pub pixels: Buffer,
+    /// One [`CacheViewPixel`] per ray: the cache passes complete its `ray_radiance` (the cache
+    /// view traces one ray per pixel, the GI frame one per probe cell it spawns).
+    pub ray_records: Buffer,
     /// One [`FeedbackTexel`] per pixel: the previous frame's image for temporal feedback.
     pub history: Buffer,
     /// Running sum and count per pixel (`[f32; 4]`): the output.
@@ -63,6 +68,7 @@ pub struct CacheResources {
     pub args: Buffer,
     tile_count: u32,
     pixel_count: u32,
+    ray_capacity: u32,
 }
 
 /// Each resource's name, in the order [`CacheResources::buffers`] lists them.
@@ -76,7 +82,7 @@ pub const RESOURCE_NAMES: [&str; 16] = [
     "cache-view counters",
     "cache queries",
     "shadow rays",
-    "cache-view pixels",
+    "ray records",
     "feedback history",
     "cache-view accumulation",
     "light grid bounds",
@@ -86,18 +92,21 @@ pub const RESOURCE_NAMES: [&str; 16] = [
 ];
 
 impl CacheResources {
-    /// Allocates the resources of a `width × height` frame with `settings` (validated first:
-    /// a bad setting is an error naming it), the hash grid empty for a first frame `first_frame`.
+    /// Allocates the resources of a `width × height` frame that traces at most `rays` rays into
+    /// the cache per frame, with `settings` (validated first: a bad setting is an error naming
+    /// it), the hash grid empty for a first frame `first_frame`.
     pub fn new(
         ctx: &Context,
         settings: &GiSettings,
         width: u32,
         height: u32,
+        rays: u32,
         first_frame: u32,
     ) -> Result<Self> {
         settings.validate(width, height)?;
         let tiles = settings.tile_count() as usize;
         let pixels = width as usize * height as usize;
+        let rays = (rays as usize).max(1);
         let cells = tiles * CELLS_PER_TILE as usize;
         let accumulator_words = tiles * MIP0_CELLS_PER_TILE as usize * ACCUMULATOR_WORDS;
         debug_assert!(accumulator_words * 4 <= MAX_STORAGE_BUFFER_BYTES);
@@ -116,9 +125,9 @@ impl CacheResources {
             accumulators: Buffer::device_zeroed::<u32>(ctx, n[4], accumulator_words)?,
             lists: Buffer::device_zeroed::<u32>(ctx, n[5], list_buffer_words(tiles as u32))?,
             counters: Buffer::device_zeroed::<u32>(ctx, n[6], CACHE_COUNTER_WORDS)?,
-            queries: Buffer::device_zeroed::<CacheQuery>(ctx, n[7], pixels)?,
-            shadow_rays: Buffer::device_zeroed::<ShadowRay>(ctx, n[8], pixels)?,
-            pixels: Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], pixels)?,
+            queries: Buffer::device_zeroed::<CacheQuery>(ctx, n[7], rays)?,
+            shadow_rays: Buffer::device_zeroed::<ShadowRay>(ctx, n[8], rays)?,
+            ray_records: Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], rays)?,
             history: Buffer::device_zeroed::<FeedbackTexel>(ctx, n[10], pixels)?,
             accumulation: Buffer::device_zeroed::<[f32; 4]>(ctx, n[11], pixels)?,
             bounds: Buffer::device_zeroed::<u32>(ctx, n[12], LIGHT_GRID_BOUNDS_WORDS)?,
@@ -127,6 +136,7 @@ impl CacheResources {
             args: indirect_args(ctx, n[15], ARGS_COUNT as usize)?,
             tile_count: tiles as u32,
             pixel_count: pixels as u32,
+            ray_capacity: rays as u32,
         })
     }
 
@@ -135,9 +145,14 @@ impl CacheResources {
         self.tile_count
     }
 
-    /// Pixels of the frame: the capacity of the query, shadow-ray and pixel buffers.
+    /// Pixels of the frame: the feedback history's and the accumulation's size.
     pub fn pixel_count(&self) -> u32 {
         self.pixel_count
+    }
+
+    /// Rays per frame at most: the capacity of the query, shadow-ray and ray-record buffers.
+    pub fn ray_capacity(&self) -> u32 {
+        self.ray_capacity
     }
 
     /// Every buffer, in [`RESOURCE_NAMES`] order.
@@ -152,7 +167,7 @@ impl CacheResources {
             &self.counters,
             &self.queries,
             &self.shadow_rays,
-            &self.pixels,
+            &self.ray_records,
             &self.history,
             &self.accumulation,
             &self.bounds,
@@ -160,6 +175,28 @@ impl CacheResources {
             &self.light_grid_entries,
             &self.args,
         ]
+    }
+
+    /// The occupancy after frame `frame`, read back from the counters.
+    pub fn occupancy(&self, ctx: &Context, frame: u32) -> Result<Occupancy> {
+        let counters: Vec<u32> = self.counters.read_back(ctx)?;
+        let lists: Vec<u32> = self.lists.read_back(ctx)?;
+        let tiles = self.tile_count();
+        let pixels = self.ray_capacity();
+        let word = |list: u32| lists.get(list as usize).copied().unwrap_or(0);
+        Ok(Occupancy {
+            frame,
+            live_tiles: word(live_list(frame)).min(tiles),
+            inserted: counters[INSERTED_TILES],
+            failed_inserts: word(FAILED_INSERTS),
+            evicted: word(EVICTED_TILES),
+            updated: word(UPDATE_TILES).min(tiles),
+            queries: counters[QUERY_COUNT].min(pixels),
+            fed_back: counters[FEEDBACK_COUNT],
+            shadow_rays: counters[SHADOW_RAY_COUNT].min(pixels),
+            bypassed: counters[BYPASS_COUNT],
+            dropped: word(DROPPED_SAMPLES),
+        })
     }
 
     /// Total bytes of the buffers.
@@ -218,7 +255,7 @@ impl ReservoirGrid {
 
 /// World-space ReSTIR's resources: this frame's and the previous frame's reservoir grids, and
 /// each shadow ray's place in this frame's. Sized for the frame when ReSTIR is on
-/// ([`reservoir_grid_buckets`] buckets of 16 slots, one entry per pixel); one-element
+/// ([`reservoir_grid_buckets`] buckets of 16 slots, one entry per ray); one-element
 /// placeholders (that the kernels bind but never use) when it is off.
 pub struct RestirResources {
     /// This frame's grid and the previous frame's.
@@ -232,19 +269,15 @@ pub struct RestirResources {
 }
 
 impl RestirResources {
-    /// The resources of a `pixels`-pixel frame, real when `on`.
-    pub fn new(ctx: &Context, on: bool, pixels: u32) -> Result<Self> {
-        let buckets = if on {
-            reservoir_grid_buckets(pixels)
-        } else {
-            1
-        };
+    /// The resources of a frame of at most `rays` rays, real when `on`.
+    pub fn new(ctx: &Context, on: bool, rays: u32) -> Result<Self> {
+        let buckets = if on { reservoir_grid_buckets(rays) } else { 1 };
         let slots = if on {
             buckets * RESERVOIR_GRID_SLOTS_PER_BUCKET
         } else {
             1
         };
-        let rays = if on { pixels as usize } else { 1 };
+        let rays = if on { rays as usize } else { 1 };
         Ok(Self {
             grids: PingPong::new(
                 ReservoirGrid::new(ctx, "a", slots as usize, rays)?,

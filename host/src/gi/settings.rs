@@ -64,6 +64,78 @@ pub struct GiSettings {
     /// tracer: 8). Cost: a light sample each, no ray. Quality: picks the light that matters at
     /// each pixel where several compete.
     pub light_candidates: u32,
+    /// How often a probe tile is traced: one probe per spawn tile of 8 × 8 (every tile, every
+    /// frame), 16 × 16 (a quarter of the tiles per frame, the reference's default) or 32 × 32
+    /// pixels. Cost: the frame's probe rays are 64 per spawn tile: one ray per pixel at
+    /// [`SpawnRate::Full`], 1/4 and 1/16 ray per pixel below, and every per-probe pass scales
+    /// with them. Quality: the untraced tiles reuse reprojected probes, so a lower rate means
+    /// older, noisier light that reacts later to change.
+    pub spawn_rate: SpawnRate,
+    /// Temporal reprojection of last frame's probes (the seed pixel with the best reuse score
+    /// per tile, a minimum in workgroup memory). Cost: one pass over the probe tiles. Quality:
+    /// off, tiles not spawned this frame have no probe (interpolation must reach farther, or
+    /// finds nothing) and nothing is left for ray guiding or hysteresis: much more noise.
+    pub reprojection: bool,
+    /// Parallax-corrected re-binning of every reprojected and gathered cell. Cost: a direction
+    /// per cell. Quality: off, a cell keeps its direction when its probe moves, which shifts
+    /// near geometry's light in the probe: bias under motion.
+    pub parallax: bool,
+    /// Radiance backup: cells left empty take their probe's mean. Cost: negligible. Quality:
+    /// off, empty cells read as black in the SH projection: darkening where rays are few.
+    pub radiance_backup: bool,
+    /// Probe patching (adaptive sampling): disoccluded tiles take over spawns of tiles that
+    /// still hold a reprojected probe, so the ray budget goes where the screen has no probe.
+    /// Cost: one small pass. Quality: off, disoccluded tiles wait for their spawn turn
+    /// (up to 4 or 16 frames): holes filled by farther probes or the relaxed fallback.
+    pub patching: bool,
+    /// Ray guiding: each probe samples its cells by a CDF of the history's luminance × cosine.
+    /// Cost: the history gather from the 3 × 3 neighbourhood and a scan per probe. Quality:
+    /// more rays toward the bright cells: less noise, the same expectation per cell.
+    pub ray_guiding: bool,
+    /// Shadow-preserving biased temporal hysteresis: brightening beyond twice the history is
+    /// damped, darkening passes at once. Cost: negligible. Quality: off, fireflies of single
+    /// rays reach the image; on, a little bias toward the history when light really brightens.
+    pub hysteresis: bool,
+    /// The 7 × 7 separable probe filter (plane-distance, normal and angle rejection). Cost: two
+    /// passes over every probe. Quality: off, each probe keeps the noise of its own 64 rays.
+    pub probe_filter: bool,
+    /// Blue-noise jitter of the per-pixel probe lookup. Cost: a G-buffer read per pixel.
+    /// Quality: hides the probe grid's blocks behind noise the denoiser removes.
+    pub interpolation_jitter: bool,
+    /// The relaxed fallback of interpolation: a pixel no probe matches takes the found probes
+    /// equally (hinted to the denoiser). Cost: none. Quality: off, such pixels get no indirect
+    /// light (black holes at disocclusions and thin features).
+    pub relaxed_fallback: bool,
+    /// The denoiser's temporal reprojection of irradiance (history up to 64 frames, capped by
+    /// motion and vignette). Cost: one pass. Quality: off, the image shows each frame's probe
+    /// noise.
+    pub denoiser_temporal: bool,
+    /// The denoiser's blur mask and separable bilateral filter, with a radius that shrinks as
+    /// history grows and as the screen's blur cost rises. Cost: three passes. Quality: off,
+    /// young history (disocclusions, motion) stays noisy.
+    pub denoiser_spatial: bool,
+}
+
+/// The screen probes' spawn rate: one probe traced per spawn tile per frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpawnRate {
+    /// Spawn tiles of 8 × 8 pixels: every probe tile traced every frame.
+    Full,
+    /// Spawn tiles of 16 × 16 pixels (the reference's default).
+    Quarter,
+    /// Spawn tiles of 32 × 32 pixels.
+    Sixteenth,
+}
+
+impl SpawnRate {
+    /// The spawn tile's side in pixels.
+    pub fn tile(self) -> u32 {
+        match self {
+            Self::Full => gi_shared::screen_probes::SPAWN_TILE_FULL,
+            Self::Quarter => gi_shared::screen_probes::SPAWN_TILE_QUARTER,
+            Self::Sixteenth => gi_shared::screen_probes::SPAWN_TILE_SIXTEENTH,
+        }
+    }
 }
 
 impl Default for GiSettings {
@@ -79,6 +151,18 @@ impl Default for GiSettings {
             short_ray_flag: true,
             bypass: true,
             light_candidates: 8,
+            spawn_rate: SpawnRate::Quarter,
+            reprojection: true,
+            parallax: true,
+            radiance_backup: true,
+            patching: true,
+            ray_guiding: true,
+            hysteresis: true,
+            probe_filter: true,
+            interpolation_jitter: true,
+            relaxed_fallback: true,
+            denoiser_temporal: true,
+            denoiser_spatial: true,
         }
     }
 }

@@ -1,0 +1,309 @@
+//! `gi render --method gi`: GI-1.0 frames of a scene along a camera path, the last one written
+//! out, with optional metrics against a reference and debug views.
+
+use super::{Output, Sky, load_scene, on_off};
+use gi_host::gbuffer::scene_camera;
+use gi_host::gi::camera_path::CameraPath;
+use gi_host::gi::probe_debug_views::{gi_debug_views, write_gi_debug_views};
+use gi_host::gi::renderer::{DEFAULT_GI_FRAMES, GiRenderer};
+use gi_host::gi::{GiSettings, SpawnRate, ViewOptions};
+use gi_host::image_io::{HdrImage, ToneMap};
+use gi_host::metrics::{self, CompareSettings};
+use gi_host::scene::gpu_data::ShadingData;
+use gi_host::scene::lights::LightSet;
+use gi_host::scene::upload::GpuScene;
+use gi_host::vulkan::Context;
+use gi_shared::camera::CameraParams;
+use glam::Vec3;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Which renderer `gi render` runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// The reference path tracer (the ground truth).
+    Path,
+    /// GI-1.0: screen probes over the world-space radiance cache, denoised.
+    Gi,
+}
+
+/// A GI technique that `--no` switches off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Technique {
+    /// Temporal reprojection of the probes.
+    Reprojection,
+    /// Parallax-corrected re-binning.
+    Parallax,
+    /// Radiance backup of empty cells.
+    Backup,
+    /// Probe patching of disoccluded tiles.
+    Patching,
+    /// Ray guiding.
+    Guiding,
+    /// Shadow-preserving temporal hysteresis.
+    Hysteresis,
+    /// The 7×7 probe filter.
+    Filter,
+    /// Blue-noise jitter of interpolation.
+    Jitter,
+    /// The relaxed interpolation fallback.
+    Relaxed,
+    /// The denoiser's temporal reprojection.
+    Temporal,
+    /// The denoiser's bilateral blur.
+    Spatial,
+    /// Temporal radiance feedback at secondary hits.
+    Feedback,
+    /// The cache's light-leak fixes (short-ray flag and bypass).
+    LeakFixes,
+}
+
+/// The options of `gi render` for `--method gi`.
+#[derive(clap::Args)]
+pub struct GiArgs {
+    /// Renderer: `path` (the reference path tracer, the ground truth) or `gi` (GI-1.0).
+    #[arg(long, value_enum, default_value_t = Method::Path)]
+    pub method: Method,
+    /// GI: frames to render; the last is written. The default lets the denoiser's history
+    /// reach its 64-frame cap.
+    #[arg(long, default_value_t = DEFAULT_GI_FRAMES, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    pub frames: u32,
+    /// GI: camera path: `static`, `orbit` or `orbit:DEGREES_PER_FRAME` (about the vertical
+    /// axis through the point the camera looks at, at the scene's centre distance), or a file
+    /// with one camera per line (`px py pz tx ty tz [fov]`).
+    #[arg(long, default_value = "static")]
+    pub camera_path: String,
+    /// GI: a reference image (OpenEXR, e.g. `gi render --method path` at many spp): relMSE and
+    /// FLIP of the last frame against it.
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// GI: also write relMSE and FLIP of every frame against --reference as CSV here.
+    #[arg(long, requires = "reference")]
+    pub metrics_csv: Option<PathBuf>,
+    /// GI: write every stage as a PNG into this folder (probe atlas, mask, spawn and patch
+    /// tiles, ray-guiding PDFs, cache cells, blur mask, irradiance before and after the
+    /// denoiser).
+    #[arg(long)]
+    pub debug_views: Option<PathBuf>,
+    /// GI: probes traced per frame: `1` (every probe tile), `1/4` (the default) or `1/16`.
+    #[arg(long, default_value = "1/4", value_parser = parse_spawn_rate)]
+    pub spawn_rate: SpawnRate,
+    /// GI: techniques to switch off, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub no: Vec<Technique>,
+    /// GI: world-space ReSTIR temporal reuse of the cache's light samples.
+    #[arg(long)]
+    pub restir: bool,
+}
+
+fn parse_spawn_rate(s: &str) -> Result<SpawnRate, String> {
+    match s {
+        "1" => Ok(SpawnRate::Full),
+        "1/4" => Ok(SpawnRate::Quarter),
+        "1/16" => Ok(SpawnRate::Sixteenth),
+        _ => Err(format!("{s:?} is not one of 1, 1/4, 1/16")),
+    }
+}
+
+impl GiArgs {
+    /// The settings for a `width × height` frame.
+    pub fn settings(&self, width: u32, height: u32) -> GiSettings {
+        let mut s = GiSettings::for_resolution(width, height);
+        s.spawn_rate = self.spawn_rate;
+        s.restir = self.restir;
+        for t in &self.no {
+            match t {
+                Technique::Reprojection => s.reprojection = false,
+                Technique::Parallax => s.parallax = false,
+                Technique::Backup => s.radiance_backup = false,
+                Technique::Patching => s.patching = false,
+                Technique::Guiding => s.ray_guiding = false,
+                Technique::Hysteresis => s.hysteresis = false,
+                Technique::Filter => s.probe_filter = false,
+                Technique::Jitter => s.interpolation_jitter = false,
+                Technique::Relaxed => s.relaxed_fallback = false,
+                Technique::Temporal => s.denoiser_temporal = false,
+                Technique::Spatial => s.denoiser_spatial = false,
+                Technique::Feedback => s.temporal_feedback = false,
+                Technique::LeakFixes => {
+                    s.short_ray_flag = false;
+                    s.bypass = false;
+                }
+            }
+        }
+        s
+    }
+
+    /// The camera path around `base` in `scene_centre`'s neighbourhood.
+    fn camera_path(&self, base: &CameraParams, scene_centre: Vec3) -> gi_host::Result<CameraPath> {
+        let orbit = |degrees: f32| {
+            let distance = (scene_centre - base.position())
+                .dot(base.forward())
+                .max(0.0);
+            CameraPath::Orbit {
+                pivot: base.position() + base.forward() * distance,
+                degrees_per_frame: degrees,
+            }
+        };
+        match self.camera_path.as_str() {
+            "static" => Ok(CameraPath::Static),
+            "orbit" => Ok(orbit(0.5)),
+            s if s.starts_with("orbit:") => s[6..]
+                .parse::<f32>()
+                .ok()
+                .filter(|d| d.is_finite())
+                .map(orbit)
+                .ok_or_else(|| gi_host::Error::InvalidArgument {
+                    name: "camera path",
+                    why: format!("{s:?}: expected orbit:DEGREES_PER_FRAME"),
+                }),
+            file => CameraPath::read(Path::new(file)),
+        }
+    }
+}
+
+/// Renders `args.frames` GI frames of the scene at `path` and writes the last one.
+pub fn render_gi(
+    ctx: &Context,
+    path: &Path,
+    output: &Output<'_>,
+    view: Option<(Vec3, Vec3, f32)>,
+    sky: Sky,
+    options: ViewOptions,
+    args: &GiArgs,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let Output {
+        path: out,
+        width,
+        height,
+        exposure,
+    } = *output;
+    let settings = args.settings(width, height);
+    settings.validate(width, height)?;
+    let reference = args.reference.as_deref().map(HdrImage::read).transpose()?;
+    let start = Instant::now();
+    let scene = load_scene(path)?;
+    println!(
+        "scene:               {} ({} triangles, {} punctual lights, {} emissive triangles)",
+        path.display(),
+        scene.triangle_count(),
+        scene.lights.len(),
+        scene.emissive_triangles.len()
+    );
+    let base = match view {
+        Some((position, target, fov)) => CameraParams::new(
+            position,
+            target - position,
+            Vec3::Y,
+            fov.to_radians(),
+            width,
+            height,
+        ),
+        None => scene_camera(&scene, width, height),
+    };
+    let camera_path = args.camera_path(&base, scene.bounds.center())?;
+    let shading = ShadingData::new(&scene)?;
+    let lights = LightSet::new(&scene, sky.environment, sky.sample);
+    let gpu = GpuScene::upload(ctx, &scene, None, &shading, &lights)?;
+    let s = &settings;
+    println!(
+        "gi:                  {} frames, spawn tile {} px, reprojection {}, parallax {}, backup {}, \
+         patching {}, guiding {}, hysteresis {}, probe filter {}, jitter {}, relaxed {}, \
+         temporal {}, spatial {}, feedback {}, leak fixes {}, ReSTIR {}",
+        args.frames,
+        s.spawn_rate.tile(),
+        on_off(s.reprojection),
+        on_off(s.parallax),
+        on_off(s.radiance_backup),
+        on_off(s.patching),
+        on_off(s.ray_guiding),
+        on_off(s.hysteresis),
+        on_off(s.probe_filter),
+        on_off(s.interpolation_jitter),
+        on_off(s.relaxed_fallback),
+        on_off(s.denoiser_temporal),
+        on_off(s.denoiser_spatial),
+        on_off(s.temporal_feedback),
+        on_off(s.short_ray_flag && s.bypass),
+        on_off(s.restir)
+    );
+    let mut gi = GiRenderer::new(ctx, &lights, width, height, settings, options)?;
+    let compare = CompareSettings {
+        tone: ToneMap {
+            exposure,
+            ..ToneMap::default()
+        },
+        ..CompareSettings::default()
+    };
+    let mut csv = match &args.metrics_csv {
+        Some(p) => {
+            let mut f = std::fs::File::create(p)
+                .map_err(|e| format!("--metrics-csv {}: {e}", p.display()))?;
+            writeln!(f, "frame,relmse,flip")?;
+            Some(f)
+        }
+        None => None,
+    };
+    let rendered = (|| -> Result<_, Box<dyn std::error::Error>> {
+        for f in 0..args.frames {
+            let camera = camera_path.camera(&base, f);
+            let st = gi.render_frame(ctx, &gpu, &camera)?;
+            let last = f + 1 == args.frames;
+            if last || f % 16 == 0 {
+                println!(
+                    "frame {f:>5}: probes spawned {:>5} reprojected {:>5} overrides {:>5} empty {:>4} \
+                     patched {:>4} relaxed px {:>6} | cache live tiles {:>6} queries {:>7} fed back \
+                     {:>7}",
+                    st.spawned,
+                    st.reprojected,
+                    st.overrides,
+                    st.empty,
+                    st.patched,
+                    st.relaxed,
+                    st.cache.live_tiles,
+                    st.cache.queries,
+                    st.cache.fed_back
+                );
+            }
+            if let (Some(r), Some(file)) = (&reference, csv.as_mut()) {
+                let c = metrics::compare(r, &gi.image(ctx)?, &compare)?;
+                writeln!(file, "{f},{},{}", c.metrics.relative_mse, c.metrics.flip)?;
+            }
+        }
+        let image = gi.image(ctx)?;
+        let views = match args.debug_views {
+            Some(_) => gi_debug_views(ctx, &gi)?,
+            None => vec![],
+        };
+        println!("GPU time per pass:\n{}", gi.timings());
+        println!("memory:\n{}", gi_host::frame::MemoryTable::of(ctx));
+        Ok((image, views))
+    })();
+    drop(gi);
+    drop(gpu);
+    let (image, views) = rendered?;
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
+    }
+    let png = out.with_extension("png");
+    image.write_exr(out)?;
+    image.write_png(&png, &compare.tone)?;
+    println!(
+        "gi render:           {width}x{height}, {} frames in {:.1} s",
+        args.frames,
+        start.elapsed().as_secs_f64()
+    );
+    if let Some(r) = &reference {
+        let c = metrics::compare(r, &image, &compare)?;
+        println!("against reference:   {}", c.metrics);
+    }
+    println!("wrote                {}", out.display());
+    println!("wrote                {}", png.display());
+    if let Some(dir) = &args.debug_views {
+        for f in write_gi_debug_views(&views, dir, exposure)? {
+            println!("wrote                {}", f.display());
+        }
+    }
+    Ok(())
+}

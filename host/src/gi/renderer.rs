@@ -1,0 +1,457 @@
+//! The whole GI-1.0 frame: [`GiRenderer`] owns every resource and pipeline and records, into one
+//! submission per frame, in the talk's order and under its pass names:
+//!
+//! PurgeRadianceCache, GBuffer, ReprojectScreenProbes, SpawnScreenProbes, PatchScreenProbes,
+//! SampleScreenProbes, PopulateScreenProbes, the world cache's passes (InsertRadianceCache ...
+//! ResolveRadianceCache, `world_cache`), BlendScreenProbes, FilterProbeMask,
+//! FilterScreenProbes, ProjectScreenProbes, DirectLight, InterpolateScreenProbes, ReprojectGI,
+//! FilterBlurMask + FilterGI, ResolveGI.
+//!
+//! Switched-off techniques skip their pass where one exists (patching, the probe filter, the
+//! spatial denoiser) and are flags the kernels read otherwise (`GiFrameParams::flags`).
+
+use super::cache_view::{Occupancy, ViewOptions};
+use super::gi_denoiser::{DenoiserPasses, DenoiserResources};
+use super::primary_lighting::{PrimaryPasses, PrimaryResources};
+use super::resources::{CacheResources, RestirResources};
+use super::screen_probes::{ProbeLayout, ScreenProbePasses, ScreenProbeResources, technique_flags};
+use super::settings::GiSettings;
+use super::world_cache::{CacheFrame, PassTimer, SceneLighting, WorldCache};
+use crate::error::{Error, Result};
+use crate::gbuffer::GBufferImages;
+use crate::image_io::HdrImage;
+use crate::scene::lights::LightSet;
+use crate::scene::upload::GpuScene;
+use crate::vulkan::{
+    BindingKind, Context, FrameTimings, GpuTimer, Kernel, KernelModule, Resource, compute_barrier,
+    transfer_barrier,
+};
+use ash::vk;
+use gi_shared::cache_view::{CachePassParams, FLAG_PROBE_RAYS};
+use gi_shared::camera::CameraParams;
+use gi_shared::hash_cells::cell_size_const;
+use gi_shared::primary_lighting::EXACT_DIRECT_LIGHTS;
+use gi_shared::screen_probes::{
+    BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_SAMPLED_DIRECT, GiFrameParams, OVERRIDE_COUNT,
+    PATCHED_COUNT, PROBE_CELL_PIXELS, RELAXED_COUNT, REPROJECTED_COUNT, SPAWN_COUNT,
+};
+
+/// Timestamp spans per frame: one per pass.
+const PASSES_PER_FRAME: u32 = 32;
+
+/// Frames `gi render --method gi` renders by default: the denoiser's history reaches its cap
+/// of 64 frames in the image's centre, and the cache's cells their 16 samples, well before.
+pub const DEFAULT_GI_FRAMES: u32 = 64;
+
+/// What a frame did, read back after it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GiFrameStats {
+    /// The world cache's occupancy and work.
+    pub cache: Occupancy,
+    /// Probes traced this frame.
+    pub spawned: u32,
+    /// Probe tiles that kept a reprojected probe.
+    pub reprojected: u32,
+    /// Disoccluded tiles without a probe or a spawn.
+    pub empty: u32,
+    /// Spawns over tiles that still held a probe.
+    pub overrides: u32,
+    /// Empty tiles patched.
+    pub patched: u32,
+    /// Pixels interpolated with the relaxed fallback.
+    pub relaxed: u32,
+    /// Taps of the denoiser's spatial filter.
+    pub blur_taps: u32,
+}
+
+/// The GI frame: resources, pipelines and the frame loop.
+pub struct GiRenderer {
+    settings: GiSettings,
+    options: ViewOptions,
+    width: u32,
+    height: u32,
+    cache_res: CacheResources,
+    restir: RestirResources,
+    restir_history: bool,
+    gbuffer: GBufferImages,
+    gbuffer_kernel: Kernel,
+    cache: WorldCache,
+    probes: ScreenProbeResources,
+    probe_passes: ScreenProbePasses,
+    denoiser: DenoiserResources,
+    denoiser_passes: DenoiserPasses,
+    primary: PrimaryResources,
+    primary_passes: PrimaryPasses,
+    lighting: SceneLighting,
+    timer: Option<GpuTimer>,
+    timings: FrameTimings,
+    frame: u32,
+    previous: Option<CameraParams>,
+    last: Option<(CameraParams, CachePassParams, GiFrameParams)>,
+}
+
+impl GiRenderer {
+    /// Creates the frame of a `width × height` image of a scene lit by `lights`, with
+    /// `settings` (an error names a bad one).
+    pub fn new(
+        ctx: &Context,
+        lights: &LightSet,
+        width: u32,
+        height: u32,
+        settings: GiSettings,
+        options: ViewOptions,
+    ) -> Result<Self> {
+        settings.validate(width, height)?;
+        if !(options.emissive_multiplier.is_finite() && options.emissive_multiplier >= 0.0) {
+            return Err(Error::InvalidArgument {
+                name: "emissive_multiplier",
+                why: format!("{}: must be finite and ≥ 0", options.emissive_multiplier),
+            });
+        }
+        let layout = ProbeLayout::new(width, height, settings.spawn_rate.tile());
+        let rays = layout.ray_capacity();
+        let pixels = width as usize * height as usize;
+        let module = KernelModule::new(ctx)?;
+        let restir = RestirResources::new(ctx, settings.restir, rays)?;
+        let mut gbuffer_bindings = vec![BindingKind::StorageBuffer];
+        gbuffer_bindings.extend(GBufferImages::binding_kinds());
+        let made = (|| -> Result<_> {
+            Ok((
+                Kernel::new(ctx, &module, "gbuffer::gbuffer", &gbuffer_bindings, 0)?,
+                WorldCache::new(ctx, &module, restir.slots)?,
+                ScreenProbePasses::new(ctx, &module)?,
+                DenoiserPasses::new(ctx, &module)?,
+                PrimaryPasses::new(ctx, &module)?,
+            ))
+        })();
+        drop(module);
+        let (gbuffer_kernel, cache, probe_passes, denoiser_passes, primary_passes) = made?;
+        Ok(Self {
+            settings,
+            options,
+            width,
+            height,
+            cache_res: CacheResources::new(ctx, &settings, width, height, rays, 0)?,
+            restir,
+            restir_history: false,
+            gbuffer: GBufferImages::new(ctx, width, height)?,
+            gbuffer_kernel,
+            cache,
+            probes: ScreenProbeResources::new(ctx, layout)?,
+            probe_passes,
+            denoiser: DenoiserResources::new(ctx, pixels)?,
+            denoiser_passes,
+            primary: PrimaryResources::new(ctx, pixels)?,
+            primary_passes,
+            lighting: SceneLighting::new(lights),
+            timer: GpuTimer::new(ctx, PASSES_PER_FRAME).ok(),
+            timings: FrameTimings::new(),
+            frame: 0,
+            previous: None,
+            last: None,
+        })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &GiSettings {
+        &self.settings
+    }
+
+    /// GPU time per pass, per frame and averaged.
+    pub fn timings(&self) -> &FrameTimings {
+        &self.timings
+    }
+
+    /// Frames rendered.
+    pub fn frames(&self) -> u32 {
+        self.frame
+    }
+
+    /// The screen probes' resources (debug views, tests).
+    pub fn probes(&self) -> &ScreenProbeResources {
+        &self.probes
+    }
+
+    /// The denoiser's resources (debug views, tests).
+    pub fn denoiser(&self) -> &DenoiserResources {
+        &self.denoiser
+    }
+
+    /// The primary hit's lighting and the output image (tests).
+    pub fn primary(&self) -> &PrimaryResources {
+        &self.primary
+    }
+
+    /// World-space ReSTIR's resources (tests).
+    pub fn restir_resources(&self) -> &RestirResources {
+        &self.restir
+    }
+
+    /// The world cache's resources (debug views, tests).
+    pub fn cache_resources(&self) -> &CacheResources {
+        &self.cache_res
+    }
+
+    /// The G-buffer of the last frame.
+    pub fn gbuffer(&self) -> &GBufferImages {
+        &self.gbuffer
+    }
+
+    /// The last frame's camera and parameters, after a frame.
+    pub fn last_frame(&self) -> Option<&(CameraParams, CachePassParams, GiFrameParams)> {
+        self.last.as_ref()
+    }
+
+    /// The frame parameters of this frame seen by `camera`.
+    fn frame_params(&self, camera: &CameraParams) -> GiFrameParams {
+        let layout = self.probes.layout;
+        let fov_y = 2.0 * camera.tan_half_fov_y.atan();
+        let mut flags = technique_flags(&self.settings);
+        if self.previous.is_some() {
+            flags |= FLAG_HISTORY;
+        }
+        if self.lighting.punctual_count > EXACT_DIRECT_LIGHTS {
+            flags |= FLAG_SAMPLED_DIRECT;
+        }
+        GiFrameParams {
+            image_size: [self.width, self.height],
+            probe_grid: layout.probe_grid,
+            spawn_grid: layout.spawn_grid,
+            spawn_tile: layout.spawn_tile,
+            frame_index: self.frame,
+            flags,
+            seed: self.options.seed,
+            probe_cell_const: cell_size_const(fov_y, self.width, self.height, PROBE_CELL_PIXELS),
+            mask_mips: layout.mask_mips,
+            probe_count: layout.probe_count(),
+            spawn_capacity: layout.spawn_capacity(),
+            punctual_count: self.lighting.punctual_count,
+            max_groups: 0,
+            eye: camera.position,
+            emissive_multiplier: self.options.emissive_multiplier,
+            previous_eye: self.previous.map_or(camera.position, |p| p.position),
+            light_candidates: self.settings.light_candidates,
+            sky: self.options.sky.to_array(),
+            light_count: self.lighting.light_count,
+            environment_size: self.lighting.environment_size,
+            _pad: [0; 2],
+        }
+    }
+
+    /// Renders one frame of `scene` seen by `camera` (its image size must be the renderer's).
+    pub fn render_frame(
+        &mut self,
+        ctx: &Context,
+        scene: &GpuScene,
+        camera: &CameraParams,
+    ) -> Result<GiFrameStats> {
+        if camera.image_size != [self.width, self.height] {
+            return Err(Error::InvalidArgument {
+                name: "camera",
+                why: format!(
+                    "image size {:?} differs from the renderer's {}x{}",
+                    camera.image_size, self.width, self.height
+                ),
+            });
+        }
+        let mut frame_camera = *camera;
+        frame_camera.jitter = [0.0; 2];
+        if let Some(p) = &self.previous {
+            frame_camera.previous_view_proj = p.view_proj;
+        }
+        let mut params = WorldCache::params(
+            &self.settings,
+            &self.options,
+            &self.lighting,
+            &self.restir,
+            [self.width, self.height],
+            CacheFrame {
+                frame: self.frame,
+                camera: &frame_camera,
+                previous: self.previous.as_ref(),
+                restir_history: self.restir_history,
+                extra_flags: FLAG_PROBE_RAYS,
+            },
+        );
+        let max_groups = ctx.capabilities().max_workgroup_count[0];
+        params.view.max_groups = max_groups;
+        let mut frame_params = self.frame_params(&frame_camera);
+        frame_params.max_groups = max_groups;
+        self.probes.swap();
+        self.denoiser.swap();
+        self.cache_res
+            .camera
+            .write(bytemuck::bytes_of(&frame_camera))?;
+        self.probes.frame.write(bytemuck::bytes_of(&frame_params))?;
+        let mut timer = self.timer.take();
+        let recorded =
+            ctx.submit(|cmd| self.record_frame(ctx, cmd, scene, &params, timer.as_mut()));
+        let spans = match (&recorded, &timer) {
+            (Ok(Ok(())), Some(t)) => Some(t.results(ctx)),
+            _ => None,
+        };
+        self.timer = timer;
+        recorded??;
+        if let Some(spans) = spans {
+            self.timings.add_frame(&spans?);
+        }
+        let stats = self.stats(ctx)?;
+        self.last = Some((frame_camera, params, frame_params));
+        if self.settings.restir {
+            self.restir.grids.swap();
+        }
+        self.restir_history = self.settings.restir;
+        self.previous = Some(*camera);
+        self.frame = self.frame.wrapping_add(1);
+        Ok(stats)
+    }
+
+    /// The frame's counters.
+    fn stats(&self, ctx: &Context) -> Result<GiFrameStats> {
+        let c: Vec<u32> = self.probes.counters.read_back(ctx)?;
+        Ok(GiFrameStats {
+            cache: self.cache_res.occupancy(ctx, self.frame)?,
+            spawned: c[SPAWN_COUNT],
+            reprojected: c[REPROJECTED_COUNT],
+            empty: c[EMPTY_COUNT],
+            overrides: c[OVERRIDE_COUNT],
+            patched: c[PATCHED_COUNT],
+            relaxed: c[RELAXED_COUNT],
+            blur_taps: c[BLUR_TAPS],
+        })
+    }
+
+    /// Records every pass of a frame (see the [module](self)).
+    fn record_frame(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: &GpuScene,
+        params: &CachePassParams,
+        timer: Option<&mut GpuTimer>,
+    ) -> Result<()> {
+        let mut timer = PassTimer::new(ctx, cmd, timer);
+        let s = &self.settings;
+        let (cache, probes, denoiser, primary) =
+            (&self.cache_res, &self.probes, &self.denoiser, &self.primary);
+        let (pp, dp) = (&self.probe_passes, &self.denoiser_passes);
+        let camera = &cache.camera;
+        let gbuffer = &self.gbuffer;
+        probes.counters.record_fill_zero(ctx, cmd);
+        transfer_barrier(ctx, cmd);
+        timer.pass(ctx, cmd, "PurgeRadianceCache", || {
+            self.cache.hash_cells.record_purge(ctx, cmd, cache, params)
+        })?;
+        timer.pass(ctx, cmd, "GBuffer", || {
+            let mut resources = vec![Resource::Buffer(camera)];
+            resources.extend(gbuffer.resources());
+            self.gbuffer_kernel.dispatch_traced(
+                ctx,
+                cmd,
+                scene.sets(),
+                &resources,
+                &[],
+                super::gi_denoiser::pixel_groups(gbuffer),
+            )?;
+            compute_barrier(ctx, cmd);
+            Ok(())
+        })?;
+        timer.pass(ctx, cmd, "ReprojectScreenProbes", || {
+            pp.record_reproject(ctx, cmd, probes, camera, gbuffer)
+        })?;
+        timer.pass(ctx, cmd, "SpawnScreenProbes", || {
+            pp.record_spawn(ctx, cmd, probes, camera, gbuffer)
+        })?;
+        if s.patching {
+            timer.pass(ctx, cmd, "PatchScreenProbes", || {
+                pp.record_patch(ctx, cmd, probes, camera, gbuffer)
+            })?;
+        }
+        timer.pass(ctx, cmd, "SampleScreenProbes", || {
+            pp.record_sample(ctx, cmd, probes, camera, gbuffer)
+        })?;
+        timer.pass(ctx, cmd, "PopulateScreenProbes", || {
+            pp.record_populate(
+                ctx,
+                cmd,
+                scene.sets(),
+                probes,
+                cache,
+                camera,
+                gbuffer,
+                params,
+            )
+        })?;
+        self.cache.record_after_trace(
+            ctx,
+            cmd,
+            scene,
+            cache,
+            &self.restir,
+            s,
+            params,
+            &mut timer,
+        )?;
+        timer.pass(ctx, cmd, "BlendScreenProbes", || {
+            pp.record_blend(ctx, cmd, probes, cache, camera, gbuffer)
+        })?;
+        timer.pass(ctx, cmd, "FilterProbeMask", || {
+            pp.record_probe_mask(ctx, cmd, probes)
+        })?;
+        if s.probe_filter {
+            timer.pass(ctx, cmd, "FilterScreenProbes", || {
+                pp.record_filter(ctx, cmd, probes)
+            })?;
+        }
+        timer.pass(ctx, cmd, "ProjectScreenProbes", || {
+            pp.record_project(ctx, cmd, probes, probes.projected_cells(s.probe_filter))
+        })?;
+        timer.pass(ctx, cmd, "DirectLight", || {
+            self.primary_passes
+                .record_direct(ctx, cmd, scene, probes, primary, camera, gbuffer)
+        })?;
+        timer.pass(ctx, cmd, "InterpolateScreenProbes", || {
+            dp.record_interpolate(
+                ctx,
+                cmd,
+                probes,
+                denoiser,
+                camera,
+                gbuffer,
+                &primary.primary,
+            )
+        })?;
+        timer.pass(ctx, cmd, "ReprojectGI", || {
+            dp.record_reproject(ctx, cmd, probes, denoiser, camera, gbuffer)
+        })?;
+        let temporal_out = denoiser.output(true, false);
+        if s.denoiser_spatial {
+            timer.pass(ctx, cmd, "FilterGI", || {
+                dp.record_filter(ctx, cmd, probes, denoiser, camera, gbuffer, temporal_out)
+            })?;
+        }
+        let irradiance = denoiser.output(true, s.denoiser_spatial);
+        timer.pass(ctx, cmd, "ResolveGI", || {
+            self.primary_passes.record_resolve(
+                ctx,
+                cmd,
+                probes,
+                primary,
+                camera,
+                gbuffer,
+                irradiance,
+                &cache.history,
+            )
+        })
+    }
+
+    /// The last frame's image (linear HDR).
+    pub fn image(&self, ctx: &Context) -> Result<HdrImage> {
+        let color: Vec<[f32; 4]> = self.primary.color.read_back(ctx)?;
+        HdrImage::from_pixels(
+            self.width,
+            self.height,
+            color.iter().map(|c| [c[0], c[1], c[2]]).collect(),
+        )
+    }
+}

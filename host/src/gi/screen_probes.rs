@@ -1,0 +1,571 @@
+//! The screen probes on the host (kernels `kernels/src/screen_probes/`, math
+//! `gi_shared::screen_probes`): their resources, sized from the resolution and the spawn rate,
+//! and the recording of each pass under the talk's name: ReprojectScreenProbes,
+//! SpawnScreenProbes, PatchScreenProbes, SampleScreenProbes, PopulateScreenProbes,
+//! BlendScreenProbes, FilterProbeMask, FilterScreenProbes and ProjectScreenProbes.
+//! InterpolateScreenProbes is recorded with the denoiser's passes, which read its output.
+
+use super::hash_cells::PUSH_BYTES;
+use super::resources::CacheResources;
+use super::settings::GiSettings;
+use crate::error::Result;
+use crate::gbuffer::GBufferImages;
+use crate::vulkan::{
+    BindingKind, Buffer, Context, Kernel, KernelModule, PingPong, Resource, SceneSets,
+    compute_barrier,
+};
+use ash::vk;
+use gi_shared::cache_view::CachePassParams;
+use gi_shared::screen_probes::{
+    EMPTY, GI_COUNTER_WORDS, GiFrameParams, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRay,
+    ProbeRecord, mask_mip_count, mask_mip_size, mask_words,
+};
+use gi_shared::sh::SH_COEFFICIENT_COUNT;
+
+/// Creates `entry` with set 0 laid out by `kinds` (`b` a storage buffer, `i` a storage image)
+/// and `push` bytes of push constants.
+pub(crate) fn kernel(
+    ctx: &Context,
+    module: &KernelModule,
+    entry: &str,
+    kinds: &str,
+    push: u32,
+) -> Result<Kernel> {
+    let bindings: Vec<BindingKind> = kinds
+        .chars()
+        .map(|c| match c {
+            'i' => BindingKind::StorageImage,
+            _ => BindingKind::StorageBuffer,
+        })
+        .collect();
+    Kernel::new(ctx, module, entry, &bindings, push)
+}
+
+/// How many probes a frame holds and spawns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ProbeLayout {
+    /// Probe tiles across and down.
+    pub probe_grid: [u32; 2],
+    /// Spawn tiles across and down.
+    pub spawn_grid: [u32; 2],
+    /// Spawn tile side in pixels.
+    pub spawn_tile: u32,
+    /// Mips of the probe mask.
+    pub mask_mips: u32,
+}
+
+impl ProbeLayout {
+    /// The layout of a `width × height` frame spawning one probe per `spawn_tile` pixels.
+    pub fn new(width: u32, height: u32, spawn_tile: u32) -> Self {
+        let probe_grid = [width.div_ceil(PROBE_SIZE), height.div_ceil(PROBE_SIZE)];
+        Self {
+            probe_grid,
+            spawn_grid: [width.div_ceil(spawn_tile), height.div_ceil(spawn_tile)],
+            spawn_tile,
+            mask_mips: mask_mip_count(probe_grid),
+        }
+    }
+
+    /// Probe tiles.
+    pub fn probe_count(&self) -> u32 {
+        self.probe_grid[0] * self.probe_grid[1]
+    }
+
+    /// Spawn tiles: the most probes a frame traces.
+    pub fn spawn_capacity(&self) -> u32 {
+        self.spawn_grid[0] * self.spawn_grid[1]
+    }
+
+    /// Probe rays per frame at most (64 per spawned probe).
+    pub fn ray_capacity(&self) -> u32 {
+        self.spawn_capacity() * PROBE_CELLS
+    }
+}
+
+/// Every buffer of the screen probes.
+pub struct ScreenProbeResources {
+    /// The frame's [`GiFrameParams`] (host-written).
+    pub frame: Buffer,
+    /// One [`ProbeRecord`] per probe tile, this frame's and the previous frame's.
+    pub records: PingPong<Buffer>,
+    /// The probe mask's mip chain (packed seeds), this frame's and the previous frame's.
+    pub mask: PingPong<Buffer>,
+    /// 64 cells per probe tile (`[f32; 4]`), this frame's and the previous frame's.
+    pub atlas: PingPong<Buffer>,
+    /// The spawn list (packed seeds).
+    pub spawns: Buffer,
+    /// Disoccluded tiles without a probe or a spawn.
+    pub empty_tiles: Buffer,
+    /// Spawns whose tile still held a reprojected probe (patching takes them over).
+    pub overrides: Buffer,
+    /// The gathered history hemisphere of every spawned probe (64 cells each).
+    pub history: Buffer,
+    /// One [`ProbeRay`] per probe ray.
+    pub rays: Buffer,
+    /// The probe filter's horizontal and vertical outputs (64 cells per probe tile).
+    pub filtered: [Buffer; 2],
+    /// Nine SH coefficients per probe tile (`[f32; 4]`).
+    pub sh: Buffer,
+    /// The GI counter words (`gi_shared::screen_probes::SPAWN_COUNT` ...).
+    pub counters: Buffer,
+    /// How many probes.
+    pub layout: ProbeLayout,
+}
+
+impl ScreenProbeResources {
+    /// The resources of `layout`, with no probe yet.
+    pub fn new(ctx: &Context, layout: ProbeLayout) -> Result<Self> {
+        let probes = layout.probe_count() as usize;
+        let spawns = layout.spawn_capacity() as usize;
+        let cells = probes * PROBE_CELLS as usize;
+        let mask = vec![NO_PROBE; mask_words(layout.probe_grid) as usize];
+        let none = vec![ProbeRecord::NONE; probes];
+        let empty = vec![EMPTY; cells];
+        let usage = vk::BufferUsageFlags::empty();
+        let pair =
+            |name: &str, make: &dyn Fn(&str) -> Result<Buffer>| -> Result<PingPong<Buffer>> {
+                Ok(PingPong::new(
+                    make(&format!("{name} (a)"))?,
+                    make(&format!("{name} (b)"))?,
+                ))
+            };
+        Ok(Self {
+            frame: Buffer::parameters(ctx, "GI frame parameters", &[GiFrameParams::default()])?,
+            records: pair("probe records", &|n| {
+                Buffer::device_local(ctx, n, &none, usage)
+            })?,
+            mask: pair("probe mask", &|n| {
+                Buffer::device_local(ctx, n, &mask, usage)
+            })?,
+            atlas: pair("probe atlas", &|n| {
+                Buffer::device_local(ctx, n, &empty, usage)
+            })?,
+            spawns: Buffer::device_zeroed::<u32>(ctx, "probe spawns", spawns)?,
+            empty_tiles: Buffer::device_zeroed::<u32>(ctx, "empty tiles", probes)?,
+            overrides: Buffer::device_zeroed::<u32>(ctx, "override tiles", spawns)?,
+            history: Buffer::device_zeroed::<[f32; 4]>(
+                ctx,
+                "probe history",
+                spawns * PROBE_CELLS as usize,
+            )?,
+            rays: Buffer::device_zeroed::<ProbeRay>(
+                ctx,
+                "probe rays",
+                spawns * PROBE_CELLS as usize,
+            )?,
+            filtered: [
+                Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered probes (horizontal)", cells)?,
+                Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered probes (vertical)", cells)?,
+            ],
+            sh: Buffer::device_zeroed::<[f32; 4]>(ctx, "probe SH", probes * SH_COEFFICIENT_COUNT)?,
+            counters: Buffer::device_zeroed::<u32>(ctx, "GI counters", GI_COUNTER_WORDS)?,
+            layout,
+        })
+    }
+
+    /// Starts a frame: the previous frame's probes become `previous`.
+    pub fn swap(&mut self) {
+        self.records.swap();
+        self.mask.swap();
+        self.atlas.swap();
+    }
+
+    /// The cells SH projection reads: the probe filter's output when it ran, else the atlas.
+    pub fn projected_cells(&self, filtered: bool) -> &Buffer {
+        if filtered {
+            &self.filtered[1]
+        } else {
+            self.atlas.current()
+        }
+    }
+}
+
+/// The pipelines of the screen-probe passes.
+pub struct ScreenProbePasses {
+    reproject: Kernel,
+    spawn: Kernel,
+    patch: Kernel,
+    sample: Kernel,
+    populate: Kernel,
+    blend: Kernel,
+    probe_mask: Kernel,
+    filter: Kernel,
+    project: Kernel,
+}
+
+/// Bytes of a `u32` push constant.
+const U32_PUSH: u32 = 4;
+
+impl ScreenProbePasses {
+    /// Creates the pipelines.
+    pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
+        let sp = "screen_probes::";
+        Ok(Self {
+            reproject: kernel(
+                ctx,
+                module,
+                &format!("{sp}reproject::reproject_screen_probes"),
+                "bbiibbbbbbbb",
+                0,
+            )?,
+            spawn: kernel(
+                ctx,
+                module,
+                &format!("{sp}spawn::spawn_screen_probes"),
+                "bbiibbbb",
+                0,
+            )?,
+            patch: kernel(
+                ctx,
+                module,
+                &format!("{sp}patch::patch_screen_probes"),
+                "bbiibbbb",
+                0,
+            )?,
+            sample: kernel(
+                ctx,
+                module,
+                &format!("{sp}sample::sample_screen_probes"),
+                "bbiibbbbbb",
+                0,
+            )?,
+            populate: kernel(
+                ctx,
+                module,
+                &format!("{sp}populate::populate_screen_probes"),
+                "bbiibbbbbbb",
+                PUSH_BYTES,
+            )?,
+            blend: kernel(
+                ctx,
+                module,
+                &format!("{sp}blend::blend_screen_probes"),
+                "bbiibbbbbbbb",
+                0,
+            )?,
+            probe_mask: kernel(
+                ctx,
+                module,
+                &format!("{sp}probe_mask::filter_probe_mask"),
+                "bb",
+                U32_PUSH,
+            )?,
+            filter: kernel(
+                ctx,
+                module,
+                &format!("{sp}filter::filter_screen_probes"),
+                "bbbbb",
+                U32_PUSH,
+            )?,
+            project: kernel(
+                ctx,
+                module,
+                &format!("{sp}project::project_screen_probes"),
+                "bbbb",
+                0,
+            )?,
+        })
+    }
+
+    /// ReprojectScreenProbes: last frame's probes into this frame's tiles.
+    pub fn record_reproject(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        res: &ScreenProbeResources,
+        camera: &Buffer,
+        gbuffer: &GBufferImages,
+    ) -> Result<()> {
+        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        let g = res.layout.probe_grid;
+        self.reproject.dispatch(
+            ctx,
+            cmd,
+            &[
+                Resource::Buffer(&res.frame),
+                Resource::Buffer(camera),
+                Resource::Image(depth),
+                Resource::Image(normal),
+                Resource::Buffer(res.records.previous()),
+                Resource::Buffer(res.mask.previous()),
+                Resource::Buffer(res.atlas.previous()),
+                Resource::Buffer(res.records.current()),
+                Resource::Buffer(res.mask.current()),
+                Resource::Buffer(res.atlas.current()),
+                Resource::Buffer(&res.empty_tiles),
+                Resource::Buffer(&res.counters),
+            ],
+            &[],
+            [g[0], g[1], 1],
+        )?;
+        compute_barrier(ctx, cmd);
+        Ok(())
+    }
+
+    /// SpawnScreenProbes, then (with patching) PatchScreenProbes.
+    pub fn record_spawn(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        res: &ScreenProbeResources,
+        camera: &Buffer,
+        gbuffer: &GBufferImages,
+    ) -> Result<()> {
+        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        self.spawn.dispatch(
+            ctx,
+            cmd,
+            &[
+                Resource::Buffer(&res.frame),
+                Resource::Buffer(camera),
+                Resource::Image(depth),
+                Resource::Image(normal),
+                Resource::Buffer(res.records.current()),
+                Resource::Buffer(&res.spawns),
+                Resource::Buffer(&res.overrides),
+                Resource::Buffer(&res.counters),
+            ],
+            &[],
+            [res.layout.spawn_capacity().div_ceil(64), 1, 1],
+        )?;
+        compute_barrier(ctx, cmd);
+        Ok(())
+    }
+
+    /// PatchScreenProbes: disoccluded tiles take over override slots.
+    pub fn record_patch(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        res: &ScreenProbeResources,
+        camera: &Buffer,
+        gbuffer: &GBufferImages,
+    ) -> Result<()> {
+        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        self.patch.dispatch(
+            ctx,
+            cmd,
+            &[
+                Resource::Buffer(&res.frame),
+                Resource::Buffer(camera),
+                Resource::Image(depth),
+                Resource::Image(normal),
+                Resource::Buffer(&res.empty_tiles),
+                Resource::Buffer(&res.overrides),
+                Resource::Buffer(&res.spawns),
+                Resource::Buffer(&res.counters),
+            ],
+            &[],
+            [res.layout.probe_count().div_ceil(64), 1, 1],
+        )?;
+        compute_barrier(ctx, cmd);
+        Ok(())
+    }
+
+    /// SampleScreenProbes: each spawned probe's history hemisphere and ray directions.
+    pub fn record_sample(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        res: &ScreenProbeResources,
+        camera: &Buffer,
+        gbuffer: &GBufferImages,
+    ) -> Result<()> {
+        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        let s = res.layout.spawn_grid;
+        self.sample.dispatch(
+            ctx,
+            cmd,
+            &[
+                Resource::Buffer(&res.frame),
+                Resource::Buffer(camera),
+                Resource::Image(depth),
+                Resource::Image(normal),
+                Resource::Buffer(&res.spawns),
+                Resource::Buffer(&res.counters),
+                Resource::Buffer(res.records.current()),
+                Resource::Buffer(res.atlas.current()),
+                Resource::Buffer(&res.history),
+                Resource::Buffer(&res.rays),
+            ],
+            &[],
+            [s[0], s[1], 1],
+        )?;
+        compute_barrier(ctx, cmd);
+        Ok(())
+    }
+
+    /// PopulateScreenProbes: one ray per cell of every spawned probe.
+    #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
+    pub fn record_populate(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: SceneSets<'_>,
+        res: &ScreenProbeResources,
+        cache: &CacheResources,
+        camera: &Buffer,
+        gbuffer: &GBufferImages,
+        params: &CachePassParams,
+    ) -> Result<()> {
+        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        let s = res.layout.spawn_grid;
+        self.populate.dispatch_traced(
+            ctx,
+            cmd,
+            scene,
+            &[
+                Resource::Buffer(&res.frame),
+                Resource::Buffer(camera),
+                Resource::Image(depth),
+                Resource::Image(normal),
+                Resource::Buffer(&res.spawns),
+                Resource::Buffer(&res.counters),
+                Resource::Buffer(&res.rays),
+                Resource::Buffer(&cache.ray_records),
+                Resource::Buffer(&cache.queries),
+                Resource::Buffer(&cache.counters),
+                Resource::Buffer(&cache.bounds),
+            ],
+            bytemuck::bytes_of(params),
+            [s[0], s[1], 1],
+        )?;
+        compute_barrier(ctx, cmd);
+        Ok(())
+    }
+
+    /// BlendScreenProbes: the rays' radiance into the spawned probes' cells.
+    pub fn record_blend(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        res: &ScreenProbeResources,
+        cache: &CacheResources,
+        camera: &Buffer,
+        gbuffer: &GBufferImages,
+    ) -> Result<()> {
+        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        let s = res.layout.spawn_grid;
+        self.blend.dispatch(
+            ctx,
+            cmd,
+            &[
+                Resource::Buffer(&res.frame),
+                Resource::Buffer(camera),
+                Resource::Image(depth),
+                Resource::Image(normal),
+                Resource::Buffer(&res.spawns),
+                Resource::Buffer(&res.counters),
+                Resource::Buffer(&res.rays),
+                Resource::Buffer(&cache.ray_records),
+                Resource::Buffer(&res.history),
+                Resource::Buffer(res.records.current()),
+                Resource::Buffer(res.mask.current()),
+                Resource::Buffer(res.atlas.current()),
+            ],
+            &[],
+            [s[0], s[1], 1],
+        )?;
+        compute_barrier(ctx, cmd);
+        Ok(())
+    }
+
+    /// FilterProbeMask: mips 1.. of the probe mask, one dispatch each.
+    pub fn record_probe_mask(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        res: &ScreenProbeResources,
+    ) -> Result<()> {
+        for mip in 1..res.layout.mask_mips {
+            let size = mask_mip_size(res.layout.probe_grid, mip);
+            self.probe_mask.dispatch(
+                ctx,
+                cmd,
+                &[
+                    Resource::Buffer(&res.frame),
+                    Resource::Buffer(res.mask.current()),
+                ],
+                &mip.to_le_bytes(),
+                [size[0].div_ceil(8), size[1].div_ceil(8), 1],
+            )?;
+            compute_barrier(ctx, cmd);
+        }
+        Ok(())
+    }
+
+    /// FilterScreenProbes, horizontal then vertical, from the atlas into `filtered`.
+    pub fn record_filter(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        res: &ScreenProbeResources,
+    ) -> Result<()> {
+        let g = res.layout.probe_grid;
+        let inputs = [res.atlas.current(), &res.filtered[0]];
+        for (direction, (input, output)) in inputs.into_iter().zip(&res.filtered).enumerate() {
+            self.filter.dispatch(
+                ctx,
+                cmd,
+                &[
+                    Resource::Buffer(&res.frame),
+                    Resource::Buffer(res.records.current()),
+                    Resource::Buffer(res.mask.current()),
+                    Resource::Buffer(input),
+                    Resource::Buffer(output),
+                ],
+                &(direction as u32).to_le_bytes(),
+                [g[0], g[1], 1],
+            )?;
+            compute_barrier(ctx, cmd);
+        }
+        Ok(())
+    }
+
+    /// ProjectScreenProbes: SH L2 of every probe from `cells`.
+    pub fn record_project(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        res: &ScreenProbeResources,
+        cells: &Buffer,
+    ) -> Result<()> {
+        let g = res.layout.probe_grid;
+        self.project.dispatch(
+            ctx,
+            cmd,
+            &[
+                Resource::Buffer(&res.frame),
+                Resource::Buffer(res.records.current()),
+                Resource::Buffer(cells),
+                Resource::Buffer(&res.sh),
+            ],
+            &[],
+            [g[0], g[1], 1],
+        )?;
+        compute_barrier(ctx, cmd);
+        Ok(())
+    }
+}
+
+/// The technique switches of `settings` as `GiFrameParams::flags` (`FLAG_HISTORY` and
+/// `FLAG_SAMPLED_DIRECT` depend on the frame and the scene: the caller adds them).
+pub fn technique_flags(settings: &GiSettings) -> u32 {
+    use gi_shared::screen_probes::*;
+    [
+        (settings.reprojection, FLAG_REPROJECTION),
+        (settings.parallax, FLAG_PARALLAX),
+        (settings.radiance_backup, FLAG_RADIANCE_BACKUP),
+        (settings.patching, FLAG_PATCHING),
+        (settings.ray_guiding, FLAG_RAY_GUIDING),
+        (settings.hysteresis, FLAG_HYSTERESIS),
+        (settings.probe_filter, FLAG_PROBE_FILTER),
+        (settings.interpolation_jitter, FLAG_INTERPOLATION_JITTER),
+        (settings.relaxed_fallback, FLAG_RELAXED_FALLBACK),
+        (settings.denoiser_temporal, FLAG_DENOISER_TEMPORAL),
+        (settings.denoiser_spatial, FLAG_DENOISER_SPATIAL),
+    ]
+    .into_iter()
+    .filter(|(on, _)| *on)
+    .fold(0, |flags, (_, flag)| flags | flag)
+}

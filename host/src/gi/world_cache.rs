@@ -1,0 +1,241 @@
+//! The world-space radiance cache as one unit the frames share: the cache passes that follow a
+//! tracing pass (InsertRadianceCache, UpdateLightGrid, ClearReservoirs, GenerateReservoirs,
+//! CompactReservoirs, ResampleReservoirs, PopulateRadianceCache, UpdateRadianceCache,
+//! ResolveRadianceCache), the push constants every cache pass reads, and [`PassTimer`], which
+//! wraps each pass in a GPU timestamp span under its name. `gi cache-view` feeds the cache with
+//! one ray per pixel, the GI frame with the screen probes' rays.
+
+use super::cache_view::{ViewOptions, environment_irradiance};
+use super::hash_cells::HashCellPasses;
+use super::lighting::LightingPasses;
+use super::resources::{CacheResources, RestirResources};
+use super::settings::GiSettings;
+use crate::error::Result;
+use crate::scene::lights::LightSet;
+use crate::scene::upload::GpuScene;
+use crate::vulkan::{Context, GpuTimer, KernelModule};
+use ash::vk;
+use gi_shared::cache_view::{
+    CachePassParams, CacheViewParams, FLAG_BYPASS, FLAG_ENVIRONMENT_LIGHT, FLAG_FEEDBACK,
+    FLAG_HISTORY, FLAG_RESTIR, FLAG_RESTIR_HISTORY, FLAG_SHORT_RAY,
+};
+use gi_shared::camera::CameraParams;
+use gi_shared::hash_cells::cell_size_const;
+use gi_shared::layout::HashGridParams;
+use gi_shared::scene_data::NONE;
+use gi_shared::world_restir::reservoir_cell_const;
+
+/// Records passes, each inside a timestamp span named after it when there is a timer.
+pub struct PassTimer<'t> {
+    timer: Option<&'t mut GpuTimer>,
+}
+
+impl<'t> PassTimer<'t> {
+    /// Times into `timer` (reset here), or not at all.
+    pub fn new(ctx: &Context, cmd: vk::CommandBuffer, mut timer: Option<&'t mut GpuTimer>) -> Self {
+        if let Some(t) = timer.as_deref_mut() {
+            t.reset(ctx, cmd);
+        }
+        Self { timer }
+    }
+
+    /// Records `body` as the pass `label`.
+    pub fn pass(
+        &mut self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        label: &str,
+        body: impl FnOnce() -> Result<()>,
+    ) -> Result<()> {
+        if let Some(t) = self.timer.as_deref_mut() {
+            t.begin(ctx, cmd, label)?;
+        }
+        body()?;
+        if let Some(t) = self.timer.as_deref() {
+            t.end(ctx, cmd);
+        }
+        Ok(())
+    }
+}
+
+/// What the cache's lighting needs to know about the scene's lights.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneLighting {
+    /// Lights in the light buffer.
+    pub light_count: u32,
+    /// Punctual lights at its front.
+    pub punctual_count: u32,
+    /// The environment is importance-sampled: the last light.
+    pub environment_light: bool,
+    /// The environment image's size (zero for none).
+    pub environment_size: [u32; 2],
+    /// The light grid's weight of the environment.
+    pub environment_irradiance: f32,
+}
+
+impl SceneLighting {
+    /// Of `lights`.
+    pub fn new(lights: &LightSet) -> Self {
+        let (environment_size, environment_irradiance) = match &lights.environment {
+            Some(e) => (e.size(), environment_irradiance(e.size(), e.texels())),
+            None => ([0, 0], 0.0),
+        };
+        Self {
+            light_count: lights.lights.len() as u32,
+            punctual_count: lights
+                .lights
+                .iter()
+                .take_while(|l| l.kind < gi_shared::lights::LIGHT_TRIANGLE)
+                .count() as u32,
+            environment_light: lights.environment_light != NONE,
+            environment_size,
+            environment_irradiance,
+        }
+    }
+}
+
+/// The cache passes' pipelines.
+pub struct WorldCache {
+    /// The hash grid's passes.
+    pub hash_cells: HashCellPasses,
+    /// Light grid, light sampling at secondary hits and world-space ReSTIR.
+    pub lighting: LightingPasses,
+}
+
+/// The inputs of [`WorldCache::params`] that change per frame.
+#[derive(Clone, Copy, Debug)]
+pub struct CacheFrame<'a> {
+    /// The frame's index.
+    pub frame: u32,
+    /// The frame's camera.
+    pub camera: &'a CameraParams,
+    /// The previous frame's camera (none on the first frame).
+    pub previous: Option<&'a CameraParams>,
+    /// The previous frame filled a reservoir grid.
+    pub restir_history: bool,
+    /// Extra `CacheViewParams::flags`.
+    pub extra_flags: u32,
+}
+
+impl WorldCache {
+    /// Creates the pipelines, for reservoir grids of `restir_slots` slots.
+    pub fn new(ctx: &Context, module: &KernelModule, restir_slots: u32) -> Result<Self> {
+        Ok(Self {
+            hash_cells: HashCellPasses::new(ctx, module)?,
+            lighting: LightingPasses::new(ctx, module, restir_slots)?,
+        })
+    }
+
+    /// The push constants of every cache pass of a `size` frame.
+    pub fn params(
+        settings: &GiSettings,
+        options: &ViewOptions,
+        lighting: &SceneLighting,
+        restir: &RestirResources,
+        size: [u32; 2],
+        frame: CacheFrame<'_>,
+    ) -> CachePassParams {
+        let s = settings;
+        let camera = frame.camera;
+        let fov_y = 2.0 * camera.tan_half_fov_y.atan();
+        let mut grid = HashGridParams::new(
+            camera.position(),
+            cell_size_const(fov_y, size[0], size[1], s.cell_size_pixels),
+            frame.frame,
+        );
+        grid.min_cell_size = s.min_cell_size;
+        grid.num_buckets_log2 = s.buckets_log2;
+        grid.tiles_per_bucket_log2 = s.tiles_per_bucket_log2;
+        let mut flags = frame.extra_flags;
+        for (on, flag) in [
+            (s.temporal_feedback, FLAG_FEEDBACK),
+            (frame.previous.is_some(), FLAG_HISTORY),
+            (s.short_ray_flag, FLAG_SHORT_RAY),
+            (s.bypass, FLAG_BYPASS),
+            (s.restir, FLAG_RESTIR),
+            (s.restir && frame.restir_history, FLAG_RESTIR_HISTORY),
+            (lighting.environment_light, FLAG_ENVIRONMENT_LIGHT),
+        ] {
+            if on {
+                flags |= flag;
+            }
+        }
+        CachePassParams {
+            grid,
+            view: CacheViewParams {
+                sky: options.sky.to_array(),
+                frame_index: frame.frame,
+                emissive_multiplier: options.emissive_multiplier,
+                light_count: lighting.light_count,
+                seed: options.seed,
+                flags,
+                environment_size: lighting.environment_size,
+                environment_irradiance: lighting.environment_irradiance,
+                light_candidates: s.light_candidates,
+                image_size: size,
+                max_groups: 0,
+                reservoir_cell_const: reservoir_cell_const(fov_y, size[0], size[1]),
+                previous_eye: frame.previous.map_or(camera.position, |p| p.position),
+                reservoir_buckets: restir.buckets,
+            },
+        }
+    }
+
+    /// Records the cache passes that complete the queries a tracing pass appended: from
+    /// InsertRadianceCache to ResolveRadianceCache, which adds each query's cache radiance to
+    /// its ray's record.
+    #[allow(clippy::too_many_arguments, reason = "the passes' inputs")]
+    pub fn record_after_trace(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: &GpuScene,
+        res: &CacheResources,
+        restir: &RestirResources,
+        settings: &GiSettings,
+        params: &CachePassParams,
+        timer: &mut PassTimer<'_>,
+    ) -> Result<()> {
+        let (hash_cells, lighting) = (&self.hash_cells, &self.lighting);
+        timer.pass(ctx, cmd, "InsertRadianceCache", || {
+            hash_cells.record_insert(ctx, cmd, res, params)
+        })?;
+        timer.pass(ctx, cmd, "UpdateLightGrid", || {
+            lighting.record_light_grid(ctx, cmd, res, &scene.lights, params)
+        })?;
+        if settings.restir {
+            timer.pass(ctx, cmd, "ClearReservoirs", || {
+                lighting.record_clear_reservoirs(ctx, cmd, restir);
+                Ok(())
+            })?;
+        }
+        timer.pass(ctx, cmd, "GenerateReservoirs", || {
+            lighting.record_generate(ctx, cmd, res, restir, &scene.lights, params)?;
+            hash_cells.record_shadow_ray_args(ctx, cmd, res)
+        })?;
+        if settings.restir {
+            timer.pass(ctx, cmd, "CompactReservoirs", || {
+                lighting.record_compact(ctx, cmd, res, restir, params)
+            })?;
+            timer.pass(ctx, cmd, "ResampleReservoirs", || {
+                lighting.record_resample(ctx, cmd, res, restir, &scene.lights, params)
+            })?;
+        }
+        timer.pass(ctx, cmd, "PopulateRadianceCache", || {
+            hash_cells.record_populate(
+                ctx,
+                cmd,
+                scene.sets(),
+                res,
+                &restir.grids.current().reservoirs,
+                params,
+            )
+        })?;
+        timer.pass(ctx, cmd, "UpdateRadianceCache", || {
+            hash_cells.record_update(ctx, cmd, res, params)
+        })?;
+        timer.pass(ctx, cmd, "ResolveRadianceCache", || {
+            hash_cells.record_resolve(ctx, cmd, res, params)
+        })
+    }
+}

@@ -1,0 +1,69 @@
+//! ReprojectGI (`gi_shared::gi_denoiser::reproject_gi`): temporal accumulation of the
+//! interpolated irradiance and the blur mask.
+//!
+//! Set 0: 0 frame (`GiFrameParams`), 1 camera (`CameraParams`), 2 depth, 3 geometric normal
+//! (images), 4 irradiance (`[f32; 4]`, this frame's interpolation), 5 previous history, 6
+//! current history (`[f32; 4]`: rgb mean, w count), 7 previous surface, 8 current surface
+//! (`[f32; 4]`: position, packed normal bits), 9 previous luma delta, 10 current luma delta
+//! (`f32`), 11 blur mask (`f32`). Workgroups of 8 × 8 pixels, dispatched
+//! `[ceil(W / 8), ceil(H / 8), 1]`.
+
+use crate::gbuffer::{DepthImage, HalfImage};
+use gi_shared::camera::CameraParams;
+use gi_shared::gi_denoiser::reproject_gi::reproject_gi_pixel;
+use gi_shared::screen_probes::GiFrameParams;
+use spirv_std::glam::{UVec2, UVec3, Vec4};
+use spirv_std::spirv;
+
+/// The temporal history of pixel `id`.
+#[spirv(compute(threads(8, 8)))]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "an entry point takes one argument per binding"
+)]
+pub fn reproject_gi(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &GiFrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] camera: &CameraParams,
+    #[spirv(descriptor_set = 0, binding = 2)] depth: &DepthImage,
+    #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] irradiance: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] previous_history: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] history: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] previous_surface: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] surface: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] previous_luma_delta: &[f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] luma_delta: &mut [f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] blur_mask: &mut [f32],
+) {
+    let pixel = UVec2::new(id.x, id.y);
+    if pixel.x >= frame.image_size[0] || pixel.y >= frame.image_size[1] {
+        return;
+    }
+    let i = (pixel.y * frame.image_size[0] + pixel.x) as usize;
+    if i >= irradiance.len()
+        || i >= history.len()
+        || i >= surface.len()
+        || i >= luma_delta.len()
+        || i >= blur_mask.len()
+    {
+        return;
+    }
+    let d: f32 = depth.read(pixel);
+    let gn: Vec4 = geometric_normal.read(pixel);
+    let r = reproject_gi_pixel(
+        frame,
+        camera,
+        pixel,
+        d,
+        gn,
+        irradiance[i],
+        previous_history,
+        previous_surface,
+        previous_luma_delta,
+    );
+    history[i] = r.history;
+    surface[i] = r.surface;
+    luma_delta[i] = r.luma_delta;
+    blur_mask[i] = r.blur_mask;
+}

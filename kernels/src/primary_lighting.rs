@@ -1,0 +1,133 @@
+//! The primary hit's own lighting and the final composite (`gi_shared::primary_lighting`, whose
+//! module doc gives the split of light paths): DirectLight (traces shadow rays, both variants)
+//! and ResolveGI (software variant only).
+//!
+//! DirectLight, set 0: 0 frame (`GiFrameParams`), 1 camera (`CameraParams`), 2 depth, 3
+//! geometric normal, 4 shading normal, 5 emissive, 6 ids (images), 7 primary lighting
+//! (`PrimaryLighting`, written). Set 1: the scene's geometry. Set 2: instances, meshes,
+//! vertices, triangles, materials, textures, texels, lights, light table, environment,
+//! environment CDF (as TraceCacheRays).
+//!
+//! ResolveGI, set 0: 0 frame, 1 camera, 2 depth, 3 geometric normal, 4 albedo, 5 primary
+//! lighting, 6 denoised irradiance (`[f32; 4]`), 7 colour (`[f32; 4]`, written), 8 feedback
+//! history (`FeedbackTexel`, written).
+//!
+//! Both: workgroups of 8 × 8 pixels, dispatched `[ceil(W / 8), ceil(H / 8), 1]`; per-pixel
+//! buffers indexed `y × W + x`.
+
+use crate::gbuffer::{DepthImage, HalfImage, IdImage};
+use gi_shared::cache_view::{pass_random, primary_emission, primary_surface};
+use gi_shared::camera::{CameraParams, primary_ray};
+use gi_shared::gbuffer::in_image;
+use gi_shared::lights::GpuLight;
+use gi_shared::primary_lighting::{PrimaryLighting, sky_lighting, surface_lighting};
+use gi_shared::ray::Ray;
+use gi_shared::scene_data::{
+    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
+};
+use gi_shared::screen_probes::{GiFrameParams, PASS_DIRECT};
+use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
+use spirv_std::spirv;
+
+traced_kernel! {
+    /// DirectLight: the emission (or sky) and the punctual lights' direct irradiance of pixel
+    /// `id`.
+    #[spirv(compute(threads(8, 8)))]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "an entry point takes one argument per binding"
+    )]
+    pub fn direct_light(
+        scene;
+        #[spirv(global_invocation_id)] id: UVec3,
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &GiFrameParams,
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] camera: &CameraParams,
+        #[spirv(descriptor_set = 0, binding = 2)] depth: &DepthImage,
+        #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
+        #[spirv(descriptor_set = 0, binding = 4)] shading_normal: &HalfImage,
+        #[spirv(descriptor_set = 0, binding = 5)] emissive: &HalfImage,
+        #[spirv(descriptor_set = 0, binding = 6)] ids: &IdImage,
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lighting: &mut [PrimaryLighting],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] _instances: &[GpuInstance],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] _meshes: &[GpuMesh],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] _vertices: &[GpuVertex],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] _triangles: &[GpuTriangle],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] _textures: &[GpuTexture],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] _texels: &[u32],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] _light_table: &[u32],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 10)] _environment_cdf: &[f32],
+    ) {
+        let pixel = UVec2::new(id.x, id.y);
+        if !in_image(camera, pixel) {
+            return;
+        }
+        let index = pixel.y * camera.image_size[0] + pixel.x;
+        if index as usize >= lighting.len() {
+            return;
+        }
+        let d: f32 = depth.read(pixel);
+        let gn: Vec4 = geometric_normal.read(pixel);
+        let sn: Vec4 = shading_normal.read(pixel);
+        let surface = primary_surface(camera, pixel, d, gn, sn);
+        if !surface.valid {
+            let ray = primary_ray(camera, pixel, camera.jitter());
+            let direction = Vec3::from_array(ray.direction).normalize_or_zero();
+            lighting[index as usize] = sky_lighting(frame, environment, direction);
+            return;
+        }
+        let e: Vec4 = emissive.read(pixel);
+        let ids_texel: UVec4 = ids.read(pixel);
+        let emission = primary_emission(materials, ids_texel, e, frame.emissive_multiplier);
+        let mut rng = pass_random(frame.seed, index, PASS_DIRECT, frame.frame_index);
+        lighting[index as usize] = surface_lighting(
+            frame,
+            &surface,
+            emission,
+            lights,
+            &mut rng,
+            move |ray: &Ray| scene.any_hit(ray),
+        );
+    }
+}
+
+/// ResolveGI: the final colour of pixel `id` (emission + albedo / π × (denoised GI irradiance +
+/// exact direct light)) and its feedback texel for the next frame.
+#[cfg(not(feature = "ray-query"))]
+#[spirv(compute(threads(8, 8)))]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "an entry point takes one argument per binding"
+)]
+pub fn resolve_gi(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &GiFrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] camera: &CameraParams,
+    #[spirv(descriptor_set = 0, binding = 2)] depth: &DepthImage,
+    #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
+    #[spirv(descriptor_set = 0, binding = 4)] albedo: &crate::gbuffer::UnormImage,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] lighting: &[PrimaryLighting],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] irradiance: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] color: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)]
+    history: &mut [gi_shared::cache_view::FeedbackTexel],
+) {
+    use gi_shared::primary_lighting::{resolve_color, resolve_feedback};
+    let pixel = UVec2::new(id.x, id.y);
+    if !in_image(camera, pixel) {
+        return;
+    }
+    let i = (pixel.y * camera.image_size[0] + pixel.x) as usize;
+    if i >= lighting.len() || i >= irradiance.len() || i >= color.len() || i >= history.len() {
+        return;
+    }
+    let record = lighting[i];
+    let a: Vec4 = albedo.read(pixel);
+    let d: f32 = depth.read(pixel);
+    let gn: Vec4 = geometric_normal.read(pixel);
+    let c = resolve_color(frame, &record, a.truncate(), irradiance[i]);
+    color[i] = [c.x, c.y, c.z, 1.0];
+    history[i] = resolve_feedback(&record, c, d, gn.truncate().normalize_or_zero());
+}

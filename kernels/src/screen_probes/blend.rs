@@ -1,0 +1,118 @@
+//! BlendScreenProbes (`gi_shared::screen_probes::blend`): one workgroup of 8 × 8 lanes per
+//! spawned probe bins its 64 ray results into its cells (through workgroup memory), blends them
+//! with the history hemisphere (shadow-preserving hysteresis), backs up cells left empty and
+//! writes the probe tile's cells, record and mask texel.
+//!
+//! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns (packed
+//! seeds), GI counters, probe rays, ray records (`CacheViewPixel`, the rays' radiance), probe
+//! history, current records (written), current mask (mip 0 written), current atlas (written).
+//! `[spawn_grid.x, spawn_grid.y, 1]` workgroups of 8 × 8; spawn index =
+//! `workgroup.y × spawn_grid.x + workgroup.x`.
+
+use crate::gbuffer::{DepthImage, HalfImage};
+use gi_shared::append_list::clamped_count;
+use gi_shared::cache_view::CacheViewPixel;
+use gi_shared::camera::CameraParams;
+use gi_shared::gbuffer::in_image;
+use gi_shared::packing::unpack_seed;
+use gi_shared::screen_probes::blend::{blend_cell, finish_cell, ray_source, spawned_record};
+use gi_shared::screen_probes::hemisphere::UNMAPPED;
+use gi_shared::screen_probes::hemisphere::gather_mapped;
+use gi_shared::screen_probes::ray_guiding::CELLS;
+use gi_shared::screen_probes::{
+    EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord, SPAWN_COUNT,
+};
+use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
+use spirv_std::glam::{UVec3, Vec4};
+use spirv_std::spirv;
+
+/// Blends spawned probe `workgroup`; lane `local` is ray `local` in phase 1 and cell `local`
+/// after.
+#[spirv(compute(threads(8, 8)))]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "an entry point takes one argument per binding"
+)]
+pub fn blend_screen_probes(
+    #[spirv(workgroup_id)] group: UVec3,
+    #[spirv(local_invocation_index)] local: u32,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &GiFrameParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] camera: &CameraParams,
+    #[spirv(descriptor_set = 0, binding = 2)] depth: &DepthImage,
+    #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spawns: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] counters: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] probe_rays: &[ProbeRay],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] ray_records: &[CacheViewPixel],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] probe_history: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] records: &mut [ProbeRecord],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] mask: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] atlas: &mut [[f32; 4]],
+    #[spirv(workgroup)] mapped: &mut [u32; CELLS],
+    #[spirv(workgroup)] cells: &mut [[f32; 4]; CELLS],
+    #[spirv(workgroup)] blended: &mut [[f32; 4]; CELLS],
+) {
+    let spawn = group.y * frame.spawn_grid[0] + group.x;
+    let counter = if SPAWN_COUNT < counters.len() {
+        counters[SPAWN_COUNT]
+    } else {
+        0
+    };
+    // Uniform over the workgroup: the whole group leaves before any barrier.
+    if spawn >= clamped_count(counter, spawns.len() as u32) {
+        return;
+    }
+    let lane = local % PROBE_CELLS;
+    let l = lane as usize;
+    let seed = spawns[spawn as usize];
+    let pixel = unpack_seed(seed);
+    let record = if in_image(camera, pixel) {
+        let d: f32 = depth.read(pixel);
+        let gn: Vec4 = geometric_normal.read(pixel);
+        spawned_record(camera, seed, d, gn)
+    } else {
+        ProbeRecord::NONE
+    };
+    // Uniform too: a seed that sees no surface traced nothing and leaves its tile as it is.
+    if !record.is_valid() {
+        return;
+    }
+    let tile = frame.probe_tile_of(pixel);
+    let ray_index = (spawn * PROBE_CELLS + lane) as usize;
+
+    // Phase 1, lane = ray.
+    let (target, cell) = if ray_index < probe_rays.len() && ray_index < ray_records.len() {
+        ray_source(probe_rays[ray_index], ray_records[ray_index])
+    } else {
+        (UNMAPPED, EMPTY)
+    };
+    mapped[l] = target;
+    cells[l] = cell;
+    workgroup_memory_barrier_with_group_sync();
+
+    // Phase 2, lane = cell: the rays' mean against the history.
+    let history = if ray_index < probe_history.len() {
+        probe_history[ray_index]
+    } else {
+        EMPTY
+    };
+    blended[l] = blend_cell(frame, gather_mapped(mapped, cells, lane), history);
+    workgroup_memory_barrier_with_group_sync();
+
+    // Phase 3: backup, then the probe tile's cell, record and mask texel.
+    let out = finish_cell(frame, blended[l], blended);
+    let i = (tile * PROBE_CELLS + lane) as usize;
+    if i < atlas.len() {
+        atlas[i] = out;
+    }
+    if lane == 0 {
+        let t = tile as usize;
+        if t < records.len() {
+            records[t] = record;
+        }
+        // Mip 0 comes first in the mask buffer.
+        if t < mask.len() {
+            mask[t] = record.seed;
+        }
+    }
+}

@@ -1,0 +1,111 @@
+//! PopulateScreenProbes: one ray per cell of every probe spawned this frame, in the direction
+//! SampleScreenProbes chose. A miss takes the sky and a front-facing emitter its emission, both
+//! in full (`FLAG_PROBE_RAYS`: the primary hit samples neither); any other hit appends a
+//! `CacheQuery`, which the cache passes (InsertRadianceCache ... ResolveRadianceCache) complete
+//! into the ray's record.
+//!
+//! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns, GI
+//! counters, probe rays, ray records (`CacheViewPixel`), queries, cache counters, light-grid
+//! bounds. Set 1: the scene's geometry. Set 2: its shading data and lights. Push constants:
+//! `CachePassParams`. One workgroup of 64 invocations per spawn slot, `[spawn_grid.x,
+//! spawn_grid.y]` groups.
+
+use crate::gbuffer::{DepthImage, HalfImage};
+use gi_shared::append_list::append;
+use gi_shared::cache_view::{
+    CachePassParams, CacheQuery, CacheViewPixel, QUERY_COUNT, primary_surface, shade_cache_hit,
+};
+use gi_shared::camera::CameraParams;
+use gi_shared::light_grid::report_hit_bounds;
+use gi_shared::lights::GpuLight;
+use gi_shared::packing::unpack_seed;
+use gi_shared::ray::Ray;
+use gi_shared::scene_data::{
+    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
+};
+use gi_shared::screen_probes::{GiFrameParams, MISS_DISTANCE, PROBE_CELLS, ProbeRay, SPAWN_COUNT};
+use spirv_std::glam::{UVec3, Vec3, Vec4};
+use spirv_std::spirv;
+
+traced_kernel! {
+    /// Traces ray `lane` of spawn slot `group`.
+    #[spirv(compute(threads(64)))]
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "an entry point takes one argument per binding"
+    )]
+    pub fn populate_screen_probes(
+        scene;
+        #[spirv(workgroup_id)] group: UVec3,
+        #[spirv(local_invocation_index)] lane: u32,
+        #[spirv(push_constant)] params: &CachePassParams,
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &GiFrameParams,
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] camera: &CameraParams,
+        #[spirv(descriptor_set = 0, binding = 2)] depth: &DepthImage,
+        #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spawns: &[u32],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] gi_counters: &[u32],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] probe_rays: &mut [ProbeRay],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] ray_records: &mut [CacheViewPixel],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] queries: &mut [CacheQuery],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] counters: &mut [u32],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] bounds: &mut [u32],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] instances: &[GpuInstance],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] meshes: &[GpuMesh],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] vertices: &[GpuVertex],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] texels: &[u32],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] light_table: &[u32],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
+        #[spirv(storage_buffer, descriptor_set = 2, binding = 10)] environment_cdf: &[f32],
+    ) {
+        let spawn = group.y * frame.spawn_grid[0] + group.x;
+        let spawned = if SPAWN_COUNT < gi_counters.len() { gi_counters[SPAWN_COUNT] } else { 0 };
+        if spawn >= spawned || spawn as usize >= spawns.len() {
+            return;
+        }
+        let index = spawn * PROBE_CELLS + lane;
+        let i = index as usize;
+        if i >= probe_rays.len() || i >= ray_records.len() {
+            return;
+        }
+        let seed = unpack_seed(spawns[spawn as usize]);
+        let d: f32 = depth.read(seed);
+        let gn: Vec4 = geometric_normal.read(seed);
+        let surface = primary_surface(camera, seed, d, gn, gn);
+        let mut record = probe_rays[i];
+        let direction = Vec3::from_array(record.direction);
+        let mut out = CacheViewPixel::default();
+        record.hit_distance = MISS_DISTANCE;
+        if surface.valid && direction != Vec3::ZERO {
+            let ray = Ray {
+                origin: surface.position.to_array(),
+                t_min: 0.0,
+                direction: record.direction,
+                t_max: f32::INFINITY,
+            };
+            let hit = scene.closest_hit(&ray);
+            let shaded = shade_cache_hit(
+                &params.view, &ray, &surface, &hit, index, instances, meshes, vertices, triangles,
+                materials, textures, texels, lights, light_table, environment, environment_cdf,
+            );
+            if hit.is_hit() {
+                record.hit_distance = hit.t * direction.length();
+            }
+            out.ray_radiance = shaded.radiance.to_array();
+            out.surface = 1;
+            if shaded.has_query {
+                report_hit_bounds(&mut crate::atomics::DeviceWords(bounds), 0, shaded.query.position());
+                let capacity = queries.len() as u32;
+                if let Some(slot) = append(&mut crate::atomics::DeviceWords(counters), QUERY_COUNT, capacity) {
+                    queries[slot as usize] = shaded.query;
+                }
+            }
+        }
+        probe_rays[i] = record;
+        ray_records[i] = out;
+    }
+}

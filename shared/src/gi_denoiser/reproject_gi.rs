@@ -1,0 +1,720 @@
+//! ReprojectGI (GI-1.0 step 23): temporal accumulation of the interpolated irradiance, and the
+//! blur mask that tells the spatial filter how little history each pixel has.
+//!
+//! Per pixel:
+//!
+//! 1. Its surface point ([`primary_surface`]) is projected with the previous view-projection to
+//!    a sub-pixel position of the previous image ([`previous_pixel_position`]).
+//! 2. The 3 × 3 previous pixels around the nearest one are weighted by
+//!    `1 − subpixel distance / √2` ([`history_tap_weight`]); a tap counts when its history exists,
+//!    its stored surface lies within `cell × lerp(1, 5, (1 − N·V)^6)` of the point (more at
+//!    grazing angles, where positions spread along the view ray) and its normal agrees
+//!    (`dot > 0.95`) ([`accepts_history`]). The taps' history (mean, count) and luma delta are
+//!    blended with these weights.
+//! 3. The luma delta (this frame's luminance minus the history's) is smoothed with
+//!    [`LUMA_DELTA_SMOOTHING`]; a lasting change makes it large and `alpha = saturate(1 − |Δ| /
+//!    lum(history))` small ([`history_alpha`]), which shortens the history: the cap is
+//!    `max(lerp(4, 8 × min(count, 8), alpha) × vignette, 1)` ([`history_cap`]), the vignette
+//!    `(16 u(1−u) v(1−v))^¼` ([`vignette`]; the reference's factor is 15, this port uses 16 so
+//!    that the image centre reaches the full 64 frames) keeping the border, where disocclusions
+//!    enter, responsive.
+//! 4. `count = min(count + 1, cap)`, `mean = lerp(mean, current, 1 / count)`; the blur mask is
+//!    `max(8 − count, 0)` pixels ([`blur_mask_of`]), −1 for sky.
+//!
+//! Without [`FLAG_DENOISER_TEMPORAL`] or [`FLAG_HISTORY`], or with no accepted tap, the history
+//! restarts: `mean = current`, `count = 1`, luma delta 0.
+//!
+//! # Buffers (per pixel, `y × W + x`, ping-ponged between frames)
+//!
+//! * history `[f32; 4]`: rgb mean irradiance, w = count (`≤ 0`: none);
+//! * surface `[f32; 4]`: xyz world position, w = `f32::from_bits(pack_snorm10x3(normal))` (bits 0:
+//!   none);
+//! * luma delta `f32`; blur mask `f32` (this frame only).
+
+use glam::{UVec2, Vec2, Vec3, Vec4};
+
+use crate::cache_view::primary_surface;
+use crate::camera::{CameraParams, to_clip, uv_of_clip};
+use crate::color::luminance;
+use crate::math::{abs, floor, max, min, saturate, sqrt, to_i32_clamped};
+use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
+use crate::screen_probes::{FLAG_DENOISER_TEMPORAL, FLAG_HISTORY, GiFrameParams};
+
+/// Smoothing of the tracked luma delta per frame.
+pub const LUMA_DELTA_SMOOTHING: f32 = 1.0 / 8.0;
+/// History cap when the lighting changes (`alpha = 0`).
+pub const HISTORY_MIN_CAP: f32 = 4.0;
+/// History cap per frame of history when the lighting holds (`alpha = 1`), up to
+/// [`HISTORY_COUNT_CLAMP`] frames: `8 × 8 = 64` at most.
+pub const HISTORY_CAP_PER_FRAME: f32 = 8.0;
+/// The count above which the cap stops growing.
+pub const HISTORY_COUNT_CLAMP: f32 = 8.0;
+/// The vignette's scale: `16 u(1−u) v(1−v)` is 1 at the centre (the reference uses 15).
+pub const VIGNETTE_SCALE: f32 = 16.0;
+/// A history tap's normal must have a dot product above this with the pixel's.
+pub const HISTORY_MIN_NORMAL_DOT: f32 = 0.95;
+/// The position tolerance grows up to this many cell sizes at grazing angles.
+pub const HISTORY_GRAZING_CELLS: f32 = 5.0;
+/// Frames of history under which a pixel is blurred (by `8 − count` pixels).
+pub const BLUR_MASK_FRAMES: f32 = 8.0;
+/// The blur mask of a sky pixel.
+pub const BLUR_MASK_SKY: f32 = -1.0;
+
+/// `1 / √2`: the weight of a tap falls to zero at a distance of `√2` pixels.
+const INV_SQRT_2: f32 = core::f32::consts::FRAC_1_SQRT_2;
+
+/// The previous frame's continuous pixel position of the world point `position` (pixel centres
+/// at integer coordinates, so `(0, 0)` is the centre of the top-left pixel), or `None` when it
+/// lies behind the previous camera or is not finite.
+#[inline]
+pub fn previous_pixel_position(camera: &CameraParams, position: Vec3) -> Option<Vec2> {
+    let clip = to_clip(&camera.previous_view_proj, position);
+    // False for NaN too.
+    if !(clip.w > 0.0 && clip.is_finite()) {
+        return None;
+    }
+    let uv = uv_of_clip(clip);
+    Some(uv * camera.image_size_f32() - Vec2::splat(0.5))
+}
+
+/// The weight of a history tap at `offset` pixels from the reprojected position:
+/// `saturate(1 − |offset| / √2)`.
+#[inline]
+pub fn history_tap_weight(offset: Vec2) -> f32 {
+    saturate(1.0 - offset.length() * INV_SQRT_2)
+}
+
+/// Whether a previous pixel's stored surface `previous` (`[x, y, z, normal bits]`) is the surface
+/// at `position` with unit normal `normal`: within `cell × lerp(1, 5, (1 − N·V)^6)` of it (`cell`
+/// the probe cell size at its distance from the eye, `V` toward the eye) and normals with a dot
+/// product above [`HISTORY_MIN_NORMAL_DOT`].
+#[inline]
+pub fn accepts_history(
+    frame: &GiFrameParams,
+    position: Vec3,
+    normal: Vec3,
+    previous: [f32; 4],
+) -> bool {
+    let bits = previous[3].to_bits();
+    if bits == 0 {
+        return false;
+    }
+    let to_eye = Vec3::from_array(frame.eye) - position;
+    let distance = to_eye.length();
+    let cell = frame.probe_cell_size(distance);
+    let n_dot_v = if distance > 0.0 {
+        saturate(normal.dot(to_eye / distance))
+    } else {
+        1.0
+    };
+    let g = 1.0 - n_dot_v;
+    let g2 = g * g;
+    let grazing = g2 * g2 * g2;
+    let tolerance = cell * (1.0 + (HISTORY_GRAZING_CELLS - 1.0) * grazing);
+    let previous_position = Vec3::new(previous[0], previous[1], previous[2]);
+    let previous_normal = unpack_snorm10x3(bits).normalize_or_zero();
+    let close = (previous_position - position).length() < tolerance;
+    close && normal.dot(previous_normal) > HISTORY_MIN_NORMAL_DOT
+}
+
+/// The surface record a pixel leaves for the next frame: position and packed normal.
+#[inline]
+pub fn surface_record(position: Vec3, normal: Vec3) -> [f32; 4] {
+    [
+        position.x,
+        position.y,
+        position.z,
+        f32::from_bits(pack_snorm10x3(normal)),
+    ]
+}
+
+/// How much of the history to keep: `saturate(1 − |delta| / lum(history))` (1 when both are
+/// zero).
+#[inline]
+pub fn history_alpha(luma_delta: f32, history_luma: f32) -> f32 {
+    saturate(1.0 - abs(luma_delta) / max(history_luma, 1e-6))
+}
+
+/// The border vignette of `pixel` in an image of `size`: `(16 u(1−u) v(1−v))^¼` with `(u, v)` the
+/// pixel centre's uv; 1 at the centre, toward 0 at the border.
+#[inline]
+pub fn vignette(pixel: UVec2, size: [u32; 2]) -> f32 {
+    let u = (pixel.x as f32 + 0.5) / max(size[0] as f32, 1.0);
+    let v = (pixel.y as f32 + 0.5) / max(size[1] as f32, 1.0);
+    let x = saturate(VIGNETTE_SCALE * u * (1.0 - u) * v * (1.0 - v));
+    sqrt(sqrt(x))
+}
+
+/// The history cap: `max(lerp(4, 8 × min(|count|, 8), alpha) × vignette, 1)`.
+#[inline]
+pub fn history_cap(count: f32, alpha: f32, vignette: f32) -> f32 {
+    let full = HISTORY_CAP_PER_FRAME * min(abs(count), HISTORY_COUNT_CLAMP);
+    let cap = HISTORY_MIN_CAP + (full - HISTORY_MIN_CAP) * alpha;
+    max(cap * vignette, 1.0)
+}
+
+/// The blur mask of a pixel with `count` frames of history: `max(8 − count, 0)` pixels.
+#[inline]
+pub fn blur_mask_of(count: f32) -> f32 {
+    max(BLUR_MASK_FRAMES - count, 0.0)
+}
+
+/// Each component clamped to `[0, ∞)`, non-finite components zero.
+#[inline]
+fn clean(v: Vec3) -> Vec3 {
+    let c = |x: f32| if x.is_finite() && x > 0.0 { x } else { 0.0 };
+    Vec3::new(c(v.x), c(v.y), c(v.z))
+}
+
+/// What ReprojectGI writes for one pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GiHistory {
+    /// `[r, g, b, count]`.
+    pub history: [f32; 4],
+    /// `[x, y, z, normal bits]`.
+    pub surface: [f32; 4],
+    /// The smoothed luma delta.
+    pub luma_delta: f32,
+    /// The blur mask (pixels; −1 for sky).
+    pub blur_mask: f32,
+}
+
+impl GiHistory {
+    /// A sky pixel: no history, no surface.
+    pub const SKY: Self = Self {
+        history: [0.0; 4],
+        surface: [0.0; 4],
+        luma_delta: 0.0,
+        blur_mask: BLUR_MASK_SKY,
+    };
+}
+
+/// The previous frame's history at a pixel, blended from the accepted taps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReprojectedHistory {
+    /// Mean irradiance.
+    pub mean: Vec3,
+    /// Frames of history.
+    pub count: f32,
+    /// Smoothed luma delta.
+    pub luma_delta: f32,
+    /// Sum of the accepted taps' weights (0: no history).
+    pub weight: f32,
+}
+
+/// The history of the surface at `position` (unit normal `normal`) in the previous frame's
+/// buffers: the accepted 3 × 3 taps around its reprojected position, blended by
+/// [`history_tap_weight`].
+#[inline]
+pub fn gather_history(
+    frame: &GiFrameParams,
+    camera: &CameraParams,
+    position: Vec3,
+    normal: Vec3,
+    previous_history: &[[f32; 4]],
+    previous_surface: &[[f32; 4]],
+    previous_luma_delta: &[f32],
+) -> ReprojectedHistory {
+    let mut out = ReprojectedHistory {
+        mean: Vec3::ZERO,
+        count: 0.0,
+        luma_delta: 0.0,
+        weight: 0.0,
+    };
+    let Some(p) = previous_pixel_position(camera, position) else {
+        return out;
+    };
+    let [w, h] = frame.image_size;
+    let nearest_x = to_i32_clamped(floor(p.x + 0.5));
+    let nearest_y = to_i32_clamped(floor(p.y + 0.5));
+    let mut sum = Vec4::ZERO;
+    let mut delta = 0.0;
+    let mut weight = 0.0;
+    let mut j = -1;
+    while j <= 1 {
+        let mut i = -1;
+        while i <= 1 {
+            let x = nearest_x.wrapping_add(i);
+            let y = nearest_y.wrapping_add(j);
+            if x >= 0 && y >= 0 && (x as u32) < w && (y as u32) < h {
+                let t = (y as u32 * w + x as u32) as usize;
+                let tw = history_tap_weight(p - Vec2::new(x as f32, y as f32));
+                if tw > 0.0
+                    && t < previous_history.len()
+                    && t < previous_surface.len()
+                    && t < previous_luma_delta.len()
+                {
+                    let hist = Vec4::from_array(previous_history[t]);
+                    let d = previous_luma_delta[t];
+                    if hist.w > 0.0
+                        && hist.is_finite()
+                        && d.is_finite()
+                        && accepts_history(frame, position, normal, previous_surface[t])
+                    {
+                        sum += hist * tw;
+                        delta += d * tw;
+                        weight += tw;
+                    }
+                }
+            }
+            i += 1;
+        }
+        j += 1;
+    }
+    if weight > 0.0 {
+        let m = sum / weight;
+        out.mean = clean(m.truncate());
+        out.count = m.w;
+        out.luma_delta = delta / weight;
+        out.weight = weight;
+    }
+    out
+}
+
+/// The temporal update of a pixel at `pixel` with `current` irradiance and its reprojected
+/// `history` (weight 0: none): the new history, luma delta and blur mask. `surface` is the
+/// pixel's record for the next frame.
+#[inline]
+pub fn accumulate(
+    frame: &GiFrameParams,
+    pixel: UVec2,
+    current: Vec3,
+    history: &ReprojectedHistory,
+    surface: [f32; 4],
+) -> GiHistory {
+    let current = clean(current);
+    if history.weight <= 0.0 || history.count <= 0.0 {
+        return GiHistory {
+            history: [current.x, current.y, current.z, 1.0],
+            surface,
+            luma_delta: 0.0,
+            blur_mask: blur_mask_of(1.0),
+        };
+    }
+    let history_luma = luminance(history.mean);
+    let delta = history.luma_delta
+        + (luminance(current) - history_luma - history.luma_delta) * LUMA_DELTA_SMOOTHING;
+    let alpha = history_alpha(delta, history_luma);
+    let cap = history_cap(history.count, alpha, vignette(pixel, frame.image_size));
+    let count = min(history.count + 1.0, cap);
+    let mean = history.mean + (current - history.mean) * (1.0 / count);
+    GiHistory {
+        history: [mean.x, mean.y, mean.z, count],
+        surface,
+        luma_delta: if delta.is_finite() { delta } else { 0.0 },
+        blur_mask: blur_mask_of(count),
+    }
+}
+
+/// ReprojectGI for one pixel: `depth` and `geometric_normal` are its G-buffer texels, `current`
+/// this frame's interpolated `[r, g, b, hint]`, then the previous frame's buffers.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
+#[inline]
+pub fn reproject_gi_pixel(
+    frame: &GiFrameParams,
+    camera: &CameraParams,
+    pixel: UVec2,
+    depth: f32,
+    geometric_normal: Vec4,
+    current: [f32; 4],
+    previous_history: &[[f32; 4]],
+    previous_surface: &[[f32; 4]],
+    previous_luma_delta: &[f32],
+) -> GiHistory {
+    let surface = primary_surface(camera, pixel, depth, geometric_normal, geometric_normal);
+    if !surface.valid {
+        return GiHistory::SKY;
+    }
+    let n = surface.geometric_normal;
+    let record = surface_record(surface.position, n);
+    let history = if frame.has(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY) {
+        gather_history(
+            frame,
+            camera,
+            surface.position,
+            n,
+            previous_history,
+            previous_surface,
+            previous_luma_delta,
+        )
+    } else {
+        ReprojectedHistory {
+            mean: Vec3::ZERO,
+            count: 0.0,
+            luma_delta: 0.0,
+            weight: 0.0,
+        }
+    };
+    accumulate(
+        frame,
+        pixel,
+        Vec3::new(current[0], current[1], current[2]),
+        &history,
+        record,
+    )
+}
+
+/// The whole pass on the CPU: every pixel of the G-buffer (`depth`, `geometric_normal`, row by
+/// row) reprojected into the current buffers.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the kernel's bindings, one argument each"
+)]
+pub fn reproject_gi_image(
+    frame: &GiFrameParams,
+    camera: &CameraParams,
+    depth: &[f32],
+    geometric_normal: &[Vec4],
+    irradiance: &[[f32; 4]],
+    previous_history: &[[f32; 4]],
+    history: &mut [[f32; 4]],
+    previous_surface: &[[f32; 4]],
+    surface: &mut [[f32; 4]],
+    previous_luma_delta: &[f32],
+    luma_delta: &mut [f32],
+    blur_mask: &mut [f32],
+) {
+    let [w, h] = frame.image_size;
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let r = reproject_gi_pixel(
+                frame,
+                camera,
+                UVec2::new(x, y),
+                depth[i],
+                geometric_normal[i],
+                irradiance[i],
+                previous_history,
+                previous_surface,
+                previous_luma_delta,
+            );
+            history[i] = r.history;
+            surface[i] = r.surface;
+            luma_delta[i] = r.luma_delta;
+            blur_mask[i] = r.blur_mask;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{primary_ray, view_projection};
+    use crate::random::Random;
+
+    const W: u32 = 32;
+    const H: u32 = 24;
+
+    fn camera() -> CameraParams {
+        CameraParams::new(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z, Vec3::Y, 0.8, W, H)
+    }
+
+    /// The host's screen-probe cell constant for this camera: about 8 pixels' angle.
+    const CELL_CONST: f32 = 0.8 * 8.0 / H as f32;
+
+    fn frame(flags: u32) -> GiFrameParams {
+        GiFrameParams {
+            image_size: [W, H],
+            eye: [0.0, 0.0, 5.0],
+            probe_cell_const: CELL_CONST,
+            flags,
+            ..Default::default()
+        }
+    }
+
+    /// A wall at z = 0 seen by `c`; sky where `sky(x, y)`.
+    fn wall(c: &CameraParams, sky: impl Fn(u32, u32) -> bool) -> (Vec<f32>, Vec<Vec4>) {
+        let mut depth = Vec::new();
+        let mut normals = Vec::new();
+        for y in 0..H {
+            for x in 0..W {
+                if sky(x, y) {
+                    depth.push(0.0);
+                    normals.push(Vec4::ZERO);
+                    continue;
+                }
+                let ray = primary_ray(c, UVec2::new(x, y), c.jitter());
+                let d = Vec3::from_array(ray.direction);
+                let t = c.position().z / -d.z;
+                depth.push(t * d.dot(c.forward()));
+                normals.push(Vec4::new(0.0, 0.0, 1.0, 1.0));
+            }
+        }
+        (depth, normals)
+    }
+
+    struct Buffers {
+        history: Vec<[f32; 4]>,
+        surface: Vec<[f32; 4]>,
+        delta: Vec<f32>,
+        mask: Vec<f32>,
+    }
+
+    impl Buffers {
+        fn new() -> Self {
+            let n = (W * H) as usize;
+            Self {
+                history: vec![[0.0; 4]; n],
+                surface: vec![[0.0; 4]; n],
+                delta: vec![0.0; n],
+                mask: vec![0.0; n],
+            }
+        }
+    }
+
+    fn step(
+        f: &GiFrameParams,
+        c: &CameraParams,
+        g: &(Vec<f32>, Vec<Vec4>),
+        input: &[[f32; 4]],
+        prev: &Buffers,
+    ) -> Buffers {
+        let mut next = Buffers::new();
+        reproject_gi_image(
+            f,
+            c,
+            &g.0,
+            &g.1,
+            input,
+            &prev.history,
+            &mut next.history,
+            &prev.surface,
+            &mut next.surface,
+            &prev.delta,
+            &mut next.delta,
+            &mut next.mask,
+        );
+        next
+    }
+
+    #[test]
+    fn the_cap_grows_to_64_in_the_centre_and_less_at_the_border() {
+        assert_eq!(history_cap(1.0, 1.0, 1.0), 8.0);
+        assert_eq!(history_cap(20.0, 1.0, 1.0), 64.0);
+        assert_eq!(history_cap(20.0, 0.0, 1.0), 4.0);
+        assert_eq!(history_cap(20.0, 0.5, 1.0), 34.0);
+        assert_eq!(history_cap(20.0, 1.0, 0.0), 1.0);
+        assert!((vignette(UVec2::new(15, 11), [31, 23]) - 1.0).abs() < 1e-6);
+        assert!(vignette(UVec2::new(0, 0), [W, H]) < 0.3);
+        assert_eq!(blur_mask_of(1.0), 7.0);
+        assert_eq!(blur_mask_of(30.0), 0.0);
+        assert_eq!(history_alpha(0.0, 0.0), 1.0);
+        assert_eq!(history_alpha(0.5, 1.0), 0.5);
+        assert_eq!(history_alpha(-2.0, 1.0), 0.0);
+    }
+
+    /// A static pixel: its history grows to the cap (64 × vignette) and its mean converges to the
+    /// input's mean; the border's cap is lower; sky stays sky.
+    #[test]
+    fn a_static_history_grows_to_the_cap_and_converges() {
+        let c = camera();
+        let f = frame(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY);
+        let g = wall(&c, |x, y| x == 31 && y == 0);
+        let n = (W * H) as usize;
+        let centre = (12 * W + 16) as usize;
+        let corner = 0usize;
+        // Constant input: the count climbs to the cap.
+        let input = vec![[2.0, 1.0, 0.5, 1.0]; n];
+        let mut b = Buffers::new();
+        for frame_index in 0..200 {
+            b = step(&f, &c, &g, &input, &b);
+            if frame_index == 0 {
+                assert_eq!(b.history[centre][3], 1.0);
+                assert_eq!(b.mask[centre], 7.0);
+            }
+        }
+        let cap_centre = 64.0 * vignette(UVec2::new(16, 12), [W, H]);
+        let cap_corner = history_cap(64.0, 1.0, vignette(UVec2::new(0, 0), [W, H]));
+        assert!(
+            (b.history[centre][3] - cap_centre).abs() < 1e-3,
+            "{:?}",
+            b.history[centre]
+        );
+        assert!(cap_centre > 60.0);
+        assert!(
+            (b.history[corner][3] - cap_corner).abs() < 1e-3,
+            "{:?}",
+            b.history[corner]
+        );
+        assert!(cap_corner < 0.5 * cap_centre);
+        assert_eq!(b.mask[centre], 0.0);
+        assert_eq!(&b.history[centre][..3], &[2.0, 1.0, 0.5]);
+        assert_eq!(b.mask[31], BLUR_MASK_SKY);
+        assert_eq!(b.history[31], [0.0; 4]);
+        assert_eq!(b.surface[31][3].to_bits(), 0);
+        // Noisy input of mean 1 (±25 %): the mean converges to it.
+        let mut rng = Random::new(3, 0);
+        let mut b = Buffers::new();
+        let mut late = 0.0f64;
+        let mut late_n = 0;
+        for frame_index in 0..600 {
+            let input: Vec<[f32; 4]> = (0..n)
+                .map(|_| {
+                    let v = 0.75 + 0.5 * rng.next_f32();
+                    [v, v, v, 1.0]
+                })
+                .collect();
+            b = step(&f, &c, &g, &input, &b);
+            if frame_index >= 200 {
+                late += f64::from(b.history[centre][0]);
+                late_n += 1;
+            }
+        }
+        let late = late / f64::from(late_n);
+        assert!((late - 1.0).abs() < 0.01, "{late}");
+        assert!((b.history[centre][0] - 1.0).abs() < 0.05);
+        // The noise keeps alpha below 1, but the history stays long.
+        assert!(b.history[centre][3] > 32.0, "{:?}", b.history[centre]);
+    }
+
+    /// A lasting change of the lighting shortens the history: the mean follows within a few
+    /// frames, not 64.
+    #[test]
+    fn a_lighting_change_shortens_the_history() {
+        let c = camera();
+        let f = frame(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY);
+        let g = wall(&c, |_, _| false);
+        let n = (W * H) as usize;
+        let centre = (12 * W + 16) as usize;
+        let mut b = Buffers::new();
+        for _ in 0..100 {
+            b = step(&f, &c, &g, &vec![[1.0, 1.0, 1.0, 1.0]; n], &b);
+        }
+        for _ in 0..16 {
+            b = step(&f, &c, &g, &vec![[4.0, 4.0, 4.0, 1.0]; n], &b);
+        }
+        // A fixed 64-frame average would be at 1 + 3 × (1 − (63/64)^16) ≈ 1.67.
+        assert!(b.history[centre][0] > 2.5, "{:?}", b.history[centre]);
+        assert!(b.history[centre][3] < 32.0);
+    }
+
+    /// Temporal off, no history flag, or a camera move that disoccludes: the history restarts.
+    #[test]
+    fn history_restarts_without_temporal_or_a_match() {
+        let c = camera();
+        let g = wall(&c, |_, _| false);
+        let n = (W * H) as usize;
+        let centre = (12 * W + 16) as usize;
+        let input = vec![[1.0, 1.0, 1.0, 1.0]; n];
+        for flags in [
+            FLAG_HISTORY,
+            FLAG_DENOISER_TEMPORAL,
+            FLAG_DENOISER_TEMPORAL | FLAG_HISTORY,
+        ] {
+            let f = frame(flags);
+            let mut b = Buffers::new();
+            for _ in 0..10 {
+                b = step(&f, &c, &g, &input, &b);
+            }
+            let expected = if flags == FLAG_DENOISER_TEMPORAL | FLAG_HISTORY {
+                10.0
+            } else {
+                1.0
+            };
+            assert!(
+                (b.history[centre][3] - expected).abs() < 1e-4,
+                "flags {flags}"
+            );
+        }
+        // The eye moves 3 units toward the wall (the same depths: a new surface 3 units in front
+        // of the old one, more than the 1.35 tolerance): nothing is accepted.
+        let f = frame(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY);
+        let mut b = Buffers::new();
+        for _ in 0..10 {
+            b = step(&f, &c, &g, &input, &b);
+        }
+        let mut near = c;
+        near.position = [0.0, 0.0, 2.0];
+        near.view_proj = view_projection(&near);
+        near.previous_view_proj = c.view_proj;
+        let f_near = GiFrameParams {
+            eye: [0.0, 0.0, 2.0],
+            ..f
+        };
+        let b2 = step(&f_near, &near, &g, &input, &b);
+        assert_eq!(b2.history[centre][3], 1.0);
+        assert_eq!(b2.mask[centre], 7.0);
+    }
+
+    /// A camera that pans by a pixel finds its history through the sub-pixel taps.
+    #[test]
+    fn a_panning_camera_keeps_its_history() {
+        let c = camera();
+        let f = frame(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY);
+        let g = wall(&c, |_, _| false);
+        let n = (W * H) as usize;
+        let input = vec![[1.0, 1.0, 1.0, 1.0]; n];
+        let mut b = Buffers::new();
+        for _ in 0..10 {
+            b = step(&f, &c, &g, &input, &b);
+        }
+        // Move right by 0.7 pixels' worth at the wall.
+        let pixel_size = 2.0 * 5.0 * c.tan_half_fov_y / H as f32;
+        let mut moved = c;
+        moved.position = [0.7 * pixel_size, 0.0, 5.0];
+        moved.view_proj = view_projection(&moved);
+        moved.previous_view_proj = c.view_proj;
+        let f2 = GiFrameParams {
+            eye: moved.position,
+            ..f
+        };
+        let g2 = wall(&moved, |_, _| false);
+        let b2 = step(&f2, &moved, &g2, &input, &b);
+        let centre = (12 * W + 16) as usize;
+        assert!(
+            (b2.history[centre][3] - 11.0).abs() < 1e-3,
+            "{:?}",
+            b2.history[centre]
+        );
+        // The rightmost column came from off screen on the right: restarts.
+        let edge = (12 * W + 31) as usize;
+        assert!(b2.history[edge][3] < 11.0);
+    }
+
+    #[test]
+    fn history_taps_need_surface_and_normal() {
+        let f = GiFrameParams {
+            probe_cell_const: 0.01,
+            ..frame(0)
+        };
+        let p = Vec3::new(0.0, 0.0, 0.0);
+        // Cell 0.05 at distance 5, facing the eye: tolerance 0.05.
+        assert!(accepts_history(
+            &f,
+            p,
+            Vec3::Z,
+            surface_record(p + Vec3::X * 0.04, Vec3::Z)
+        ));
+        assert!(!accepts_history(
+            &f,
+            p,
+            Vec3::Z,
+            surface_record(p + Vec3::X * 0.06, Vec3::Z)
+        ));
+        let tilted = Vec3::new(0.4, 0.0, 1.0).normalize();
+        assert!(!accepts_history(&f, p, Vec3::Z, surface_record(p, tilted)));
+        assert!(!accepts_history(&f, p, Vec3::Z, [0.0; 4]));
+        // Grazing: up to 5 cells.
+        let grazing = Vec3::new(0.0, 1.0, 0.0);
+        assert!(accepts_history(
+            &f,
+            p,
+            grazing,
+            surface_record(p + Vec3::X * 0.2, grazing)
+        ));
+        assert!(!accepts_history(
+            &f,
+            p,
+            grazing,
+            surface_record(p + Vec3::X * 0.3, grazing)
+        ));
+        assert_eq!(history_tap_weight(Vec2::ZERO), 1.0);
+        assert!(history_tap_weight(Vec2::new(1.0, 1.0)) < 1e-6);
+        assert_eq!(history_tap_weight(Vec2::new(1.0, 1.5)), 0.0);
+        assert!((history_tap_weight(Vec2::new(0.5, 0.0)) - (1.0 - 0.5 / 2f32.sqrt())).abs() < 1e-6);
+    }
+}

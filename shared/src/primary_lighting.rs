@@ -1,0 +1,537 @@
+//! The primary hit's own lighting (DirectLight) and the final composite (ResolveGI, GI-1.0 step
+//! 26).
+//!
+//! # Each light path counted once
+//!
+//! The converged image holds every light path exactly once, split between three sources:
+//!
+//! * **Camera-visible emission** at the primary hit comes from the G-buffer
+//!   ([`crate::cache_view::primary_emission`], × the emissive multiplier). The sky the camera
+//!   sees directly is the emission of a sky pixel ([`sky_lighting`]).
+//! * **Direct light of punctual lights** (point, spot, directional: the first
+//!   `GiFrameParams::punctual_count` lights of the light buffer) comes from shadow rays at the
+//!   primary hit, in DirectLight ([`surface_lighting`]): no ray can hit a punctual light, so no
+//!   other estimator sees it. Up to [`EXACT_DIRECT_LIGHTS`] lights are summed exactly, one shadow
+//!   ray each; with more, the host sets [`FLAG_SAMPLED_DIRECT`] and one light is resampled (RIS
+//!   over `GiFrameParams::light_candidates` uniformly drawn punctual lights, one shadow ray).
+//! * **Everything else** arrives through the screen probes: emissive surfaces and the sky (which
+//!   probe rays take at full weight when they hit or miss), and all multi-bounce light (probe rays
+//!   that hit another surface read the world cache, which lights secondary hits with every
+//!   light, punctual ones included, and feeds back the previous image).
+//!
+//! ResolveGI puts them together ([`resolve_color`]): `emission + albedo / π × (GI irradiance +
+//! direct)`. Sampled direct light is noisy, so it is not added here: InterpolateScreenProbes adds
+//! it to the irradiance that the denoiser filters.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use crate::cache_view::{FeedbackTexel, PrimarySurface, finite_sample};
+use crate::color::luminance;
+use crate::lights::{GpuLight, MAX_LIGHT_CANDIDATES, punctual_incidence, sky_radiance};
+use crate::math::{INV_PI, max, max_u32, min_u32, to_u32_clamped};
+use crate::random::Random;
+use crate::ray::Ray;
+use crate::reservoir::Reservoir;
+use crate::screen_probes::{FLAG_SAMPLED_DIRECT, GiFrameParams};
+
+/// Most punctual lights DirectLight sums exactly (one shadow ray each); beyond this the host sets
+/// [`FLAG_SAMPLED_DIRECT`] and one light is resampled.
+pub const EXACT_DIRECT_LIGHTS: u32 = 16;
+
+/// What DirectLight leaves for a pixel (32 bytes), read by InterpolateScreenProbes and ResolveGI.
+///
+/// | offset | field      |
+/// |--------|------------|
+/// | 0      | `emission` |
+/// | 12     | `surface`  |
+/// | 16     | `direct`   |
+/// | 28     | `emissive` |
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PrimaryLighting {
+    /// Radiance toward the camera: the surface's emission, or the sky's along the camera ray for
+    /// a sky pixel.
+    pub emission: [f32; 3],
+    /// 1 when the pixel sees a surface.
+    pub surface: u32,
+    /// Irradiance from punctual lights, `Σ Li cos θ` with shadow rays (W/m²): exact, or a
+    /// resampled estimate under [`FLAG_SAMPLED_DIRECT`].
+    pub direct: [f32; 3],
+    /// 1 when the surface emits toward the camera: the pixel is then no source of temporal
+    /// radiance feedback (a neighbouring hit that reprojects onto it would take its emission).
+    pub emissive: u32,
+}
+
+impl PrimaryLighting {
+    /// Emission (or sky) radiance.
+    #[inline]
+    pub fn emission(&self) -> Vec3 {
+        Vec3::from_array(self.emission)
+    }
+
+    /// Direct irradiance of punctual lights.
+    #[inline]
+    pub fn direct(&self) -> Vec3 {
+        Vec3::from_array(self.direct)
+    }
+}
+
+/// Whether `punctual_count` punctual lights are too many to sum: the host sets
+/// [`FLAG_SAMPLED_DIRECT`] when this holds.
+#[inline]
+pub fn samples_direct_light(punctual_count: u32) -> bool {
+    punctual_count > EXACT_DIRECT_LIGHTS
+}
+
+/// One punctual light seen from a primary surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PunctualTerm {
+    /// Unshadowed `Li cos θ` (W/m²): the light's irradiance times the cosine with the shading
+    /// normal; zero when the light lies behind the geometric normal's side.
+    pub irradiance: Vec3,
+    /// The shadow ray toward the light (untraceable when `irradiance` is zero).
+    pub ray: Ray,
+}
+
+/// The unshadowed irradiance of the punctual light `light` at `surface` and its shadow ray (from
+/// the offset surface point to the light; infinite for a directional light). The light must lie
+/// on the geometric normal's side; the cosine is taken with the shading normal.
+#[inline]
+pub fn punctual_term(light: &GpuLight, surface: &PrimarySurface) -> PunctualTerm {
+    let incidence = punctual_incidence(light, surface.position);
+    let l = incidence.direction;
+    let cos_geometric = surface.geometric_normal.dot(l);
+    let cos_shading = max(surface.shading_normal.dot(l), 0.0);
+    let e = finite_sample(incidence.irradiance * cos_shading);
+    let usable = surface.valid && cos_geometric > 0.0 && e.max_element() > 0.0;
+    PunctualTerm {
+        irradiance: if usable { e } else { Vec3::ZERO },
+        ray: Ray {
+            origin: surface.position.to_array(),
+            t_min: 0.0,
+            direction: l.to_array(),
+            t_max: if usable { incidence.distance } else { -1.0 },
+        },
+    }
+}
+
+/// The exact direct irradiance of the first `count` punctual lights at `surface`: the sum of
+/// [`punctual_term`] over those whose shadow ray `occluded` says is free.
+#[inline]
+pub fn exact_direct_light<F: FnMut(&Ray) -> bool>(
+    surface: &PrimarySurface,
+    lights: &[GpuLight],
+    count: u32,
+    occluded: &mut F,
+) -> Vec3 {
+    let n = min_u32(count, lights.len() as u32);
+    let mut sum = Vec3::ZERO;
+    let mut i = 0;
+    while i < n {
+        let light = lights[i as usize];
+        let term = punctual_term(&light, surface);
+        if term.irradiance.max_element() > 0.0 && !occluded(&term.ray) {
+            sum += term.irradiance;
+        }
+        i += 1;
+    }
+    sum
+}
+
+/// A resampled punctual light: which, its unshadowed term and its contribution weight `W`, so
+/// that `irradiance × W` (when the shadow ray is free) estimates the exact sum.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResampledLight {
+    /// The light chosen.
+    pub light: u32,
+    /// Its unshadowed term.
+    pub term: PunctualTerm,
+    /// RIS contribution weight (0 when no candidate could light the surface).
+    pub weight: f32,
+}
+
+/// RIS over `candidates` (1 to [`MAX_LIGHT_CANDIDATES`]) punctual lights drawn uniformly from the
+/// first `count` (source density `1 / count`), target `luminance(Li cos θ)` unshadowed; one light
+/// kept.
+#[inline]
+pub fn resample_punctual_light(
+    surface: &PrimarySurface,
+    lights: &[GpuLight],
+    count: u32,
+    candidates: u32,
+    rng: &mut Random,
+) -> ResampledLight {
+    let n = min_u32(count, lights.len() as u32);
+    let mut out = ResampledLight {
+        light: 0,
+        term: PunctualTerm {
+            irradiance: Vec3::ZERO,
+            ray: Ray {
+                origin: surface.position.to_array(),
+                t_min: 0.0,
+                direction: [0.0; 3],
+                t_max: -1.0,
+            },
+        },
+        weight: 0.0,
+    };
+    if n == 0 || !surface.valid {
+        return out;
+    }
+    let m = min_u32(max_u32(candidates, 1), MAX_LIGHT_CANDIDATES);
+    let mut reservoir = Reservoir::EMPTY;
+    let mut i = 0;
+    while i < m {
+        let index = min_u32(to_u32_clamped(rng.next_f32() * n as f32), n - 1);
+        let light = lights[index as usize];
+        let target = luminance(punctual_term(&light, surface).irradiance);
+        // Resampling weight p̂ / p with p = 1 / n.
+        reservoir.update(index, target * n as f32, rng.next_f32());
+        i += 1;
+    }
+    let light = lights[reservoir.sample as usize];
+    let term = punctual_term(&light, surface);
+    reservoir.finalize(luminance(term.irradiance));
+    out.light = reservoir.sample;
+    out.term = term;
+    out.weight = reservoir.ucw;
+    out
+}
+
+/// The resampled estimate of the punctual lights' direct irradiance: [`resample_punctual_light`]
+/// and its one shadow ray.
+#[inline]
+pub fn sampled_direct_light<F: FnMut(&Ray) -> bool>(
+    surface: &PrimarySurface,
+    lights: &[GpuLight],
+    count: u32,
+    candidates: u32,
+    rng: &mut Random,
+    occluded: &mut F,
+) -> Vec3 {
+    let s = resample_punctual_light(surface, lights, count, candidates, rng);
+    if s.weight > 0.0 && s.term.irradiance.max_element() > 0.0 && !occluded(&s.term.ray) {
+        finite_sample(s.term.irradiance * s.weight)
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// DirectLight for a sky pixel: the sky's radiance along the (unit) camera ray `direction`.
+#[inline]
+pub fn sky_lighting(
+    frame: &GiFrameParams,
+    environment: &[[f32; 4]],
+    direction: Vec3,
+) -> PrimaryLighting {
+    PrimaryLighting {
+        emission: finite_sample(sky_radiance(
+            frame.environment_size,
+            frame.sky,
+            environment,
+            direction,
+        ))
+        .to_array(),
+        ..Default::default()
+    }
+}
+
+/// DirectLight for a surface pixel: its `emission` toward the camera (already × the multiplier)
+/// and the punctual lights' direct irradiance, exact or (under [`FLAG_SAMPLED_DIRECT`]) resampled
+/// from `rng`; `occluded` traces a shadow ray.
+#[inline]
+pub fn surface_lighting<F: FnMut(&Ray) -> bool>(
+    frame: &GiFrameParams,
+    surface: &PrimarySurface,
+    emission: Vec3,
+    lights: &[GpuLight],
+    rng: &mut Random,
+    mut occluded: F,
+) -> PrimaryLighting {
+    if !surface.valid {
+        return PrimaryLighting::default();
+    }
+    let emission = finite_sample(emission);
+    let direct = if frame.has(FLAG_SAMPLED_DIRECT) {
+        sampled_direct_light(
+            surface,
+            lights,
+            frame.punctual_count,
+            frame.light_candidates,
+            rng,
+            &mut occluded,
+        )
+    } else {
+        exact_direct_light(surface, lights, frame.punctual_count, &mut occluded)
+    };
+    PrimaryLighting {
+        emission: emission.to_array(),
+        surface: 1,
+        direct: direct.to_array(),
+        emissive: if emission.max_element() > 0.0 { 1 } else { 0 },
+    }
+}
+
+/// ResolveGI's colour of a pixel (linear HDR radiance): `emission + albedo / π × (irradiance +
+/// direct)`, `direct` only when it was summed exactly (not [`FLAG_SAMPLED_DIRECT`], where it is in
+/// `irradiance` already). `irradiance` is the denoised GI `[r, g, b, hint]`. Non-finite or
+/// negative terms count as black; a sky pixel is its emission.
+#[inline]
+pub fn resolve_color(
+    frame: &GiFrameParams,
+    lighting: &PrimaryLighting,
+    albedo: Vec3,
+    irradiance: [f32; 4],
+) -> Vec3 {
+    let emission = finite_sample(lighting.emission());
+    if lighting.surface == 0 {
+        return emission;
+    }
+    let mut e = finite_sample(Vec3::new(irradiance[0], irradiance[1], irradiance[2]));
+    if !frame.has(FLAG_SAMPLED_DIRECT) {
+        e += finite_sample(lighting.direct());
+    }
+    emission + finite_sample(albedo) * INV_PI * e
+}
+
+/// The feedback texel a pixel leaves for the next frame's temporal radiance feedback: its colour,
+/// linear depth and geometric normal; a source only where it sees a surface that does not emit.
+/// Sky: all zero.
+#[inline]
+pub fn resolve_feedback(
+    lighting: &PrimaryLighting,
+    color: Vec3,
+    depth: f32,
+    geometric_normal: Vec3,
+) -> FeedbackTexel {
+    if lighting.surface == 0 || depth <= 0.0 {
+        return FeedbackTexel::default();
+    }
+    FeedbackTexel {
+        radiance: finite_sample(color).to_array(),
+        depth,
+        normal: geometric_normal.to_array(),
+        valid: if lighting.emissive == 0 { 1 } else { 0 },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::PI;
+    use core::mem::{offset_of, size_of};
+
+    #[test]
+    fn layout() {
+        assert_eq!(size_of::<PrimaryLighting>(), 32);
+        assert_eq!(offset_of!(PrimaryLighting, surface), 12);
+        assert_eq!(offset_of!(PrimaryLighting, direct), 16);
+        assert_eq!(offset_of!(PrimaryLighting, emissive), 28);
+    }
+
+    /// A surface at the origin of the plane z = 0, normal +z.
+    fn plane() -> PrimarySurface {
+        PrimarySurface {
+            position: Vec3::ZERO,
+            geometric_normal: Vec3::Z,
+            shading_normal: Vec3::Z,
+            valid: true,
+        }
+    }
+
+    #[test]
+    fn a_point_light_above_a_plane_gives_i_cos_over_d_squared() {
+        let s = plane();
+        let p = Vec3::new(1.0, 0.5, 2.0);
+        let light = GpuLight::point(p, Vec3::new(8.0, 4.0, 2.0));
+        let t = punctual_term(&light, &s);
+        let d2 = p.length_squared();
+        let cos = p.z / p.length();
+        let exact = Vec3::new(8.0, 4.0, 2.0) * cos / d2;
+        assert!(
+            (t.irradiance - exact).abs().max_element() < 1e-6,
+            "{}",
+            t.irradiance
+        );
+        assert!((Vec3::from_array(t.ray.direction) - p.normalize()).length() < 1e-6);
+        assert!((t.ray.t_max - p.length()).abs() < 1e-5);
+        // Below the plane: nothing, and no ray to trace.
+        let below = GpuLight::point(Vec3::new(0.0, 0.0, -1.0), Vec3::ONE);
+        let t = punctual_term(&below, &s);
+        assert_eq!(t.irradiance, Vec3::ZERO);
+        assert!(!t.ray.is_traceable());
+        // A shading normal tilted away still needs the light on the geometric side.
+        let tilted = PrimarySurface {
+            shading_normal: Vec3::new(0.6, 0.0, 0.8),
+            ..s
+        };
+        let side = GpuLight::point(Vec3::new(-1.0, 0.0, 0.0), Vec3::ONE);
+        assert_eq!(punctual_term(&side, &tilted).irradiance, Vec3::ZERO);
+        // A directional light shining straight down: its irradiance, an infinite ray.
+        let sun = GpuLight::directional(Vec3::NEG_Z, Vec3::splat(3.0));
+        let t = punctual_term(&sun, &s);
+        assert!((t.irradiance - Vec3::splat(3.0)).length() < 1e-6);
+        assert_eq!(t.ray.t_max, f32::INFINITY);
+    }
+
+    #[test]
+    fn exact_sum_honours_shadow_rays() {
+        let s = plane();
+        let lights = [
+            GpuLight::point(Vec3::new(0.0, 0.0, 1.0), Vec3::splat(1.0)),
+            GpuLight::point(Vec3::new(0.0, 0.0, 2.0), Vec3::splat(4.0)),
+            GpuLight::directional(Vec3::NEG_Z, Vec3::splat(2.0)),
+        ];
+        let mut none = |_: &Ray| false;
+        let e = exact_direct_light(&s, &lights, 3, &mut none);
+        assert!((e - Vec3::splat(4.0)).abs().max_element() < 1e-5, "{e}");
+        // Occlude the directional light (infinite ray).
+        let mut sun_blocked = |r: &Ray| r.t_max == f32::INFINITY;
+        let e = exact_direct_light(&s, &lights, 3, &mut sun_blocked);
+        assert!((e - Vec3::splat(2.0)).abs().max_element() < 1e-5, "{e}");
+        // Only the punctual prefix counts.
+        let e = exact_direct_light(&s, &lights, 1, &mut none);
+        assert!((e - Vec3::ONE).abs().max_element() < 1e-5);
+        // A count beyond the buffer is clamped.
+        let e = exact_direct_light(&s, &lights, 40, &mut none);
+        assert!((e - Vec3::splat(4.0)).abs().max_element() < 1e-5);
+    }
+
+    /// RIS over many lights is unbiased and its single sample follows the target.
+    #[test]
+    fn resampled_direct_light_is_unbiased() {
+        let s = plane();
+        let mut lights = Vec::new();
+        for i in 0..40 {
+            let x = (i % 8) as f32 - 3.5;
+            let y = (i / 8) as f32 - 2.0;
+            let intensity = Vec3::new(1.0 + (i % 3) as f32, 2.0, 0.5 * (i % 5) as f32);
+            lights.push(GpuLight::point(Vec3::new(x, y, 1.5), intensity));
+        }
+        // One light below the plane: never useful.
+        lights.push(GpuLight::point(
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::splat(100.0),
+        ));
+        let count = lights.len() as u32;
+        let mut none = |_: &Ray| false;
+        let exact = exact_direct_light(&s, &lights, count, &mut none);
+        let n = 40_000;
+        let mut sum = glam::DVec3::ZERO;
+        let mut rng = Random::new(5, 0);
+        for _ in 0..n {
+            let e = sampled_direct_light(&s, &lights, count, 8, &mut rng, &mut none);
+            sum += e.as_dvec3();
+        }
+        let mean = sum / f64::from(n);
+        let rel = (mean - exact.as_dvec3()).abs() / exact.as_dvec3();
+        assert!(rel.max_element() < 0.01, "{mean} vs {exact}");
+        // The light below is never picked.
+        let mut rng = Random::new(6, 0);
+        for _ in 0..1000 {
+            let r = resample_punctual_light(&s, &lights, count, 8, &mut rng);
+            assert_ne!(r.light, count - 1);
+            assert!(r.weight > 0.0);
+        }
+        // Nothing to sample: zero.
+        let mut rng = Random::new(7, 0);
+        assert_eq!(
+            sampled_direct_light(&s, &lights[40..], 1, 8, &mut rng, &mut none),
+            Vec3::ZERO
+        );
+        assert_eq!(
+            sampled_direct_light(&s, &lights, 0, 8, &mut rng, &mut none),
+            Vec3::ZERO
+        );
+    }
+
+    #[test]
+    fn surface_lighting_switches_between_exact_and_sampled() {
+        let s = plane();
+        let lights = [GpuLight::point(Vec3::new(0.0, 0.0, 2.0), Vec3::splat(4.0))];
+        let mut frame = GiFrameParams {
+            punctual_count: 1,
+            light_candidates: 4,
+            ..Default::default()
+        };
+        let mut rng = Random::new(1, 0);
+        let l = surface_lighting(&frame, &s, Vec3::ZERO, &lights, &mut rng, |_| false);
+        assert_eq!(l.surface, 1);
+        assert_eq!(l.emissive, 0);
+        assert!((l.direct() - Vec3::ONE).length() < 1e-5);
+        // One light sampled: the estimate is exact.
+        frame.flags = FLAG_SAMPLED_DIRECT;
+        let l = surface_lighting(&frame, &s, Vec3::X, &lights, &mut rng, |_| false);
+        assert!((l.direct() - Vec3::ONE).length() < 1e-5);
+        assert_eq!(l.emissive, 1);
+        assert_eq!(l.emission(), Vec3::X);
+        // Shadowed.
+        let l = surface_lighting(&frame, &s, Vec3::ZERO, &lights, &mut rng, |_| true);
+        assert_eq!(l.direct(), Vec3::ZERO);
+        // Not a surface.
+        let sky = PrimarySurface { valid: false, ..s };
+        let l = surface_lighting(&frame, &sky, Vec3::ONE, &lights, &mut rng, |_| false);
+        assert_eq!(l, PrimaryLighting::default());
+        assert!(samples_direct_light(EXACT_DIRECT_LIGHTS + 1));
+        assert!(!samples_direct_light(EXACT_DIRECT_LIGHTS));
+    }
+
+    #[test]
+    fn resolve_adds_each_term_once() {
+        let mut frame = GiFrameParams::default();
+        let lighting = PrimaryLighting {
+            emission: [0.5, 0.0, 0.0],
+            surface: 1,
+            direct: [PI, PI, PI],
+            emissive: 1,
+        };
+        let albedo = Vec3::new(0.5, 1.0, 0.0);
+        let gi = [PI, 2.0 * PI, 0.0, 1.0];
+        let c = resolve_color(&frame, &lighting, albedo, gi);
+        // emission + albedo × (1 + [1, 2, 0]).
+        assert!((c - Vec3::new(0.5 + 1.0, 3.0, 0.0)).length() < 1e-5, "{c}");
+        // Sampled direct light is already in the irradiance.
+        frame.flags = FLAG_SAMPLED_DIRECT;
+        let c = resolve_color(&frame, &lighting, albedo, gi);
+        assert!((c - Vec3::new(0.5 + 0.5, 2.0, 0.0)).length() < 1e-5, "{c}");
+        // Non-finite terms are black.
+        let c = resolve_color(&frame, &lighting, albedo, [f32::NAN, 1.0, 1.0, 1.0]);
+        assert_eq!(c, Vec3::new(0.5, 0.0, 0.0));
+        // Sky: emission only, whatever the irradiance says.
+        let sky = PrimaryLighting {
+            emission: [1.0, 2.0, 3.0],
+            ..Default::default()
+        };
+        assert_eq!(
+            resolve_color(&frame, &sky, albedo, gi),
+            Vec3::new(1.0, 2.0, 3.0)
+        );
+        // Feedback: emitters and sky are no source.
+        let f = resolve_feedback(&lighting, c, 2.0, Vec3::Z);
+        assert_eq!((f.valid, f.depth), (0, 2.0));
+        let plain = PrimaryLighting {
+            emissive: 0,
+            ..lighting
+        };
+        let f = resolve_feedback(&plain, Vec3::ONE, 2.0, Vec3::Z);
+        assert_eq!(f.valid, 1);
+        assert_eq!(f.radiance, [1.0; 3]);
+        assert_eq!(f.normal, [0.0, 0.0, 1.0]);
+        assert_eq!(
+            resolve_feedback(&sky, Vec3::ONE, 0.0, Vec3::Z),
+            FeedbackTexel::default()
+        );
+    }
+
+    #[test]
+    fn sky_pixels_see_the_sky() {
+        let frame = GiFrameParams {
+            sky: [0.25, 0.5, 1.0],
+            ..Default::default()
+        };
+        let l = sky_lighting(&frame, &[], Vec3::Y);
+        assert_eq!(l.emission(), Vec3::new(0.25, 0.5, 1.0));
+        assert_eq!((l.surface, l.emissive), (0, 0));
+    }
+}

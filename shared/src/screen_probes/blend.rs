@@ -1,0 +1,270 @@
+//! BlendScreenProbes: a spawned probe's 64 ray results binned into its cells, blended with its
+//! history hemisphere and written, with its record and mask word, into its probe tile.
+//!
+//! One workgroup of 64 lanes per spawned probe; phases, with a barrier after each (the kernel and
+//! [`blend_workgroup`] run the same functions in the same order):
+//! 1. lane = ray: [`ray_source`] loads the ray's cell and `[radiance, hit distance]` into
+//!    workgroup memory (a ray with non-finite or negative radiance, or one not traced, is
+//!    dropped);
+//! 2. lane = cell: `hemisphere::gather_mapped` averages the rays that landed in the cell and
+//!    [`blend_cell`] blends it with the history cell (hysteresis, [`FLAG_HYSTERESIS`]) or keeps
+//!    the history cell where no ray landed;
+//! 3. lane = cell: [`finish_cell`] fills a cell still empty with the radiance backup
+//!    ([`FLAG_RADIANCE_BACKUP`]) and the lane writes it to the probe tile's atlas cell; lane 0
+//!    writes the record ([`spawned_record`]) and the mask's mip-0 word (the seed).
+//!
+//! The ray radiance is not quantised: workgroup memory holds plain floats and each cell sums its
+//! rays in lane order (the reference bins with fixed-point atomics, ×1e4).
+
+#[cfg(not(target_arch = "spirv"))]
+use super::hemisphere::gather_mapped;
+use super::radiance_backup::radiance_backup;
+use glam::{UVec2, Vec3, Vec4};
+
+use super::hemisphere::UNMAPPED;
+use super::hysteresis::apply_hysteresis;
+use super::radiance_backup::with_backup;
+use super::ray_guiding::CELLS;
+use super::{
+    EMPTY, FLAG_HYSTERESIS, FLAG_RADIANCE_BACKUP, GiFrameParams, PROBE_CELLS, ProbeRay,
+    ProbeRecord, cell_is_filled, cell_radiance, make_cell,
+};
+use crate::cache_view::{CacheViewPixel, primary_surface};
+use crate::camera::CameraParams;
+use crate::packing::{pack_seed, pack_snorm10x3, unpack_seed};
+
+/// The record of the probe spawned at packed seed `seed`, from the seed pixel's G-buffer linear
+/// `depth` and geometric normal (also used as the shading normal): its surface point (offset off
+/// the surface, where its rays start), its packed normal, its seed, its depth and age 0.
+/// [`ProbeRecord::NONE`] when the seed pixel sees no surface.
+///
+/// SampleScreenProbes and BlendScreenProbes both take the probe's hemisphere from this record
+/// (`hemisphere::record_frame`), so the cells mean the same directions as in every later pass.
+#[inline]
+pub fn spawned_record(
+    camera: &CameraParams,
+    seed: u32,
+    depth: f32,
+    geometric_normal: Vec4,
+) -> ProbeRecord {
+    let pixel: UVec2 = unpack_seed(seed);
+    let surface = primary_surface(camera, pixel, depth, geometric_normal, geometric_normal);
+    if !surface.valid {
+        return ProbeRecord::NONE;
+    }
+    ProbeRecord {
+        position: surface.position.to_array(),
+        normal: pack_snorm10x3(surface.geometric_normal),
+        seed: pack_seed(pixel),
+        depth,
+        age: 0,
+        _pad: 0,
+    }
+}
+
+/// Whether every component of a ray's radiance is finite and not negative.
+#[inline]
+fn usable_radiance(r: Vec3) -> bool {
+    r.is_finite() && r.x >= 0.0 && r.y >= 0.0 && r.z >= 0.0
+}
+
+/// Phase 1, lane = ray: the cell the ray sampled and `[radiance, hit distance]`, or
+/// ([`UNMAPPED`], [`EMPTY`]) for a ray to drop: not traced (zero direction), a cell out of range,
+/// non-finite or negative radiance, or a negative or NaN hit distance.
+#[inline]
+pub fn ray_source(ray: ProbeRay, record: CacheViewPixel) -> (u32, [f32; 4]) {
+    let radiance = Vec3::from_array(record.ray_radiance);
+    let traced = Vec3::from_array(ray.direction) != Vec3::ZERO;
+    if traced && ray.cell < PROBE_CELLS && usable_radiance(radiance) && ray.hit_distance >= 0.0 {
+        (ray.cell, make_cell(radiance, ray.hit_distance))
+    } else {
+        (UNMAPPED, EMPTY)
+    }
+}
+
+/// Phase 2, lane = cell: `new` (the mean of the cell's rays, [`EMPTY`] when none landed) against
+/// the `history` cell. Both filled: `new`'s radiance under the hysteresis (with
+/// [`FLAG_HYSTERESIS`]; else `new` as is) and `new`'s hit distance. Only one filled: that one.
+#[inline]
+pub fn blend_cell(params: &GiFrameParams, new: [f32; 4], history: [f32; 4]) -> [f32; 4] {
+    if !cell_is_filled(new) {
+        return if cell_is_filled(history) {
+            history
+        } else {
+            EMPTY
+        };
+    }
+    if cell_is_filled(history) && params.has(FLAG_HYSTERESIS) {
+        let blended = apply_hysteresis(cell_radiance(new), cell_radiance(history));
+        return make_cell(blended, new[3]);
+    }
+    new
+}
+
+/// Phase 3, lane = cell: the cell (`blended[cell]`) to write, a cell still empty taking the
+/// radiance backup (`radiance_backup`) of the 64 `blended` cells with [`FLAG_RADIANCE_BACKUP`].
+#[inline]
+pub fn finish_cell(
+    params: &GiFrameParams,
+    cell: [f32; 4],
+    blended: &[[f32; 4]; CELLS],
+) -> [f32; 4] {
+    if cell_is_filled(cell) || !params.has(FLAG_RADIANCE_BACKUP) {
+        cell
+    } else {
+        with_backup(cell, radiance_backup(blended))
+    }
+}
+
+/// The CPU model of one BlendScreenProbes workgroup: the probe's 64 atlas cells from its rays,
+/// their per-ray records (`ray_records[spawn × 64 + lane]`) and its history cells. Runs the
+/// kernel's phases in order, each over the lanes in lane order.
+#[cfg(not(target_arch = "spirv"))]
+pub fn blend_workgroup(
+    params: &GiFrameParams,
+    rays: &[ProbeRay],
+    ray_records: &[CacheViewPixel],
+    history: &[[f32; 4]],
+) -> [[f32; 4]; CELLS] {
+    let mut mapped = [UNMAPPED; CELLS];
+    let mut cells = [EMPTY; CELLS];
+    for lane in 0..CELLS {
+        if lane < rays.len() && lane < ray_records.len() {
+            (mapped[lane], cells[lane]) = ray_source(rays[lane], ray_records[lane]);
+        }
+    }
+    let mut blended = [EMPTY; CELLS];
+    for lane in 0..CELLS {
+        let new = gather_mapped(&mapped, &cells, lane as u32);
+        let h = if lane < history.len() {
+            history[lane]
+        } else {
+            EMPTY
+        };
+        blended[lane] = blend_cell(params, new, h);
+    }
+    let mut out = [EMPTY; CELLS];
+    for lane in 0..CELLS {
+        out[lane] = finish_cell(params, blended[lane], &blended);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::screen_probes::{FLAG_HISTORY, MISS_DISTANCE};
+
+    fn ray(cell: u32, hit_distance: f32) -> ProbeRay {
+        ProbeRay {
+            direction: [0.0, 0.0, 1.0],
+            cell,
+            hit_distance,
+            _pad: [0; 3],
+        }
+    }
+
+    fn radiance(r: f32) -> CacheViewPixel {
+        CacheViewPixel {
+            ray_radiance: [r, r * 0.5, r * 0.25],
+            ..Default::default()
+        }
+    }
+
+    fn params(flags: u32) -> GiFrameParams {
+        GiFrameParams {
+            flags,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn rays_are_binned_into_their_cells() {
+        // Lanes 0..4 all sampled cell 10; lane 4 sampled cell 3 and carries a NaN; lane 5 a
+        // negative value; lane 6 was not traced; the rest sampled their own cell.
+        let mut rays = [ray(0, 1.0); 64];
+        let mut records = [radiance(0.0); 64];
+        for lane in 0..64u32 {
+            rays[lane as usize] = ray(lane, 2.0 + lane as f32);
+            records[lane as usize] = radiance(lane as f32);
+        }
+        for (lane, r) in rays.iter_mut().enumerate().take(4) {
+            *r = ray(10, 4.0 * lane as f32);
+        }
+        rays[4] = ray(3, 1.0);
+        records[4].ray_radiance[1] = f32::NAN;
+        records[5].ray_radiance[2] = -1.0;
+        rays[6].direction = [0.0; 3];
+        let history = [EMPTY; 64];
+        let out = blend_workgroup(&params(0), &rays, &records, &history);
+        // Cell 10: its own ray (lane 10) and lanes 0..4: radiance mean of 0, 1, 2, 3, 10.
+        let mean = (0.0 + 1.0 + 2.0 + 3.0 + 10.0) / 5.0;
+        let expected = make_cell(
+            Vec3::new(1.0, 0.5, 0.25) * mean,
+            (0.0 + 4.0 + 8.0 + 12.0 + 12.0) / 5.0,
+        );
+        for k in 0..4 {
+            assert!(
+                (out[10][k] - expected[k]).abs() < 1e-5,
+                "{:?} vs {expected:?}",
+                out[10]
+            );
+        }
+        // Cells 0..=3 lost their rays to cell 10 (lane 4's NaN in cell 3 is dropped); cells 4, 5
+        // and 6 lost theirs to cell 3, the negative value and the untraced ray.
+        for (c, cell) in out.iter().enumerate().take(7) {
+            assert_eq!(*cell, EMPTY, "cell {c}");
+        }
+        assert_eq!(out[40], make_cell(Vec3::new(40.0, 20.0, 10.0), 42.0));
+        // With the backup, the empty cells take the mean of the filled ones at the sky's distance.
+        let out = blend_workgroup(&params(FLAG_RADIANCE_BACKUP), &rays, &records, &history);
+        assert_eq!(out[0][3], MISS_DISTANCE);
+        assert_eq!(out[0], out[6]);
+        assert!(out.iter().all(|&c| cell_is_filled(c)));
+    }
+
+    #[test]
+    fn history_fills_unreached_cells_and_damps_fireflies() {
+        let mut rays = [ray(0, 1.0); 64];
+        let mut records = [radiance(1.0); 64];
+        for lane in 0..64u32 {
+            rays[lane as usize] = ray(lane, 1.0);
+        }
+        // Cell 7 gets no ray (lane 7 went to cell 8); cell 9 a firefly; cell 11 a shadow.
+        rays[7] = ray(8, 1.0);
+        records[9] = radiance(1000.0);
+        records[11] = radiance(0.01);
+        let history = [make_cell(Vec3::new(1.0, 0.5, 0.25), 3.0); 64];
+        let flags = FLAG_HISTORY | FLAG_HYSTERESIS;
+        let out = blend_workgroup(&params(flags), &rays, &records, &history);
+        assert_eq!(out[7], history[7]);
+        // The firefly is pulled 0.95² of the way back to the history; its distance is the ray's.
+        let expected = 1000.0 + (1.0 - 1000.0) * 0.9025;
+        assert!((out[9][0] - expected).abs() < 1e-2, "{:?}", out[9]);
+        assert_eq!(out[9][3], 1.0);
+        // The shadow passes unchanged.
+        assert_eq!(out[11], make_cell(Vec3::new(0.01, 0.005, 0.0025), 1.0));
+        // Without hysteresis the firefly stays.
+        let out = blend_workgroup(&params(FLAG_HISTORY), &rays, &records, &history);
+        assert_eq!(out[9][0], 1000.0);
+    }
+
+    #[test]
+    fn a_record_needs_a_surface() {
+        let camera = CameraParams::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 1.0, 32, 32);
+        let seed = pack_seed(UVec2::new(16, 16));
+        let n = Vec4::new(0.0, 0.0, 1.0, 1.0);
+        let r = spawned_record(&camera, seed, 5.0, n);
+        assert!(r.is_valid());
+        assert_eq!(r.seed, seed);
+        assert_eq!(r.depth, 5.0);
+        assert!((r.world_position().z + 5.0).abs() < 1e-3, "{r:?}");
+        assert!(r.world_position().truncate().length() < 0.2);
+        assert!((r.world_normal() - Vec3::Z).length() < 1e-3);
+        assert_eq!(spawned_record(&camera, seed, 0.0, n), ProbeRecord::NONE);
+        assert_eq!(
+            spawned_record(&camera, seed, 5.0, Vec4::ZERO),
+            ProbeRecord::NONE
+        );
+    }
+}

@@ -1,0 +1,737 @@
+//! InterpolateScreenProbes (GI-1.0 step 21): each pixel's irradiance from at most four screen
+//! probes' SH.
+//!
+//! 1. **Lookup pixel** ([`jitter_candidate`], [`accepts_jitter`]): with
+//!    [`FLAG_INTERPOLATION_JITTER`], the pixel is moved by blue noise by up to
+//!    [`INTERPOLATION_JITTER_PIXELS`] (two probe tiles) each way, and the move is kept only when
+//!    the moved pixel's surface lies within [`JITTER_PLANE_TOLERANCE`] × the probe cell size of
+//!    the pixel's plane; the jitter turns the probe grid's blockiness into noise the denoiser
+//!    removes.
+//! 2. **Probes** ([`gather_probes`]): the lookup pixel's probe tile in the mask's mip 0, or the
+//!    first seed going coarser through the mip chain ([`closest_probe_seed`]); then the mip-0
+//!    probes of the tiles beside the closest probe's toward ±x, ±y and the diagonal, the side
+//!    chosen by where the lookup pixel lies relative to that probe's seed. Duplicates removed, at
+//!    most [`MAX_INTERPOLATION_PROBES`].
+//! 3. **Weights** ([`probe_weight`]): `[saturate(1 − |Δ depth| / depth) × max(N · N_probe, 0)]^8`,
+//!    zero for a probe farther than one probe cell size from the pixel's plane. All zero: with
+//!    [`FLAG_RELAXED_FALLBACK`] equal weights and hint [`HINT_RELAXED`], else no irradiance.
+//! 4. **Irradiance**: the weighted mean of the probes' SH irradiance (cosine lobe) at the pixel's
+//!    shading normal, clamped to finite non-negative values; under [`FLAG_SAMPLED_DIRECT`] the
+//!    pixel's resampled direct light joins it (so that the denoiser filters its noise).
+//!
+//! Output per pixel `[r, g, b, hint]`: hint [`HINT_WEIGHTED`] when the weights were used,
+//! [`HINT_RELAXED`] for the relaxed fallback or no probe, [`HINT_SKY`] for sky pixels (black).
+//! The reference's bent-normal cone (SSGI ambient occlusion) and near-field SSGI term are not part
+//! of this port.
+
+use glam::{UVec2, Vec3, Vec4};
+
+use super::{
+    FLAG_INTERPOLATION_JITTER, FLAG_RELAXED_FALLBACK, FLAG_SAMPLED_DIRECT, GiFrameParams, NO_PROBE,
+    PROBE_SIZE, ProbeRecord, RELAXED_COUNT, mask_mip_offset, mask_mip_size,
+};
+use crate::atomics::AtomicWords;
+use crate::cache_view::{PrimarySurface, finite_sample, primary_surface};
+use crate::camera::CameraParams;
+use crate::math::{abs, floor_to_i32_clamped, max, saturate};
+use crate::packing::unpack_seed;
+use crate::primary_lighting::PrimaryLighting;
+use crate::random::pixel_sample;
+use crate::sh::{SH_COEFFICIENT_COUNT, ShL2Rgb};
+
+/// Largest jitter of the lookup pixel along each axis, in pixels (two probe tiles).
+pub const INTERPOLATION_JITTER_PIXELS: i32 = 16;
+/// The jittered pixel's surface must lie within this many probe cell sizes of the pixel's plane.
+pub const JITTER_PLANE_TOLERANCE: f32 = 0.5;
+/// Most probes one pixel interpolates.
+pub const MAX_INTERPOLATION_PROBES: usize = 4;
+/// Output hint: the irradiance is the weighted interpolation.
+pub const HINT_WEIGHTED: f32 = 1.0;
+/// Output hint: relaxed fallback (equal weights) or no probe at all.
+pub const HINT_RELAXED: f32 = 0.0;
+/// Output hint: a sky pixel.
+pub const HINT_SKY: f32 = -1.0;
+/// The output of a sky pixel.
+pub const SKY_IRRADIANCE: [f32; 4] = [0.0, 0.0, 0.0, HINT_SKY];
+
+/// The blue-noise offset of `pixel`'s lookup in frame `frame_index`, each component in
+/// `[-16, 16]` ([`INTERPOLATION_JITTER_PIXELS`]).
+#[inline]
+pub fn jitter_offset(pixel: UVec2, frame_index: u32) -> [i32; 2] {
+    let u = pixel_sample(pixel, frame_index);
+    let bins = (2 * INTERPOLATION_JITTER_PIXELS + 1) as f32;
+    let r = INTERPOLATION_JITTER_PIXELS;
+    [
+        floor_to_i32_clamped(u.x * bins, 0, 2 * r) - r,
+        floor_to_i32_clamped(u.y * bins, 0, 2 * r) - r,
+    ]
+}
+
+/// The jittered lookup pixel to test for `pixel`: `None` without [`FLAG_INTERPOLATION_JITTER`],
+/// for a zero offset, or when the moved pixel leaves the image.
+#[inline]
+pub fn jitter_candidate(frame: &GiFrameParams, pixel: UVec2) -> Option<UVec2> {
+    if !frame.has(FLAG_INTERPOLATION_JITTER) {
+        return None;
+    }
+    let [dx, dy] = jitter_offset(pixel, frame.frame_index);
+    let x = pixel.x as i32 + dx;
+    let y = pixel.y as i32 + dy;
+    let inside = x >= 0
+        && y >= 0
+        && (x as u32) < frame.image_size[0]
+        && (y as u32) < frame.image_size[1]
+        && (dx != 0 || dy != 0);
+    if inside {
+        Some(UVec2::new(x as u32, y as u32))
+    } else {
+        None
+    }
+}
+
+/// Whether the jittered lookup pixel's surface `candidate` may stand for `surface`: it sees a
+/// surface within [`JITTER_PLANE_TOLERANCE`] × the probe cell size (at `surface`'s distance from
+/// the eye) of `surface`'s plane.
+#[inline]
+pub fn accepts_jitter(
+    frame: &GiFrameParams,
+    surface: &PrimarySurface,
+    candidate: &PrimarySurface,
+) -> bool {
+    if !surface.valid || !candidate.valid {
+        return false;
+    }
+    let cell = frame.probe_cell_size((surface.position - Vec3::from_array(frame.eye)).length());
+    let plane = abs((candidate.position - surface.position).dot(surface.geometric_normal));
+    plane < JITTER_PLANE_TOLERANCE * cell
+}
+
+/// The mask texel of probe tile `(x, y)` in mip `mip`; [`NO_PROBE`] outside the mip or the
+/// buffer.
+#[inline]
+pub fn mask_texel(frame: &GiFrameParams, mask: &[u32], mip: u32, x: i32, y: i32) -> u32 {
+    let size = mask_mip_size(frame.probe_grid, mip);
+    if x < 0 || y < 0 || x as u32 >= size[0] || y as u32 >= size[1] {
+        return NO_PROBE;
+    }
+    let i = mask_mip_offset(frame.probe_grid, mip) + y as u32 * size[0] + x as u32;
+    if (i as usize) < mask.len() {
+        mask[i as usize]
+    } else {
+        NO_PROBE
+    }
+}
+
+/// The seed of the probe closest to probe tile `tile`: its own mip-0 texel, else the first mip,
+/// going coarser, whose texel over the tile holds a seed; [`NO_PROBE`] when none does.
+#[inline]
+pub fn closest_probe_seed(frame: &GiFrameParams, mask: &[u32], tile: UVec2) -> u32 {
+    let mut mip = 0;
+    while mip < frame.mask_mips {
+        let seed = mask_texel(
+            frame,
+            mask,
+            mip,
+            (tile.x >> mip) as i32,
+            (tile.y >> mip) as i32,
+        );
+        if seed != NO_PROBE {
+            return seed;
+        }
+        mip += 1;
+    }
+    NO_PROBE
+}
+
+/// The probes a pixel interpolates: their seeds (packed), the closest first.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProbeSet {
+    /// Packed seeds; the first `count` are valid and distinct.
+    pub seeds: [u32; MAX_INTERPOLATION_PROBES],
+    /// Number of probes.
+    pub count: u32,
+}
+
+impl ProbeSet {
+    /// No probe.
+    pub const EMPTY: Self = Self {
+        seeds: [NO_PROBE; MAX_INTERPOLATION_PROBES],
+        count: 0,
+    };
+
+    /// Adds `seed` unless it is [`NO_PROBE`], already present, or the set is full.
+    #[inline]
+    pub fn insert(&mut self, seed: u32) {
+        if seed == NO_PROBE || self.count as usize >= MAX_INTERPOLATION_PROBES {
+            return;
+        }
+        let mut i = 0;
+        while i < self.count as usize {
+            if self.seeds[i] == seed {
+                return;
+            }
+            i += 1;
+        }
+        self.seeds[self.count as usize] = seed;
+        self.count += 1;
+    }
+}
+
+/// The probes of lookup pixel `lookup`: the closest probe ([`closest_probe_seed`] of its tile)
+/// and the mip-0 probes of the three tiles beside the closest probe's tile toward the lookup
+/// pixel (along x, along y, diagonal).
+#[inline]
+pub fn gather_probes(frame: &GiFrameParams, mask: &[u32], lookup: UVec2) -> ProbeSet {
+    let mut set = ProbeSet::EMPTY;
+    let tile = lookup / PROBE_SIZE;
+    let closest = closest_probe_seed(frame, mask, tile);
+    if closest == NO_PROBE {
+        return set;
+    }
+    set.insert(closest);
+    let seed = unpack_seed(closest);
+    let tx = (seed.x / PROBE_SIZE) as i32;
+    let ty = (seed.y / PROBE_SIZE) as i32;
+    let dx = if lookup.x >= seed.x { 1 } else { -1 };
+    let dy = if lookup.y >= seed.y { 1 } else { -1 };
+    set.insert(mask_texel(frame, mask, 0, tx + dx, ty));
+    set.insert(mask_texel(frame, mask, 0, tx, ty + dy));
+    set.insert(mask_texel(frame, mask, 0, tx + dx, ty + dy));
+    set
+}
+
+/// `x⁸` by squaring (the same operations on every device).
+#[inline]
+fn pow8(x: f32) -> f32 {
+    let x2 = x * x;
+    let x4 = x2 * x2;
+    x4 * x4
+}
+
+/// The interpolation weight of `probe` for a pixel at `position` (its surface point) with linear
+/// depth `depth` and unit geometric normal `normal`:
+/// `[saturate(1 − |probe depth − depth| / depth) × max(normal · probe normal, 0)]^8`, zero when the
+/// probe lies farther than one probe cell size (at the pixel's distance from the eye) from the
+/// pixel's plane, for an invalid probe, or a non-positive depth.
+#[inline]
+pub fn probe_weight(
+    frame: &GiFrameParams,
+    position: Vec3,
+    depth: f32,
+    normal: Vec3,
+    probe: &ProbeRecord,
+) -> f32 {
+    if !probe.is_valid() || depth <= 0.0 {
+        return 0.0;
+    }
+    let cell = frame.probe_cell_size((position - Vec3::from_array(frame.eye)).length());
+    let plane = abs((probe.world_position() - position).dot(normal));
+    if plane.is_nan() || plane > cell {
+        return 0.0;
+    }
+    let depth_term = saturate(1.0 - abs(probe.depth - depth) / depth);
+    let normal_term = max(normal.dot(probe.world_normal()), 0.0);
+    let w = pow8(depth_term * normal_term);
+    if w.is_finite() { w } else { 0.0 }
+}
+
+/// Irradiance at unit `normal` of the SH of probe tile `tile` (9 entries `[r, g, b, 0]` per
+/// tile); black outside the buffer.
+#[inline]
+pub fn probe_irradiance(sh: &[[f32; 4]], tile: u32, normal: Vec3) -> Vec3 {
+    let base = tile as usize * SH_COEFFICIENT_COUNT;
+    if base + SH_COEFFICIENT_COUNT > sh.len() {
+        return Vec3::ZERO;
+    }
+    let mut probe = ShL2Rgb::ZERO;
+    let mut i = 0;
+    while i < SH_COEFFICIENT_COUNT {
+        let c = sh[base + i];
+        probe.coefficients[i] = Vec3::new(c[0], c[1], c[2]);
+        i += 1;
+    }
+    probe.irradiance(normal)
+}
+
+/// Each component clamped to `[0, ∞)`, non-finite components zero.
+#[inline]
+fn clamp_irradiance(v: Vec3) -> Vec3 {
+    let c = |x: f32| if x.is_finite() && x > 0.0 { x } else { 0.0 };
+    Vec3::new(c(v.x), c(v.y), c(v.z))
+}
+
+/// What InterpolateScreenProbes writes for one pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interpolated {
+    /// `[r, g, b, hint]`.
+    pub irradiance: [f32; 4],
+    /// Whether the relaxed fallback was taken (counted in [`RELAXED_COUNT`]).
+    pub relaxed: bool,
+}
+
+/// The interpolated irradiance of a surface pixel: `surface` (its primary surface), `depth` (its
+/// linear depth), `lookup` (the lookup pixel, jittered or itself), the current probe `records`,
+/// `mask` (mip chain) and `sh`, and `direct` (the pixel's resampled direct light, added under
+/// [`FLAG_SAMPLED_DIRECT`]).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
+#[inline]
+pub fn interpolate_pixel(
+    frame: &GiFrameParams,
+    surface: &PrimarySurface,
+    depth: f32,
+    lookup: UVec2,
+    records: &[ProbeRecord],
+    mask: &[u32],
+    sh: &[[f32; 4]],
+    direct: Vec3,
+) -> Interpolated {
+    if !surface.valid {
+        return Interpolated {
+            irradiance: SKY_IRRADIANCE,
+            relaxed: false,
+        };
+    }
+    let set = gather_probes(frame, mask, lookup);
+    let mut weighted = Vec3::ZERO;
+    let mut weight_sum = 0.0;
+    let mut equal = Vec3::ZERO;
+    let mut found = 0u32;
+    let mut i = 0;
+    while i < set.count as usize {
+        let seed = unpack_seed(set.seeds[i]);
+        let tile = frame.probe_tile_of(seed);
+        if (tile as usize) < records.len() && tile < frame.probe_count {
+            let record = records[tile as usize];
+            if record.is_valid() {
+                let e = probe_irradiance(sh, tile, surface.shading_normal);
+                let w = probe_weight(
+                    frame,
+                    surface.position,
+                    depth,
+                    surface.geometric_normal,
+                    &record,
+                );
+                weighted += e * w;
+                weight_sum += w;
+                equal += e;
+                found += 1;
+            }
+        }
+        i += 1;
+    }
+    let mut out = Interpolated {
+        irradiance: [0.0, 0.0, 0.0, HINT_RELAXED],
+        relaxed: false,
+    };
+    let mut e = Vec3::ZERO;
+    if weight_sum > 0.0 {
+        e = clamp_irradiance(weighted / weight_sum);
+        out.irradiance[3] = HINT_WEIGHTED;
+    } else if found > 0 && frame.has(FLAG_RELAXED_FALLBACK) {
+        e = clamp_irradiance(equal / found as f32);
+        out.relaxed = true;
+    }
+    if frame.has(FLAG_SAMPLED_DIRECT) {
+        e += finite_sample(direct);
+    }
+    out.irradiance[0] = e.x;
+    out.irradiance[1] = e.y;
+    out.irradiance[2] = e.z;
+    out
+}
+
+/// The whole pass on the CPU, in the kernel's steps: every pixel of the G-buffer (`depth`, the
+/// normals as the images hold them, row by row) interpolated into `irradiance`, relaxed pixels
+/// counted in `counters`.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the kernel's bindings, one argument each"
+)]
+pub fn interpolate_image<C: AtomicWords + ?Sized>(
+    frame: &GiFrameParams,
+    camera: &CameraParams,
+    depth: &[f32],
+    geometric_normal: &[Vec4],
+    shading_normal: &[Vec4],
+    records: &[ProbeRecord],
+    mask: &[u32],
+    sh: &[[f32; 4]],
+    lighting: &[PrimaryLighting],
+    irradiance: &mut [[f32; 4]],
+    counters: &mut C,
+) {
+    let [w, h] = frame.image_size;
+    let at = |p: UVec2| (p.y * w + p.x) as usize;
+    for y in 0..h {
+        for x in 0..w {
+            let pixel = UVec2::new(x, y);
+            let i = at(pixel);
+            let d = depth[i];
+            let surface = primary_surface(camera, pixel, d, geometric_normal[i], shading_normal[i]);
+            if !surface.valid {
+                irradiance[i] = SKY_IRRADIANCE;
+                continue;
+            }
+            let mut lookup = pixel;
+            if let Some(c) = jitter_candidate(frame, pixel) {
+                let j = at(c);
+                let candidate = primary_surface(
+                    camera,
+                    c,
+                    depth[j],
+                    geometric_normal[j],
+                    geometric_normal[j],
+                );
+                if accepts_jitter(frame, &surface, &candidate) {
+                    lookup = c;
+                }
+            }
+            let direct = if i < lighting.len() {
+                lighting[i].direct()
+            } else {
+                Vec3::ZERO
+            };
+            let r = interpolate_pixel(frame, &surface, d, lookup, records, mask, sh, direct);
+            irradiance[i] = r.irradiance;
+            if r.relaxed && RELAXED_COUNT < counters.word_count() {
+                counters.fetch_add(RELAXED_COUNT, 1);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{GI_COUNTER_WORDS, mask_mip_count, mask_words};
+    use super::*;
+    use crate::camera::primary_ray;
+    use crate::math::PI;
+    use crate::packing::{pack_seed, pack_snorm10x3};
+
+    const W: u32 = 32;
+    const H: u32 = 24;
+
+    fn camera() -> CameraParams {
+        CameraParams::new(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z, Vec3::Y, 0.8, W, H)
+    }
+
+    fn frame() -> GiFrameParams {
+        let probe_grid = [W.div_ceil(8), H.div_ceil(8)];
+        GiFrameParams {
+            image_size: [W, H],
+            probe_grid,
+            probe_count: probe_grid[0] * probe_grid[1],
+            mask_mips: mask_mip_count(probe_grid),
+            eye: [0.0, 0.0, 5.0],
+            // A cell of 0.05 at the wall's distance 5.
+            probe_cell_const: 0.01,
+            ..Default::default()
+        }
+    }
+
+    /// A wall at z = 0 facing the camera (every pixel at depth 5), with a box face at z = 1 over
+    /// the pixels `x >= step` when `step < W`.
+    fn gbuffer(step: u32) -> (Vec<f32>, Vec<Vec4>) {
+        let c = camera();
+        let mut depth = Vec::new();
+        for y in 0..H {
+            for x in 0..W {
+                let ray = primary_ray(&c, UVec2::new(x, y), c.jitter());
+                let d = Vec3::from_array(ray.direction);
+                let z = if x >= step { 1.0 } else { 0.0 };
+                depth.push((5.0 - z) / -d.z * d.dot(c.forward()));
+            }
+        }
+        let normals = vec![Vec4::new(0.0, 0.0, 1.0, 1.0); (W * H) as usize];
+        (depth, normals)
+    }
+
+    fn surface_at(depth: &[f32], normals: &[Vec4], p: UVec2) -> PrimarySurface {
+        let i = (p.y * W + p.x) as usize;
+        primary_surface(&camera(), p, depth[i], normals[i], normals[i])
+    }
+
+    /// Records, mask chain and SH with one probe per tile listed in `probes` (tile, seed pixel,
+    /// uniform radiance), built from the G-buffer as the probe passes would.
+    fn probes(
+        f: &GiFrameParams,
+        depth: &[f32],
+        normals: &[Vec4],
+        probes: &[(u32, UVec2, f32)],
+    ) -> (Vec<ProbeRecord>, Vec<u32>, Vec<[f32; 4]>) {
+        let mut records = vec![ProbeRecord::NONE; f.probe_count as usize];
+        let mut mask = vec![NO_PROBE; mask_words(f.probe_grid) as usize];
+        let mut sh = vec![[0.0f32; 4]; f.probe_count as usize * 9];
+        for &(tile, seed, radiance) in probes {
+            let s = surface_at(depth, normals, seed);
+            records[tile as usize] = ProbeRecord {
+                position: s.position.to_array(),
+                normal: pack_snorm10x3(s.geometric_normal),
+                seed: pack_seed(seed),
+                depth: depth[(seed.y * W + seed.x) as usize],
+                age: 0,
+                _pad: 0,
+            };
+            mask[tile as usize] = pack_seed(seed);
+            // Uniform radiance L: c0 = L · ∫ Y0 = L · 2√π, irradiance π L.
+            let c0 = radiance * 2.0 * PI.sqrt();
+            sh[tile as usize * 9] = [c0, c0, c0, 0.0];
+        }
+        // The mip chain: first valid child in the order (0,0), (1,0), (0,1), (1,1).
+        for mip in 1..f.mask_mips {
+            let size = mask_mip_size(f.probe_grid, mip);
+            let below = mask_mip_size(f.probe_grid, mip - 1);
+            for y in 0..size[1] {
+                for x in 0..size[0] {
+                    let mut v = NO_PROBE;
+                    for (cx, cy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                        let (px, py) = (2 * x + cx, 2 * y + cy);
+                        if v == NO_PROBE && px < below[0] && py < below[1] {
+                            v = mask[(mask_mip_offset(f.probe_grid, mip - 1) + py * below[0] + px)
+                                as usize];
+                        }
+                    }
+                    mask[(mask_mip_offset(f.probe_grid, mip) + y * size[0] + x) as usize] = v;
+                }
+            }
+        }
+        (records, mask, sh)
+    }
+
+    #[test]
+    fn the_weight_follows_depth_normal_and_plane() {
+        let f = frame();
+        let p = Vec3::new(0.0, 0.0, 0.0);
+        let probe = ProbeRecord {
+            position: [0.3, 0.2, 0.0],
+            normal: pack_snorm10x3(Vec3::Z),
+            seed: pack_seed(UVec2::new(3, 4)),
+            depth: 5.0,
+            ..Default::default()
+        };
+        let w = probe_weight(&f, p, 5.0, Vec3::Z, &probe);
+        assert!((w - 1.0).abs() < 1e-6, "{w}");
+        // 10 % depth difference: 0.9⁸.
+        let far = ProbeRecord {
+            depth: 5.5,
+            ..probe
+        };
+        let w = probe_weight(&f, p, 5.0, Vec3::Z, &far);
+        assert!((w - 0.9f32.powi(8)).abs() < 1e-5, "{w}");
+        // A tilted probe normal: cos⁸ (within the 10-bit packing).
+        let n = Vec3::new(0.6, 0.0, 0.8);
+        let tilted = ProbeRecord {
+            normal: pack_snorm10x3(n),
+            ..probe
+        };
+        let w = probe_weight(&f, p, 5.0, Vec3::Z, &tilted);
+        assert!((w - 0.8f32.powi(8)).abs() < 2e-3, "{w}");
+        // Off the plane by more than one cell (0.05 at distance 5): zero; within: kept.
+        let off = ProbeRecord {
+            position: [0.3, 0.2, 0.06],
+            ..probe
+        };
+        assert_eq!(probe_weight(&f, p, 5.0, Vec3::Z, &off), 0.0);
+        let near = ProbeRecord {
+            position: [0.3, 0.2, 0.04],
+            ..probe
+        };
+        assert!(probe_weight(&f, p, 5.0, Vec3::Z, &near) > 0.99);
+        // Facing away, invalid, or no depth: zero.
+        let away = ProbeRecord {
+            normal: pack_snorm10x3(Vec3::NEG_Z),
+            ..probe
+        };
+        assert_eq!(probe_weight(&f, p, 5.0, Vec3::Z, &away), 0.0);
+        assert_eq!(probe_weight(&f, p, 5.0, Vec3::Z, &ProbeRecord::NONE), 0.0);
+        assert_eq!(probe_weight(&f, p, 0.0, Vec3::Z, &probe), 0.0);
+        assert_eq!(probe_weight(&f, Vec3::NAN, 5.0, Vec3::Z, &probe), 0.0);
+    }
+
+    #[test]
+    fn the_closest_probe_is_found_through_the_mip_chain() {
+        let f = frame();
+        let (depth, normals) = gbuffer(W);
+        // A single probe in tile (3, 2) (index 11).
+        let seed = UVec2::new(26, 19);
+        let (_, mask, _) = probes(&f, &depth, &normals, &[(11, seed, 1.0)]);
+        assert_eq!(
+            closest_probe_seed(&f, &mask, UVec2::new(3, 2)),
+            pack_seed(seed)
+        );
+        // Tile (0, 0) finds it only at the 1 × 1 top mip.
+        assert_eq!(
+            closest_probe_seed(&f, &mask, UVec2::new(0, 0)),
+            pack_seed(seed)
+        );
+        let empty = vec![NO_PROBE; mask.len()];
+        assert_eq!(closest_probe_seed(&f, &empty, UVec2::new(1, 1)), NO_PROBE);
+        assert_eq!(gather_probes(&f, &empty, UVec2::new(9, 9)).count, 0);
+    }
+
+    #[test]
+    fn neighbours_are_taken_toward_the_pixel() {
+        let f = frame();
+        let (depth, normals) = gbuffer(W);
+        let mut list = Vec::new();
+        for ty in 0..3 {
+            for tx in 0..4 {
+                list.push((ty * 4 + tx, UVec2::new(tx * 8 + 4, ty * 8 + 4), 1.0));
+            }
+        }
+        let (_, mask, _) = probes(&f, &depth, &normals, &list);
+        let seed_of = |tx: u32, ty: u32| pack_seed(UVec2::new(tx * 8 + 4, ty * 8 + 4));
+        // Right of and below the seed of tile (1, 1): +x, +y and the diagonal.
+        let s = gather_probes(&f, &mask, UVec2::new(13, 14));
+        assert_eq!(
+            s.seeds,
+            [seed_of(1, 1), seed_of(2, 1), seed_of(1, 2), seed_of(2, 2)]
+        );
+        // Left of and above it.
+        let s = gather_probes(&f, &mask, UVec2::new(9, 10));
+        assert_eq!(
+            s.seeds,
+            [seed_of(1, 1), seed_of(0, 1), seed_of(1, 0), seed_of(0, 0)]
+        );
+        // At the image corner the neighbours outside are left out.
+        let s = gather_probes(&f, &mask, UVec2::new(1, 1));
+        assert_eq!(s.count, 1);
+        // Duplicates are not added twice.
+        let mut set = ProbeSet::EMPTY;
+        for v in [5, 5, NO_PROBE, 7, 5, 8, 9, 10] {
+            set.insert(v);
+        }
+        assert_eq!((set.count, set.seeds), (4, [5, 7, 8, 9]));
+    }
+
+    #[test]
+    fn jitter_stays_within_two_tiles_and_on_the_plane() {
+        let mut f = frame();
+        assert_eq!(jitter_candidate(&f, UVec2::new(5, 5)), None);
+        f.flags = FLAG_INTERPOLATION_JITTER;
+        let mut seen = [false; 33];
+        for frame_index in 0..256 {
+            f.frame_index = frame_index;
+            for p in [UVec2::new(0, 0), UVec2::new(16, 12), UVec2::new(31, 23)] {
+                let [dx, dy] = jitter_offset(p, frame_index);
+                assert!((-16..=16).contains(&dx) && (-16..=16).contains(&dy));
+                seen[(dx + 16) as usize] = true;
+                if let Some(c) = jitter_candidate(&f, p) {
+                    assert!(c.x < W && c.y < H);
+                    assert_eq!(c.x as i32 - p.x as i32, dx);
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s), "every offset occurs");
+        // On the wall every candidate is accepted; across the step (1 unit off the plane) none.
+        let (depth, normals) = gbuffer(16);
+        let a = surface_at(&depth, &normals, UVec2::new(4, 4));
+        assert!(accepts_jitter(
+            &f,
+            &a,
+            &surface_at(&depth, &normals, UVec2::new(12, 9))
+        ));
+        assert!(!accepts_jitter(
+            &f,
+            &a,
+            &surface_at(&depth, &normals, UVec2::new(20, 9))
+        ));
+        let sky = PrimarySurface { valid: false, ..a };
+        assert!(!accepts_jitter(&f, &a, &sky));
+    }
+
+    #[test]
+    fn irradiance_is_the_weighted_mean_of_the_probes() {
+        let mut f = frame();
+        let (depth, normals) = gbuffer(W);
+        // Four probes around pixel (13, 14) with radiance 1, 2, 3, 4: all weights 1 on the wall.
+        let list = [
+            (5, UVec2::new(12, 12), 1.0),
+            (6, UVec2::new(20, 12), 2.0),
+            (9, UVec2::new(12, 20), 3.0),
+            (10, UVec2::new(20, 20), 4.0),
+        ];
+        let (records, mask, sh) = probes(&f, &depth, &normals, &list);
+        let p = UVec2::new(13, 14);
+        let s = surface_at(&depth, &normals, p);
+        let d = depth[(p.y * W + p.x) as usize];
+        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh, Vec3::ONE);
+        let expected = PI * 2.5;
+        assert!(
+            (r.irradiance[0] - expected).abs() < 1e-3 * expected,
+            "{:?}",
+            r.irradiance
+        );
+        assert_eq!(r.irradiance[3], HINT_WEIGHTED);
+        assert!(!r.relaxed);
+        // Sampled direct light is added.
+        f.flags = FLAG_SAMPLED_DIRECT;
+        let r2 = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh, Vec3::ONE);
+        assert!((r2.irradiance[1] - r.irradiance[1] - 1.0).abs() < 1e-4);
+        // A probe on the box face (1 unit in front of the wall) gets no weight.
+        let (depth2, _) = gbuffer(16);
+        let (records2, mask2, sh2) = probes(
+            &f,
+            &depth2,
+            &normals,
+            &[(5, UVec2::new(12, 12), 1.0), (6, UVec2::new(20, 12), 100.0)],
+        );
+        f.flags = 0;
+        let r = interpolate_pixel(&f, &s, d, p, &records2, &mask2, &sh2, Vec3::ZERO);
+        assert!(
+            (r.irradiance[0] - PI).abs() < 1e-3 * PI,
+            "{:?}",
+            r.irradiance
+        );
+    }
+
+    #[test]
+    fn the_relaxed_fallback_and_sky() {
+        let mut f = frame();
+        let (depth, normals) = gbuffer(16);
+        // Only a probe on the box face for a pixel on the wall: all weights zero.
+        let (records, mask, sh) = probes(&f, &depth, &normals, &[(6, UVec2::new(20, 12), 2.0)]);
+        let p = UVec2::new(10, 10);
+        let s = surface_at(&depth, &normals, p);
+        let d = depth[(p.y * W + p.x) as usize];
+        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh, Vec3::ZERO);
+        assert_eq!(r.irradiance, [0.0, 0.0, 0.0, HINT_RELAXED]);
+        assert!(!r.relaxed);
+        f.flags = FLAG_RELAXED_FALLBACK;
+        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh, Vec3::ZERO);
+        assert!(
+            (r.irradiance[0] - 2.0 * PI).abs() < 1e-3,
+            "{:?}",
+            r.irradiance
+        );
+        assert_eq!(r.irradiance[3], HINT_RELAXED);
+        assert!(r.relaxed);
+        // The whole image on the CPU: sky pixels, counted relaxed pixels.
+        let mut depth_sky = depth.clone();
+        depth_sky[0] = 0.0;
+        let mut out = vec![[9.0f32; 4]; (W * H) as usize];
+        let mut counters = [0u32; GI_COUNTER_WORDS];
+        let lighting = vec![PrimaryLighting::default(); (W * H) as usize];
+        interpolate_image(
+            &f,
+            &camera(),
+            &depth_sky,
+            &normals,
+            &normals,
+            &records,
+            &mask,
+            &sh,
+            &lighting,
+            &mut out,
+            &mut counters[..],
+        );
+        assert_eq!(out[0], SKY_IRRADIANCE);
+        let relaxed = out.iter().filter(|v| v[3] == HINT_RELAXED).count() as u32;
+        assert_eq!(counters[RELAXED_COUNT], relaxed);
+        assert!(relaxed > 0);
+        assert!(out.iter().all(|v| v[0].is_finite() && v[0] >= 0.0));
+    }
+}
