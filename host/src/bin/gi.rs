@@ -568,6 +568,37 @@ impl Uploaded {
     }
 }
 
+/// Prints what the scene at `path` holds.
+fn describe(path: &Path, scene: &Scene) {
+    println!(
+        "scene:               {} ({} triangles, {} punctual lights, {} emissive triangles)",
+        path.display(),
+        scene.triangle_count(),
+        scene.lights.len(),
+        scene.emissive_triangles.len()
+    );
+}
+
+/// The camera given on the command line (position, target, fov in degrees), else the scene's.
+fn view_camera(
+    view: Option<(Vec3, Vec3, f32)>,
+    scene: &Scene,
+    width: u32,
+    height: u32,
+) -> CameraParams {
+    match view {
+        Some((position, target, fov)) => CameraParams::new(
+            position,
+            target - position,
+            Vec3::Y,
+            fov.to_radians(),
+            width,
+            height,
+        ),
+        None => scene_camera(scene, width, height),
+    }
+}
+
 fn load_scene(path: &Path) -> Result<Scene, Box<dyn std::error::Error>> {
     let (scene, warnings) = Scene::load(path)?;
     for w in &warnings {
@@ -600,24 +631,8 @@ fn render(
     } = *output;
     let start = Instant::now();
     let scene = load_scene(path)?;
-    println!(
-        "scene:               {} ({} triangles, {} punctual lights, {} emissive triangles)",
-        path.display(),
-        scene.triangle_count(),
-        scene.lights.len(),
-        scene.emissive_triangles.len()
-    );
-    let camera = match view {
-        Some((position, target, fov)) => CameraParams::new(
-            position,
-            target - position,
-            Vec3::Y,
-            fov.to_radians(),
-            width,
-            height,
-        ),
-        None => scene_camera(&scene, width, height),
-    };
+    describe(path, &scene);
+    let camera = view_camera(view, &scene, width, height);
     let uploaded = Uploaded::new(ctx, &scene, sky)?;
     println!("memory:\n{}", gi_host::frame::MemoryTable::of(ctx));
     let bar = ProgressBar::new(u64::from(settings.samples)).with_style(
@@ -742,24 +757,8 @@ fn cache_view(
     run.settings.validate(width, height)?;
     let start = Instant::now();
     let scene = load_scene(path)?;
-    println!(
-        "scene:               {} ({} triangles, {} punctual lights, {} emissive triangles)",
-        path.display(),
-        scene.triangle_count(),
-        scene.lights.len(),
-        scene.emissive_triangles.len()
-    );
-    let camera = match view {
-        Some((position, target, fov)) => CameraParams::new(
-            position,
-            target - position,
-            Vec3::Y,
-            fov.to_radians(),
-            width,
-            height,
-        ),
-        None => scene_camera(&scene, width, height),
-    };
+    describe(path, &scene);
+    let camera = view_camera(view, &scene, width, height);
     let shading = ShadingData::new(&scene)?;
     let lights = LightSet::new(&scene, sky.environment, sky.sample);
     let gpu = GpuScene::upload(ctx, &scene, None, &shading, &lights)?;

@@ -51,6 +51,34 @@ pub struct ViewOptions {
     pub seed: u32,
 }
 
+impl ViewOptions {
+    /// Checks the options, naming the first that is out of range.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.emissive_multiplier.is_finite() && self.emissive_multiplier >= 0.0) {
+            return Err(Error::InvalidArgument {
+                name: "emissive_multiplier",
+                why: format!("{}: must be finite and ≥ 0", self.emissive_multiplier),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// An error unless `camera` renders `width × height` images.
+pub fn check_image_size(camera: &CameraParams, width: u32, height: u32) -> Result<()> {
+    if camera.image_size == [width, height] {
+        Ok(())
+    } else {
+        Err(Error::InvalidArgument {
+            name: "camera",
+            why: format!(
+                "image size {:?} differs from the frame's {width}x{height}",
+                camera.image_size
+            ),
+        })
+    }
+}
+
 impl Default for ViewOptions {
     /// No sky, emission as in the file, seed 0.
     fn default() -> Self {
@@ -170,12 +198,7 @@ impl CacheView {
         options: ViewOptions,
     ) -> Result<Self> {
         settings.validate(width, height)?;
-        if !(options.emissive_multiplier.is_finite() && options.emissive_multiplier >= 0.0) {
-            return Err(Error::InvalidArgument {
-                name: "emissive_multiplier",
-                why: format!("{}: must be finite and ≥ 0", options.emissive_multiplier),
-            });
-        }
+        options.validate()?;
         let module = KernelModule::new(ctx)?;
         let image = BindingKind::StorageImage;
         let buffer = BindingKind::StorageBuffer;
@@ -294,15 +317,7 @@ impl CacheView {
         scene: &GpuScene,
         camera: &CameraParams,
     ) -> Result<Occupancy> {
-        if camera.image_size != [self.width, self.height] {
-            return Err(Error::InvalidArgument {
-                name: "camera",
-                why: format!(
-                    "image size {:?} differs from the view's {}x{}",
-                    camera.image_size, self.width, self.height
-                ),
-            });
-        }
+        check_image_size(camera, self.width, self.height)?;
         let moved = self
             .previous
             .is_some_and(|p| p.view_proj != camera.view_proj || p.position != camera.position);

@@ -208,11 +208,26 @@ pub fn debug_views(
         .collect()
 }
 
-/// Writes `views` as PNGs into `dir` (created if missing): categorical views as they are, the
-/// radiance tone-mapped with `exposure`. Returns the files.
+/// Writes each view as `dir/<name>.png` and returns the paths.
 pub fn write_debug_views(
     views: &[(DebugView, HdrImage)],
     dir: &Path,
+    exposure: f32,
+) -> Result<Vec<PathBuf>> {
+    write_pngs(
+        dir,
+        views
+            .iter()
+            .map(|(v, image)| (v.name(), image, *v == DebugView::Radiance)),
+        exposure,
+    )
+}
+
+/// Writes `(name, image, radiance)` items as `dir/<name>.png` (radiance tone-mapped with
+/// `exposure`, false-colour codes clamped), creating `dir`; returns the paths.
+pub fn write_pngs<'a>(
+    dir: &Path,
+    views: impl IntoIterator<Item = (&'a str, &'a HdrImage, bool)>,
     exposure: f32,
 ) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::Image {
@@ -220,10 +235,10 @@ pub fn write_debug_views(
         why: format!("cannot create the directory: {e}"),
     })?;
     views
-        .iter()
-        .map(|(view, image)| {
-            let path = dir.join(format!("{}.png", view.name()));
-            let tone = if *view == DebugView::Radiance {
+        .into_iter()
+        .map(|(name, image, radiance)| {
+            let path = dir.join(format!("{name}.png"));
+            let tone = if radiance {
                 ToneMap {
                     exposure,
                     ..ToneMap::default()

@@ -2,10 +2,10 @@
 //! patch tiles, the ray-guiding PDFs, the cache's cells at each pixel, the blur mask, and the
 //! irradiance before and after the denoiser.
 
-use super::debug_views::{DebugView, debug_views};
+use super::debug_views::{DebugView, debug_views, write_pngs};
 use super::renderer::GiRenderer;
 use crate::error::{Error, Result};
-use crate::image_io::{HdrImage, ToneCurve, ToneMap};
+use crate::image_io::HdrImage;
 use crate::vulkan::Context;
 use gi_shared::color::luminance;
 use gi_shared::layout::HashCellValue;
@@ -219,24 +219,11 @@ pub fn write_gi_debug_views(
     dir: &Path,
     exposure: f32,
 ) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::Image {
-        path: dir.to_path_buf(),
-        why: format!("cannot create the directory: {e}"),
-    })?;
-    views
-        .iter()
-        .map(|v| {
-            let path = dir.join(format!("{}.png", v.name));
-            let tone = if v.radiance {
-                ToneMap {
-                    exposure,
-                    ..ToneMap::default()
-                }
-            } else {
-                ToneMap::new(0.0, ToneCurve::Clamp)
-            };
-            v.image.write_png(&path, &tone)?;
-            Ok(path)
-        })
-        .collect()
+    write_pngs(
+        dir,
+        views
+            .iter()
+            .map(|v| (v.name.as_str(), &v.image, v.radiance)),
+        exposure,
+    )
 }

@@ -10,14 +10,14 @@
 //! Switched-off techniques skip their pass where one exists (patching, the probe filter, the
 //! spatial denoiser) and are flags the kernels read otherwise (`GiFrameParams::flags`).
 
-use super::cache_view::{Occupancy, ViewOptions};
+use super::cache_view::{Occupancy, ViewOptions, check_image_size};
 use super::gi_denoiser::{DenoiserPasses, DenoiserResources};
 use super::primary_lighting::{PrimaryPasses, PrimaryResources};
 use super::resources::{CacheResources, RestirResources};
 use super::screen_probes::{ProbeLayout, ScreenProbePasses, ScreenProbeResources, technique_flags};
 use super::settings::GiSettings;
 use super::world_cache::{CacheFrame, PassTimer, SceneLighting, WorldCache};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::gbuffer::GBufferImages;
 use crate::image_io::HdrImage;
 use crate::scene::lights::LightSet;
@@ -102,12 +102,7 @@ impl GiRenderer {
         options: ViewOptions,
     ) -> Result<Self> {
         settings.validate(width, height)?;
-        if !(options.emissive_multiplier.is_finite() && options.emissive_multiplier >= 0.0) {
-            return Err(Error::InvalidArgument {
-                name: "emissive_multiplier",
-                why: format!("{}: must be finite and ≥ 0", options.emissive_multiplier),
-            });
-        }
+        options.validate()?;
         let layout = ProbeLayout::new(width, height, settings.spawn_rate.tile());
         let rays = layout.ray_capacity();
         let pixels = width as usize * height as usize;
@@ -245,15 +240,7 @@ impl GiRenderer {
         scene: &GpuScene,
         camera: &CameraParams,
     ) -> Result<GiFrameStats> {
-        if camera.image_size != [self.width, self.height] {
-            return Err(Error::InvalidArgument {
-                name: "camera",
-                why: format!(
-                    "image size {:?} differs from the renderer's {}x{}",
-                    camera.image_size, self.width, self.height
-                ),
-            });
-        }
+        check_image_size(camera, self.width, self.height)?;
         let mut frame_camera = *camera;
         frame_camera.jitter = [0.0; 2];
         if let Some(p) = &self.previous {

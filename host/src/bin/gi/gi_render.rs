@@ -1,8 +1,7 @@
 //! `gi render --method gi`: GI-1.0 frames of a scene along a camera path, the last one written
 //! out, with optional metrics against a reference and debug views.
 
-use super::{Output, Sky, load_scene, on_off};
-use gi_host::gbuffer::scene_camera;
+use super::{Output, Sky, describe, load_scene, on_off, view_camera};
 use gi_host::gi::camera_path::CameraPath;
 use gi_host::gi::probe_debug_views::{gi_debug_views, write_gi_debug_views};
 use gi_host::gi::renderer::{DEFAULT_GI_FRAMES, GiRenderer};
@@ -184,24 +183,8 @@ pub fn render_gi(
     let reference = args.reference.as_deref().map(HdrImage::read).transpose()?;
     let start = Instant::now();
     let scene = load_scene(path)?;
-    println!(
-        "scene:               {} ({} triangles, {} punctual lights, {} emissive triangles)",
-        path.display(),
-        scene.triangle_count(),
-        scene.lights.len(),
-        scene.emissive_triangles.len()
-    );
-    let base = match view {
-        Some((position, target, fov)) => CameraParams::new(
-            position,
-            target - position,
-            Vec3::Y,
-            fov.to_radians(),
-            width,
-            height,
-        ),
-        None => scene_camera(&scene, width, height),
-    };
+    describe(path, &scene);
+    let base = view_camera(view, &scene, width, height);
     let camera_path = args.camera_path(&base, scene.bounds.center())?;
     let shading = ShadingData::new(&scene)?;
     let lights = LightSet::new(&scene, sky.environment, sky.sample);
