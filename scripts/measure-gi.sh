@@ -8,7 +8,8 @@
 #   bash scripts/measure-gi.sh [WIDTH HEIGHT REFERENCE_SPP FRAMES] [scenes...]
 #
 # Defaults: 320 180 1024 64, the repository's scenes. The reference's own noise (1024 spp) is part
-# of every relMSE; the path tracer's spp search uses another seed than the reference.
+# of every relMSE; the path tracer's spp search uses another seed than the reference and stops at
+# PT_MAX_SPP (default: a quarter of the reference's).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh >/dev/null
@@ -37,8 +38,9 @@ for s in "${SCENES[@]}"; do
   gi_rel=$(echo "$line" | relmse); gi_flip=$(echo "$line" | flip)
   gi_mean=$(echo "$line" | sed -n 's/.*mean \([-+0-9.]*%\).*/\1/p')
   # The path tracer: double the samples until its relMSE is at most GI's.
-  spp=1; pt_spp=">$REF_SPP"; pt_ms="-"
-  while [ "$spp" -le "$REF_SPP" ]; do
+  max=${PT_MAX_SPP:-$((REF_SPP / 4))}
+  spp=1; pt_spp=">$max"; pt_ms="-"
+  while [ "$spp" -le "$max" ]; do
     "$GI" render "$scene" --width "$W" --height "$H" --spp "$spp" --seed 7 --out "$OUT/$s-pt$spp.exr" > "$OUT/$s-pt$spp.log"
     rel=$("$GI" compare "$ref" "$OUT/$s-pt$spp.exr" | relmse)
     ms=$(sed -n 's/.*spp, [0-9]* bounces in .* s, \([0-9.]*\) Mpaths\/s GPU time.*/\1/p' "$OUT/$s-pt$spp.log" \

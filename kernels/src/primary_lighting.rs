@@ -8,9 +8,9 @@
 //! vertices, triangles, materials, textures, texels, lights, light table, environment,
 //! environment CDF (as TraceCacheRays).
 //!
-//! ResolveGI, set 0: 0 frame, 1 camera, 2 depth, 3 geometric normal, 4 albedo, 5 primary
-//! lighting, 6 denoised irradiance (`[f32; 4]`), 7 colour (`[f32; 4]`, written), 8 feedback
-//! history (`FeedbackTexel`, written).
+//! ResolveGI, set 0: 0 camera, 1 depth, 2 geometric normal, 3 albedo, 4 primary lighting, 5
+//! denoised irradiance (`[f32; 4]`), 6 colour (`[f32; 4]`, written), 7 feedback history
+//! (`FeedbackTexel`, written).
 //!
 //! Both: workgroups of 8 × 8 pixels, dispatched `[ceil(W / 8), ceil(H / 8), 1]`; per-pixel
 //! buffers indexed `y × W + x`.
@@ -94,7 +94,7 @@ traced_kernel! {
 }
 
 /// ResolveGI: the final colour of pixel `id` (emission + albedo / π × (denoised GI irradiance +
-/// exact direct light)) and its feedback texel for the next frame.
+/// direct light)) and its feedback texel for the next frame.
 #[cfg(not(feature = "ray-query"))]
 #[spirv(compute(threads(8, 8)))]
 #[allow(
@@ -103,15 +103,14 @@ traced_kernel! {
 )]
 pub fn resolve_gi(
     #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &GiFrameParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] camera: &CameraParams,
-    #[spirv(descriptor_set = 0, binding = 2)] depth: &DepthImage,
-    #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
-    #[spirv(descriptor_set = 0, binding = 4)] albedo: &crate::gbuffer::UnormImage,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] lighting: &[PrimaryLighting],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] irradiance: &[[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] color: &mut [[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)]
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] camera: &CameraParams,
+    #[spirv(descriptor_set = 0, binding = 1)] depth: &DepthImage,
+    #[spirv(descriptor_set = 0, binding = 2)] geometric_normal: &HalfImage,
+    #[spirv(descriptor_set = 0, binding = 3)] albedo: &crate::gbuffer::UnormImage,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] lighting: &[PrimaryLighting],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] irradiance: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] color: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)]
     history: &mut [gi_shared::cache_view::FeedbackTexel],
 ) {
     use gi_shared::primary_lighting::{resolve_color, resolve_feedback};
@@ -127,7 +126,7 @@ pub fn resolve_gi(
     let a: Vec4 = albedo.read(pixel);
     let d: f32 = depth.read(pixel);
     let gn: Vec4 = geometric_normal.read(pixel);
-    let c = resolve_color(frame, &record, a.truncate(), irradiance[i]);
+    let c = resolve_color(&record, a.truncate(), irradiance[i]);
     color[i] = [c.x, c.y, c.z, 1.0];
     history[i] = resolve_feedback(&record, c, d, gn.truncate().normalize_or_zero());
 }

@@ -82,7 +82,7 @@ impl DenoiserPasses {
                 ctx,
                 module,
                 "screen_probes::interpolate::interpolate_screen_probes",
-                "bbiiibbbbbb",
+                "bbiiibbbbb",
                 0,
             )?,
             reproject: kernel(
@@ -110,7 +110,6 @@ impl DenoiserPasses {
     }
 
     /// InterpolateScreenProbes: each pixel's irradiance from up to four probes.
-    #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_interpolate(
         &self,
         ctx: &Context,
@@ -119,7 +118,6 @@ impl DenoiserPasses {
         res: &DenoiserResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
-        primary: &Buffer,
     ) -> Result<()> {
         let i = &gbuffer.images;
         self.interpolate.dispatch(
@@ -134,7 +132,6 @@ impl DenoiserPasses {
                 Resource::Buffer(probes.records.current()),
                 Resource::Buffer(probes.mask.current()),
                 Resource::Buffer(&probes.sh),
-                Resource::Buffer(primary),
                 Resource::Buffer(&res.irradiance),
                 Resource::Buffer(&probes.counters),
             ],

@@ -42,7 +42,7 @@ impl PrimaryPasses {
     pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
         Ok(Self {
             direct: kernel(ctx, module, "primary_lighting::direct_light", "bbiiiiib", 0)?,
-            resolve: kernel(ctx, module, "primary_lighting::resolve_gi", "bbiiibbbb", 0)?,
+            resolve: kernel(ctx, module, "primary_lighting::resolve_gi", "biiibbbb", 0)?,
         })
     }
 
@@ -87,7 +87,6 @@ impl PrimaryPasses {
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
-        probes: &ScreenProbeResources,
         res: &PrimaryResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
@@ -99,7 +98,6 @@ impl PrimaryPasses {
             ctx,
             cmd,
             &[
-                Resource::Buffer(&probes.frame),
                 Resource::Buffer(camera),
                 Resource::Image(&i[0]),
                 Resource::Image(&i[1]),

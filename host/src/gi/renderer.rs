@@ -398,15 +398,7 @@ impl GiRenderer {
                 .record_direct(ctx, cmd, scene, probes, primary, camera, gbuffer)
         })?;
         timer.pass(ctx, cmd, "InterpolateScreenProbes", || {
-            dp.record_interpolate(
-                ctx,
-                cmd,
-                probes,
-                denoiser,
-                camera,
-                gbuffer,
-                &primary.primary,
-            )
+            dp.record_interpolate(ctx, cmd, probes, denoiser, camera, gbuffer)
         })?;
         timer.pass(ctx, cmd, "ReprojectGI", || {
             dp.record_reproject(ctx, cmd, probes, denoiser, camera, gbuffer)
@@ -422,7 +414,6 @@ impl GiRenderer {
             self.primary_passes.record_resolve(
                 ctx,
                 cmd,
-                probes,
                 primary,
                 camera,
                 gbuffer,

@@ -3,8 +3,8 @@
 //!
 //! Set 0: 0 frame (`GiFrameParams`), 1 camera (`CameraParams`), 2 depth, 3 geometric normal, 4
 //! shading normal (images), 5 probe records (`ProbeRecord`), 6 probe mask (`u32`, mip chain), 7
-//! probe SH (`[f32; 4]`, 9 per probe tile), 8 primary lighting (`PrimaryLighting`), 9
-//! irradiance (`[f32; 4]`, written), 10 GI counters (`u32`, [`RELAXED_COUNT`]). Workgroups of
+//! probe SH (`[f32; 4]`, 9 per probe tile), 8 irradiance (`[f32; 4]`, written), 9 GI counters
+//! (`u32`, [`RELAXED_COUNT`]). Workgroups of
 //! 8 × 8 pixels, dispatched `[ceil(W / 8), ceil(H / 8), 1]`.
 
 use crate::atomics::DeviceWords;
@@ -12,12 +12,11 @@ use crate::gbuffer::{DepthImage, HalfImage};
 use gi_shared::atomics::AtomicWords;
 use gi_shared::cache_view::primary_surface;
 use gi_shared::camera::CameraParams;
-use gi_shared::primary_lighting::PrimaryLighting;
 use gi_shared::screen_probes::interpolate::{
     SKY_IRRADIANCE, accepts_jitter, interpolate_pixel, jitter_candidate,
 };
 use gi_shared::screen_probes::{GiFrameParams, ProbeRecord, RELAXED_COUNT};
-use spirv_std::glam::{UVec2, UVec3, Vec3, Vec4};
+use spirv_std::glam::{UVec2, UVec3, Vec4};
 use spirv_std::spirv;
 
 /// The interpolated irradiance of pixel `id`.
@@ -36,9 +35,8 @@ pub fn interpolate_screen_probes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] records: &[ProbeRecord],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] mask: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] sh: &[[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] lighting: &[PrimaryLighting],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] irradiance: &mut [[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] counters: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] irradiance: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] counters: &mut [u32],
 ) {
     let pixel = UVec2::new(id.x, id.y);
     if pixel.x >= frame.image_size[0] || pixel.y >= frame.image_size[1] {
@@ -65,12 +63,7 @@ pub fn interpolate_screen_probes(
             lookup = c;
         }
     }
-    let direct = if i < lighting.len() {
-        lighting[i].direct()
-    } else {
-        Vec3::ZERO
-    };
-    let r = interpolate_pixel(frame, &surface, d, lookup, records, mask, sh, direct);
+    let r = interpolate_pixel(frame, &surface, d, lookup, records, mask, sh);
     irradiance[i] = r.irradiance;
     if r.relaxed && RELAXED_COUNT < counters.len() {
         DeviceWords(counters).fetch_add(RELAXED_COUNT, 1);

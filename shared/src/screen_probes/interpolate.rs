@@ -16,8 +16,7 @@
 //!    zero for a probe farther than one probe cell size from the pixel's plane. All zero: with
 //!    [`FLAG_RELAXED_FALLBACK`] equal weights and hint [`HINT_RELAXED`], else no irradiance.
 //! 4. **Irradiance**: the weighted mean of the probes' SH irradiance (cosine lobe) at the pixel's
-//!    shading normal, clamped to finite non-negative values; under [`FLAG_SAMPLED_DIRECT`] the
-//!    pixel's resampled direct light joins it (so that the denoiser filters its noise).
+//!    shading normal, clamped to finite non-negative values.
 //!
 //! Output per pixel `[r, g, b, hint]`: hint [`HINT_WEIGHTED`] when the weights were used,
 //! [`HINT_RELAXED`] for the relaxed fallback or no probe, [`HINT_SKY`] for sky pixels (black).
@@ -27,15 +26,14 @@
 use glam::{UVec2, Vec3, Vec4};
 
 use super::{
-    FLAG_INTERPOLATION_JITTER, FLAG_RELAXED_FALLBACK, FLAG_SAMPLED_DIRECT, GiFrameParams, NO_PROBE,
-    PROBE_SIZE, ProbeRecord, RELAXED_COUNT, mask_mip_offset, mask_mip_size,
+    FLAG_INTERPOLATION_JITTER, FLAG_RELAXED_FALLBACK, GiFrameParams, NO_PROBE, PROBE_SIZE,
+    ProbeRecord, RELAXED_COUNT, mask_mip_offset, mask_mip_size,
 };
 use crate::atomics::AtomicWords;
-use crate::cache_view::{PrimarySurface, finite_sample, primary_surface};
+use crate::cache_view::{PrimarySurface, primary_surface};
 use crate::camera::CameraParams;
 use crate::math::{abs, floor_to_i32_clamped, max, saturate};
 use crate::packing::unpack_seed;
-use crate::primary_lighting::PrimaryLighting;
 use crate::random::pixel_sample;
 use crate::sh::{SH_COEFFICIENT_COUNT, ShL2Rgb};
 
@@ -271,8 +269,7 @@ pub struct Interpolated {
 
 /// The interpolated irradiance of a surface pixel: `surface` (its primary surface), `depth` (its
 /// linear depth), `lookup` (the lookup pixel, jittered or itself), the current probe `records`,
-/// `mask` (mip chain) and `sh`, and `direct` (the pixel's resampled direct light, added under
-/// [`FLAG_SAMPLED_DIRECT`]).
+/// `mask` (mip chain) and `sh`.
 #[allow(
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
@@ -286,7 +283,6 @@ pub fn interpolate_pixel(
     records: &[ProbeRecord],
     mask: &[u32],
     sh: &[[f32; 4]],
-    direct: Vec3,
 ) -> Interpolated {
     if !surface.valid {
         return Interpolated {
@@ -334,9 +330,6 @@ pub fn interpolate_pixel(
         e = clamp_irradiance(equal / found as f32);
         out.relaxed = true;
     }
-    if frame.has(FLAG_SAMPLED_DIRECT) {
-        e += finite_sample(direct);
-    }
     out.irradiance[0] = e.x;
     out.irradiance[1] = e.y;
     out.irradiance[2] = e.z;
@@ -359,7 +352,6 @@ pub fn interpolate_image<C: AtomicWords + ?Sized>(
     records: &[ProbeRecord],
     mask: &[u32],
     sh: &[[f32; 4]],
-    lighting: &[PrimaryLighting],
     irradiance: &mut [[f32; 4]],
     counters: &mut C,
 ) {
@@ -389,12 +381,7 @@ pub fn interpolate_image<C: AtomicWords + ?Sized>(
                     lookup = c;
                 }
             }
-            let direct = if i < lighting.len() {
-                lighting[i].direct()
-            } else {
-                Vec3::ZERO
-            };
-            let r = interpolate_pixel(frame, &surface, d, lookup, records, mask, sh, direct);
+            let r = interpolate_pixel(frame, &surface, d, lookup, records, mask, sh);
             irradiance[i] = r.irradiance;
             if r.relaxed && RELAXED_COUNT < counters.word_count() {
                 counters.fetch_add(RELAXED_COUNT, 1);
@@ -658,7 +645,7 @@ mod tests {
         let p = UVec2::new(13, 14);
         let s = surface_at(&depth, &normals, p);
         let d = depth[(p.y * W + p.x) as usize];
-        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh, Vec3::ONE);
+        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh);
         let expected = PI * 2.5;
         assert!(
             (r.irradiance[0] - expected).abs() < 1e-3 * expected,
@@ -667,10 +654,6 @@ mod tests {
         );
         assert_eq!(r.irradiance[3], HINT_WEIGHTED);
         assert!(!r.relaxed);
-        // Sampled direct light is added.
-        f.flags = FLAG_SAMPLED_DIRECT;
-        let r2 = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh, Vec3::ONE);
-        assert!((r2.irradiance[1] - r.irradiance[1] - 1.0).abs() < 1e-4);
         // A probe on the box face (1 unit in front of the wall) gets no weight.
         let (depth2, _) = gbuffer(16);
         let (records2, mask2, sh2) = probes(
@@ -680,7 +663,7 @@ mod tests {
             &[(5, UVec2::new(12, 12), 1.0), (6, UVec2::new(20, 12), 100.0)],
         );
         f.flags = 0;
-        let r = interpolate_pixel(&f, &s, d, p, &records2, &mask2, &sh2, Vec3::ZERO);
+        let r = interpolate_pixel(&f, &s, d, p, &records2, &mask2, &sh2);
         assert!(
             (r.irradiance[0] - PI).abs() < 1e-3 * PI,
             "{:?}",
@@ -697,11 +680,11 @@ mod tests {
         let p = UVec2::new(10, 10);
         let s = surface_at(&depth, &normals, p);
         let d = depth[(p.y * W + p.x) as usize];
-        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh, Vec3::ZERO);
+        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh);
         assert_eq!(r.irradiance, [0.0, 0.0, 0.0, HINT_RELAXED]);
         assert!(!r.relaxed);
         f.flags = FLAG_RELAXED_FALLBACK;
-        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh, Vec3::ZERO);
+        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh);
         assert!(
             (r.irradiance[0] - 2.0 * PI).abs() < 1e-3,
             "{:?}",
@@ -714,7 +697,6 @@ mod tests {
         depth_sky[0] = 0.0;
         let mut out = vec![[9.0f32; 4]; (W * H) as usize];
         let mut counters = [0u32; GI_COUNTER_WORDS];
-        let lighting = vec![PrimaryLighting::default(); (W * H) as usize];
         interpolate_image(
             &f,
             &camera(),
@@ -724,7 +706,6 @@ mod tests {
             &records,
             &mask,
             &sh,
-            &lighting,
             &mut out,
             &mut counters[..],
         );

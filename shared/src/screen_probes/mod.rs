@@ -104,8 +104,8 @@ pub const FLAG_RELAXED_FALLBACK: u32 = 1 << 10;
 pub const FLAG_DENOISER_TEMPORAL: u32 = 1 << 11;
 /// The denoiser's blur mask and separable bilateral filter.
 pub const FLAG_DENOISER_SPATIAL: u32 = 1 << 12;
-/// Direct light of punctual lights is sampled (too many to sum): it joins the denoised
-/// irradiance instead of being added exactly.
+/// Direct light of punctual lights is resampled (too many to sum: one RIS sample and shadow ray
+/// per pixel) instead of summed exactly.
 pub const FLAG_SAMPLED_DIRECT: u32 = 1 << 13;
 
 /// Counter word: probes appended to the spawn list this frame.
