@@ -568,6 +568,28 @@ impl Uploaded {
     }
 }
 
+/// Writes `image` to `out` (OpenEXR, linear) and a PNG beside it, tone-mapped with `exposure`
+/// stops, creating the folder; returns the PNG's path.
+fn write_image(
+    out: &Path,
+    image: &HdrImage,
+    exposure: f32,
+) -> Result<PathBuf, Box<dyn std::error::Error>> {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
+    }
+    let png = out.with_extension("png");
+    image.write_exr(out)?;
+    image.write_png(
+        &png,
+        &ToneMap {
+            exposure,
+            ..ToneMap::default()
+        },
+    )?;
+    Ok(png)
+}
+
 /// Prints what the scene at `path` holds.
 fn describe(path: &Path, scene: &Scene) {
     println!(
@@ -645,18 +667,7 @@ fn render(
     bar.finish_and_clear();
     drop(uploaded);
     let rendered = rendered?;
-    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)?;
-    }
-    let png = out.with_extension("png");
-    rendered.image.write_exr(out)?;
-    rendered.image.write_png(
-        &png,
-        &ToneMap {
-            exposure,
-            ..ToneMap::default()
-        },
-    )?;
+    let png = write_image(out, &rendered.image, exposure)?;
     let seconds = start.elapsed().as_secs_f64();
     let paths = f64::from(width) * f64::from(height) * f64::from(settings.samples);
     let gpu = rendered
@@ -810,18 +821,7 @@ fn cache_view(
     drop(cache);
     drop(gpu);
     let (image, views) = rendered?;
-    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)?;
-    }
-    let png = out.with_extension("png");
-    image.write_exr(out)?;
-    image.write_png(
-        &png,
-        &ToneMap {
-            exposure,
-            ..ToneMap::default()
-        },
-    )?;
+    let png = write_image(out, &image, exposure)?;
     println!(
         "cache view:          {width}x{height}, {} frames in {:.1} s",
         run.frames,

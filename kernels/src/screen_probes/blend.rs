@@ -15,10 +15,10 @@ use gi_shared::cache_view::CacheViewPixel;
 use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
 use gi_shared::packing::unpack_seed;
+use gi_shared::screen_probes::LANES;
 use gi_shared::screen_probes::blend::{blend_cell, finish_cell, ray_source, spawned_record};
 use gi_shared::screen_probes::hemisphere::UNMAPPED;
 use gi_shared::screen_probes::hemisphere::gather_mapped;
-use gi_shared::screen_probes::ray_guiding::CELLS;
 use gi_shared::screen_probes::{
     EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord, SPAWN_COUNT,
 };
@@ -48,9 +48,9 @@ pub fn blend_screen_probes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] records: &mut [ProbeRecord],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] mask: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] atlas: &mut [[f32; 4]],
-    #[spirv(workgroup)] mapped: &mut [u32; CELLS],
-    #[spirv(workgroup)] cells: &mut [[f32; 4]; CELLS],
-    #[spirv(workgroup)] blended: &mut [[f32; 4]; CELLS],
+    #[spirv(workgroup)] mapped: &mut [u32; LANES],
+    #[spirv(workgroup)] cells: &mut [[f32; 4]; LANES],
+    #[spirv(workgroup)] blended: &mut [[f32; 4]; LANES],
 ) {
     let spawn = group.y * frame.spawn_grid[0] + group.x;
     let counter = if SPAWN_COUNT < counters.len() {

@@ -16,11 +16,11 @@ use gi_shared::packing::unpack_seed;
 use gi_shared::screen_probes::blend::spawned_record;
 use gi_shared::screen_probes::hemisphere::{gather_mapped, record_frame};
 use gi_shared::screen_probes::ray_guiding::{
-    CELLS, HISTORY_NEIGHBOURS, HistorySum, guiding_active, guiding_cdf, guiding_raw_weight,
+    HISTORY_NEIGHBOURS, HistorySum, guiding_active, guiding_cdf, guiding_raw_weight,
     history_neighbour, map_history_source, sample_ray, untraced_ray,
 };
 use gi_shared::screen_probes::{
-    EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord, SPAWN_COUNT,
+    EMPTY, GiFrameParams, LANES, PROBE_CELLS, ProbeRay, ProbeRecord, SPAWN_COUNT,
 };
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::{UVec3, Vec4};
@@ -46,10 +46,10 @@ pub fn sample_screen_probes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] atlas: &[[f32; 4]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] probe_history: &mut [[f32; 4]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] probe_rays: &mut [ProbeRay],
-    #[spirv(workgroup)] mapped: &mut [u32; CELLS],
-    #[spirv(workgroup)] moved: &mut [[f32; 4]; CELLS],
-    #[spirv(workgroup)] raw: &mut [f32; CELLS],
-    #[spirv(workgroup)] cdf: &mut [f32; CELLS],
+    #[spirv(workgroup)] mapped: &mut [u32; LANES],
+    #[spirv(workgroup)] moved: &mut [[f32; 4]; LANES],
+    #[spirv(workgroup)] raw: &mut [f32; LANES],
+    #[spirv(workgroup)] cdf: &mut [f32; LANES],
 ) {
     let spawn = group.y * frame.spawn_grid[0] + group.x;
     let counter = if SPAWN_COUNT < counters.len() {

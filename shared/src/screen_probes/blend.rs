@@ -21,10 +21,10 @@ use super::hemisphere::gather_mapped;
 use super::radiance_backup::radiance_backup;
 use glam::{UVec2, Vec3, Vec4};
 
+use super::LANES;
 use super::hemisphere::UNMAPPED;
 use super::hysteresis::apply_hysteresis;
 use super::radiance_backup::with_backup;
-use super::ray_guiding::CELLS;
 use super::{
     EMPTY, FLAG_HYSTERESIS, FLAG_RADIANCE_BACKUP, GiFrameParams, PROBE_CELLS, ProbeRay,
     ProbeRecord, cell_is_filled, cell_radiance, make_cell,
@@ -107,7 +107,7 @@ pub fn blend_cell(params: &GiFrameParams, new: [f32; 4], history: [f32; 4]) -> [
 pub fn finish_cell(
     params: &GiFrameParams,
     cell: [f32; 4],
-    blended: &[[f32; 4]; CELLS],
+    blended: &[[f32; 4]; LANES],
 ) -> [f32; 4] {
     if cell_is_filled(cell) || !params.has(FLAG_RADIANCE_BACKUP) {
         cell
@@ -125,16 +125,16 @@ pub fn blend_workgroup(
     rays: &[ProbeRay],
     ray_records: &[CacheViewPixel],
     history: &[[f32; 4]],
-) -> [[f32; 4]; CELLS] {
-    let mut mapped = [UNMAPPED; CELLS];
-    let mut cells = [EMPTY; CELLS];
-    for lane in 0..CELLS {
+) -> [[f32; 4]; LANES] {
+    let mut mapped = [UNMAPPED; LANES];
+    let mut cells = [EMPTY; LANES];
+    for lane in 0..LANES {
         if lane < rays.len() && lane < ray_records.len() {
             (mapped[lane], cells[lane]) = ray_source(rays[lane], ray_records[lane]);
         }
     }
-    let mut blended = [EMPTY; CELLS];
-    for lane in 0..CELLS {
+    let mut blended = [EMPTY; LANES];
+    for lane in 0..LANES {
         let new = gather_mapped(&mapped, &cells, lane as u32);
         let h = if lane < history.len() {
             history[lane]
@@ -143,8 +143,8 @@ pub fn blend_workgroup(
         };
         blended[lane] = blend_cell(params, new, h);
     }
-    let mut out = [EMPTY; CELLS];
-    for lane in 0..CELLS {
+    let mut out = [EMPTY; LANES];
+    for lane in 0..LANES {
         out[lane] = finish_cell(params, blended[lane], &blended);
     }
     out

@@ -25,9 +25,10 @@
 
 use glam::{UVec2, Vec3, Vec4};
 
+use super::probe_mask::{mask_texel, nearest_probe_seed};
 use super::{
     FLAG_INTERPOLATION_JITTER, FLAG_RELAXED_FALLBACK, GiFrameParams, NO_PROBE, PROBE_SIZE,
-    ProbeRecord, RELAXED_COUNT, mask_mip_offset, mask_mip_size,
+    ProbeRecord, RELAXED_COUNT,
 };
 use crate::atomics::AtomicWords;
 use crate::cache_view::{PrimarySurface, primary_surface};
@@ -104,41 +105,15 @@ pub fn accepts_jitter(
     plane < JITTER_PLANE_TOLERANCE * cell
 }
 
-/// The mask texel of probe tile `(x, y)` in mip `mip`; [`NO_PROBE`] outside the mip or the
-/// buffer.
+/// The mip-0 mask texel of probe tile `(x, y)`, [`NO_PROBE`] outside the grid (neighbours of
+/// border tiles).
 #[inline]
-pub fn mask_texel(frame: &GiFrameParams, mask: &[u32], mip: u32, x: i32, y: i32) -> u32 {
-    let size = mask_mip_size(frame.probe_grid, mip);
-    if x < 0 || y < 0 || x as u32 >= size[0] || y as u32 >= size[1] {
-        return NO_PROBE;
-    }
-    let i = mask_mip_offset(frame.probe_grid, mip) + y as u32 * size[0] + x as u32;
-    if (i as usize) < mask.len() {
-        mask[i as usize]
-    } else {
+fn tile_seed(frame: &GiFrameParams, mask: &[u32], x: i32, y: i32) -> u32 {
+    if x < 0 || y < 0 {
         NO_PROBE
+    } else {
+        mask_texel(mask, frame.probe_grid, 0, UVec2::new(x as u32, y as u32))
     }
-}
-
-/// The seed of the probe closest to probe tile `tile`: its own mip-0 texel, else the first mip,
-/// going coarser, whose texel over the tile holds a seed; [`NO_PROBE`] when none does.
-#[inline]
-pub fn closest_probe_seed(frame: &GiFrameParams, mask: &[u32], tile: UVec2) -> u32 {
-    let mut mip = 0;
-    while mip < frame.mask_mips {
-        let seed = mask_texel(
-            frame,
-            mask,
-            mip,
-            (tile.x >> mip) as i32,
-            (tile.y >> mip) as i32,
-        );
-        if seed != NO_PROBE {
-            return seed;
-        }
-        mip += 1;
-    }
-    NO_PROBE
 }
 
 /// The probes a pixel interpolates: their seeds (packed), the closest first.
@@ -175,14 +150,14 @@ impl ProbeSet {
     }
 }
 
-/// The probes of lookup pixel `lookup`: the closest probe ([`closest_probe_seed`] of its tile)
+/// The probes of lookup pixel `lookup`: the closest probe ([`nearest_probe_seed`] of its tile)
 /// and the mip-0 probes of the three tiles beside the closest probe's tile toward the lookup
 /// pixel (along x, along y, diagonal).
 #[inline]
 pub fn gather_probes(frame: &GiFrameParams, mask: &[u32], lookup: UVec2) -> ProbeSet {
     let mut set = ProbeSet::EMPTY;
     let tile = lookup / PROBE_SIZE;
-    let closest = closest_probe_seed(frame, mask, tile);
+    let closest = nearest_probe_seed(mask, frame.probe_grid, tile);
     if closest == NO_PROBE {
         return set;
     }
@@ -192,9 +167,9 @@ pub fn gather_probes(frame: &GiFrameParams, mask: &[u32], lookup: UVec2) -> Prob
     let ty = (seed.y / PROBE_SIZE) as i32;
     let dx = if lookup.x >= seed.x { 1 } else { -1 };
     let dy = if lookup.y >= seed.y { 1 } else { -1 };
-    set.insert(mask_texel(frame, mask, 0, tx + dx, ty));
-    set.insert(mask_texel(frame, mask, 0, tx, ty + dy));
-    set.insert(mask_texel(frame, mask, 0, tx + dx, ty + dy));
+    set.insert(tile_seed(frame, mask, tx + dx, ty));
+    set.insert(tile_seed(frame, mask, tx, ty + dy));
+    set.insert(tile_seed(frame, mask, tx + dx, ty + dy));
     set
 }
 
@@ -397,6 +372,7 @@ mod tests {
     use crate::camera::primary_ray;
     use crate::math::PI;
     use crate::packing::{pack_seed, pack_snorm10x3};
+    use crate::screen_probes::{mask_mip_offset, mask_mip_size};
 
     const W: u32 = 32;
     const H: u32 = 24;
@@ -546,16 +522,19 @@ mod tests {
         let seed = UVec2::new(26, 19);
         let (_, mask, _) = probes(&f, &depth, &normals, &[(11, seed, 1.0)]);
         assert_eq!(
-            closest_probe_seed(&f, &mask, UVec2::new(3, 2)),
+            nearest_probe_seed(&mask, f.probe_grid, UVec2::new(3, 2)),
             pack_seed(seed)
         );
         // Tile (0, 0) finds it only at the 1 × 1 top mip.
         assert_eq!(
-            closest_probe_seed(&f, &mask, UVec2::new(0, 0)),
+            nearest_probe_seed(&mask, f.probe_grid, UVec2::new(0, 0)),
             pack_seed(seed)
         );
         let empty = vec![NO_PROBE; mask.len()];
-        assert_eq!(closest_probe_seed(&f, &empty, UVec2::new(1, 1)), NO_PROBE);
+        assert_eq!(
+            nearest_probe_seed(&empty, f.probe_grid, UVec2::new(1, 1)),
+            NO_PROBE
+        );
         assert_eq!(gather_probes(&f, &empty, UVec2::new(9, 9)).count, 0);
     }
 

@@ -27,7 +27,7 @@ use super::hemisphere::gather_mapped;
 use super::hemisphere::{ProbeFrame, UNMAPPED, cell_coords, map_cell, record_frame};
 use super::reuse::reuse_score;
 use super::{
-    EMPTY, FLAG_HISTORY, FLAG_PARALLAX, FLAG_RAY_GUIDING, FLAG_REPROJECTION, GiFrameParams,
+    EMPTY, FLAG_HISTORY, FLAG_PARALLAX, FLAG_RAY_GUIDING, FLAG_REPROJECTION, GiFrameParams, LANES,
     PASS_SAMPLE, PROBE_CELLS, PROBE_SIZE, ProbeRay, ProbeRecord, cell_is_filled, cell_radiance,
     make_cell,
 };
@@ -44,9 +44,6 @@ pub const HISTORY_NEIGHBOURS: u32 = 9;
 
 /// Raw guiding weight of a cell without history ([`guiding_raw_weight`]); it takes the mean.
 pub const NO_WEIGHT: f32 = -1.0;
-
-/// Cells per probe as a `usize` (workgroup-memory array length).
-pub const CELLS: usize = PROBE_CELLS as usize;
 
 /// History neighbour `k` (`0..9`, row by row from the top-left) of a probe with frame `frame`
 /// whose seed pixel is `seed`: its probe tile and frame when the tile lies in the probe grid and
@@ -167,11 +164,11 @@ pub fn guiding_raw_weight(history: [f32; 4], lane: u32) -> f32 {
 
 /// The mean raw weight of the cells with history (0 when none has).
 #[inline]
-pub fn guiding_mean(raw: &[f32; CELLS]) -> f32 {
+pub fn guiding_mean(raw: &[f32; LANES]) -> f32 {
     let mut sum = 0.0;
     let mut n = 0u32;
     let mut i = 0;
-    while i < CELLS {
+    while i < LANES {
         let w = raw[i];
         if w >= 0.0 {
             sum += w;
@@ -194,11 +191,11 @@ pub fn guiding_weight(raw: f32, mean: f32) -> f32 {
 /// `0..=lane` (`raw` = the 64 raw weights of phase 2), summed in cell order so every lane and the
 /// CPU agree bit for bit.
 #[inline]
-pub fn guiding_cdf(raw: &[f32; CELLS], lane: u32) -> f32 {
+pub fn guiding_cdf(raw: &[f32; LANES], lane: u32) -> f32 {
     let mean = guiding_mean(raw);
     let mut sum = 0.0;
     let mut i = 0;
-    while i <= lane as usize && i < CELLS {
+    while i <= lane as usize && i < LANES {
         sum += guiding_weight(raw[i], mean);
         i += 1;
     }
@@ -208,20 +205,20 @@ pub fn guiding_cdf(raw: &[f32; CELLS], lane: u32) -> f32 {
 /// Whether the rays follow the CDF: [`FLAG_RAY_GUIDING`] is set and the CDF's total (its last
 /// entry) is positive and finite, which needs at least one history cell with light.
 #[inline]
-pub fn guiding_active(params: &GiFrameParams, cdf: &[f32; CELLS]) -> bool {
+pub fn guiding_active(params: &GiFrameParams, cdf: &[f32; LANES]) -> bool {
     if !params.has(FLAG_RAY_GUIDING) {
         return false;
     }
-    let total = cdf[CELLS - 1];
+    let total = cdf[LANES - 1];
     total.is_finite() && total > 0.0
 }
 
 /// The cell whose CDF interval holds `x ∈ [0, total)`: the first `i` with `cdf[i] > x` (binary
 /// search; the last cell when none is).
 #[inline]
-pub fn guided_cell(cdf: &[f32; CELLS], x: f32) -> u32 {
+pub fn guided_cell(cdf: &[f32; LANES], x: f32) -> u32 {
     let mut lo = 0usize;
-    let mut hi = CELLS - 1;
+    let mut hi = LANES - 1;
     while lo < hi {
         let mid = (lo + hi) / 2;
         if cdf[mid] > x {
@@ -242,7 +239,7 @@ pub fn sample_ray(
     frame: &ProbeFrame,
     spawn: u32,
     lane: u32,
-    cdf: &[f32; CELLS],
+    cdf: &[f32; LANES],
     guided: bool,
 ) -> ProbeRay {
     let mut rng = pass_random(
@@ -252,7 +249,7 @@ pub fn sample_ray(
         params.frame_index,
     );
     let cell = if guided {
-        let total = cdf[CELLS - 1];
+        let total = cdf[LANES - 1];
         guided_cell(cdf, rng.next_f32() * total)
     } else {
         lane % PROBE_CELLS
@@ -282,11 +279,11 @@ pub fn untraced_ray(lane: u32) -> ProbeRay {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SampledProbe {
     /// The history cell of each cell (`probe_history[spawn × 64 + cell]`).
-    pub history: [[f32; 4]; CELLS],
+    pub history: [[f32; 4]; LANES],
     /// The ray of each lane (`probe_rays[spawn × 64 + lane]`).
-    pub rays: [ProbeRay; CELLS],
+    pub rays: [ProbeRay; LANES],
     /// The CDF the rays followed (phase 3).
-    pub cdf: [f32; CELLS],
+    pub cdf: [f32; LANES],
     /// Whether they followed it.
     pub guided: bool,
 }
@@ -303,9 +300,9 @@ pub fn sample_workgroup(
     frame: &ProbeFrame,
     spawn: u32,
 ) -> SampledProbe {
-    let mut mapped = [UNMAPPED; CELLS];
-    let mut moved = [EMPTY; CELLS];
-    let mut sums = [HistorySum::ZERO; CELLS];
+    let mut mapped = [UNMAPPED; LANES];
+    let mut moved = [EMPTY; LANES];
+    let mut sums = [HistorySum::ZERO; LANES];
     let mut k = 0;
     while k < HISTORY_NEIGHBOURS {
         let neighbour = history_neighbour(params, records, seed, frame, k);
@@ -320,16 +317,16 @@ pub fn sample_workgroup(
         k += 1;
     }
     let history = sums.map(|s| s.cell());
-    let mut raw = [0.0; CELLS];
+    let mut raw = [0.0; LANES];
     for lane in 0..PROBE_CELLS {
         raw[lane as usize] = guiding_raw_weight(history[lane as usize], lane);
     }
-    let mut cdf = [0.0; CELLS];
+    let mut cdf = [0.0; LANES];
     for lane in 0..PROBE_CELLS {
         cdf[lane as usize] = guiding_cdf(&raw, lane);
     }
     let guided = guiding_active(params, &cdf);
-    let mut rays = [ProbeRay::default(); CELLS];
+    let mut rays = [ProbeRay::default(); LANES];
     for lane in 0..PROBE_CELLS {
         rays[lane as usize] = sample_ray(params, frame, spawn, lane, &cdf, guided);
     }
@@ -521,14 +518,14 @@ mod tests {
 
     #[test]
     fn cdf_search_finds_the_interval() {
-        let mut cdf = [6.0; CELLS];
+        let mut cdf = [6.0; LANES];
         cdf[..3].copy_from_slice(&[1.0, 1.0, 3.0]);
         assert_eq!(guided_cell(&cdf, 0.0), 0);
         assert_eq!(guided_cell(&cdf, 0.999), 0);
         assert_eq!(guided_cell(&cdf, 1.0), 2);
         assert_eq!(guided_cell(&cdf, 5.9), 3);
         assert_eq!(guided_cell(&cdf, 6.0), 63);
-        let mut raw = [NO_WEIGHT; CELLS];
+        let mut raw = [NO_WEIGHT; LANES];
         assert_eq!(guiding_mean(&raw), 0.0);
         raw[5] = 2.0;
         raw[9] = 4.0;

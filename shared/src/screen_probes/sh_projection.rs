@@ -9,13 +9,13 @@
 
 use glam::Vec3;
 
+use super::LANES;
 use super::hemisphere::{CELL_SOLID_ANGLE, ProbeFrame};
-use super::ray_guiding::CELLS;
 use super::{PROBE_CELLS, cell_is_filled, cell_radiance};
 use crate::sh::{SH_COEFFICIENT_COUNT, sh9_basis};
 
 /// Workgroup-memory entries of the projection: one per coefficient per cell.
-pub const SH_TERMS: usize = SH_COEFFICIENT_COUNT * CELLS;
+pub const SH_TERMS: usize = SH_COEFFICIENT_COUNT * LANES;
 
 /// Where cell `cell`'s term of coefficient `coefficient` lives in workgroup memory.
 #[inline]

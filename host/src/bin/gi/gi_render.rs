@@ -1,7 +1,7 @@
 //! `gi render --method gi`: GI-1.0 frames of a scene along a camera path, the last one written
 //! out, with optional metrics against a reference and debug views.
 
-use super::{Output, Sky, describe, load_scene, on_off, view_camera};
+use super::{Output, Sky, describe, load_scene, on_off, view_camera, write_image};
 use gi_host::gi::camera_path::CameraPath;
 use gi_host::gi::probe_debug_views::{gi_debug_views, write_gi_debug_views};
 use gi_host::gi::renderer::{DEFAULT_GI_FRAMES, GiRenderer};
@@ -266,12 +266,7 @@ pub fn render_gi(
     drop(gi);
     drop(gpu);
     let (image, views) = rendered?;
-    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)?;
-    }
-    let png = out.with_extension("png");
-    image.write_exr(out)?;
-    image.write_png(&png, &compare.tone)?;
+    let png = write_image(out, &image, exposure)?;
     println!(
         "gi render:           {width}x{height}, {} frames in {:.1} s",
         args.frames,
