@@ -78,6 +78,14 @@ pub enum Error {
         /// What is wrong with it.
         why: String,
     },
+    /// An output file (a report, a table, a plot) that cannot be written: the file and why.
+    #[error("{}: {why}", path.display())]
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        why: String,
+    },
     /// An image file that cannot be read or written: the file and why.
     #[error("{}: {why}", path.display())]
     Image {

@@ -5,6 +5,7 @@
 //! SPIR-V by rust-gpu at build time, and share every buffer layout with this crate through
 //! `gi-shared`.
 
+pub mod bench;
 pub mod error;
 pub mod frame;
 pub mod gbuffer;

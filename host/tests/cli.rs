@@ -193,3 +193,56 @@ fn render_writes_an_exr_and_a_png() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.starts_with("error: ") && err.contains("x,y,z"), "{err}");
 }
+
+#[test]
+fn presets_choose_the_renderer_and_its_settings() {
+    let dir = std::env::temp_dir().join(format!("gi-cli-preset-{}", std::process::id()));
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-box.gltf");
+    let run = |preset: &str| {
+        let out_exr = dir.join(format!("{preset}.exr"));
+        let out = gi(
+            &[
+                "--validation",
+                "render",
+                scene,
+                "--width",
+                "16",
+                "--height",
+                "16",
+                "--spp",
+                "2",
+                "--frames",
+                "2",
+                "--preset",
+                preset,
+                "--out",
+                out_exr.to_str().unwrap(),
+            ],
+            &[],
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let fast = run("fast");
+    assert!(
+        fast.contains("spawn tile 32 px, cache cells 64 px"),
+        "{fast}"
+    );
+    let quality = run("quality");
+    assert!(quality.contains("spawn tile 8 px"), "{quality}");
+    assert!(quality.contains("probe filter off"), "{quality}");
+    let reference = run("reference");
+    assert!(!reference.contains("spawn tile"), "{reference}");
+    assert!(reference.contains("2 spp"), "{reference}");
+    // A preset and a method are one choice, made once.
+    let both = gi(
+        &["render", scene, "--preset", "fast", "--method", "gi"],
+        &[],
+    );
+    assert!(!both.status.success());
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -294,8 +294,11 @@ pub struct HashGridParams {
     /// Work items of a directly dispatched pass (e.g. the queries of a batch), which invocations
     /// compare their index against; indirectly dispatched passes read their counts from buffers.
     pub item_count: u32,
+    /// Sample-count cap of a cell's history, also the adaptive read's mip threshold (default
+    /// [`crate::hash_cells::MAX_SAMPLE_COUNT`]; 0 reads as 1).
+    pub sample_cap: u32,
     /// Explicit padding to 48 bytes.
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 2],
 }
 
 impl HashGridParams {
@@ -310,7 +313,8 @@ impl HashGridParams {
             tiles_per_bucket_log2: TILES_PER_BUCKET_LOG2,
             frame_index,
             item_count: 0,
-            _pad: [0; 3],
+            sample_cap: crate::hash_cells::MAX_SAMPLE_COUNT,
+            _pad: [0; 2],
         }
     }
 
@@ -461,7 +465,8 @@ mod tests {
         assert_eq!(offset_of!(HashGridParams, tiles_per_bucket_log2), 24);
         assert_eq!(offset_of!(HashGridParams, frame_index), 28);
         assert_eq!(offset_of!(HashGridParams, item_count), 32);
-        assert_eq!(offset_of!(HashGridParams, _pad), 36);
+        assert_eq!(offset_of!(HashGridParams, sample_cap), 36);
+        assert_eq!(offset_of!(HashGridParams, _pad), 40);
         // All alignments are 4: no implicit padding anywhere.
         assert_eq!(core::mem::align_of::<HashGridParams>(), 4);
     }

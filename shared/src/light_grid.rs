@@ -10,11 +10,14 @@
 //!    [`LightGridParams`] ([`light_grid_params`]): at most [`LIGHT_GRID_MAX_CELLS_PER_AXIS`] cubic
 //!    cells along the longest axis, the other axes rounded up. Hits outside the grid use the
 //!    nearest border cell.
-//! 3. **Build.** Each cell holds [`LIGHT_GRID_RESERVOIRS_PER_CELL`] entries, each a streaming-RIS
-//!    pick over *all* lights with weight [`light_grid_weight`] (an irradiance estimate over the
-//!    cell's volume); one invocation per entry runs [`build_light_grid_entry`]. The cost is
-//!    `cells × 64 × lights` weight evaluations (at most 4096 × 64 × lights: 2.6·10⁸ for a
-//!    thousand lights), which is why the grid only covers this frame's hits.
+//! 3. **Build.** Each cell holds [`LIGHT_GRID_RESERVOIRS_PER_CELL`] entries, each a light drawn
+//!    from all lights by weight [`light_grid_weight`] (an irradiance estimate over the cell's
+//!    volume). One workgroup of 64 lanes per cell: lane `k` streams over lights `k`, `k + 64`, …
+//!    ([`light_grid_lane`]: a streaming-RIS pick and its weight sum `W_k`), then each lane draws
+//!    its entry from the lanes ([`light_grid_entry_from_lanes`]). The cost is `cells × lights`
+//!    weight evaluations (at most 4096 × lights), not `cells × 64 × lights` as when each entry
+//!    streamed over every light (which made a frame with a thousand lights 30 times slower on
+//!    lavapipe); the grid still only covers this frame's hits.
 //! 4. **Sampling** ("GenerateReservoirs"): [`sample_light_grid`] looks the hit's cell up (the
 //!    position jittered by `(u − 0.25) × cell size`), "fast merge": the 64 entries are split in
 //!    [`LIGHT_GRID_SEGMENTS`] segments, each collapsed to one candidate, then RIS over those
@@ -29,15 +32,17 @@
 //!
 //! `p(l) = (1 − α) · w_l / W + α / N`, with `W = Σ_l w_l`
 //!
-//! and `α` = [`LIGHT_GRID_DEFENSIVE_FRACTION`] (α = 1 when `W` is zero or not finite): the
-//! streaming pass over all lights picks `l` with probability `w_l / W`, then with probability α
-//! the entry takes a uniformly drawn light instead. The pass computes `W` exactly as a
-//! by-product, so the entry stores `p(l)` itself ([`LightGridEntry::pmf`]). A segment collapses
-//! to *one of its entries chosen uniformly*: as the entries are independent draws from `p`, so is
-//! the chosen one, and the candidates of different segments use disjoint entries, so — taking
-//! the expectation over the random build too — the candidates are independent draws from `p`,
-//! whose value is known: RIS with weights
-//! `p̂ / (p(l) · pdf)` and `M` = [`LIGHT_GRID_SEGMENTS`] is unbiased. (Collapsing a segment by
+//! and `α` = [`LIGHT_GRID_DEFENSIVE_FRACTION`] (α = 1 when `W` is zero or not finite): lane `k`
+//! picks `l` among its lights with probability `w_l / W_k`, an entry takes lane `k` with
+//! probability `W_k / W`, so it holds `l` with probability `w_l / W`; then with probability α it
+//! takes a uniformly drawn light instead. `W = Σ W_k` is known exactly, so the entry stores
+//! `p(l)` itself ([`LightGridEntry::pmf`]). A segment collapses to *one of its entries chosen
+//! uniformly*, whose pmf is again `p` — taking the expectation over the random build. RIS with
+//! weights `p̂ / (p(l) · pdf)` and `M` = [`LIGHT_GRID_SEGMENTS`] is unbiased as long as each
+//! candidate's own (marginal) pmf is the `p` it is weighted with: the estimate is a mean over
+//! the candidates, and the expectation of a sum needs no independence. The entries of a cell
+//! share the 64 lanes' picks, so the same light repeats among them more often than among
+//! independent draws: some variance, for a build 64 times cheaper. (Collapsing a segment by
 //! resampling its entries instead would make the candidate's pmf depend on the other entries'
 //! lights.) The 64 entries are a cached sample of `p`: a lookup reads 8 of them instead of
 //! passing over all lights. Hits that share a cell in a frame share its entries: their estimates
@@ -350,56 +355,98 @@ fn clean_weight(w: f32) -> f32 {
     if w.is_finite() && w > 0.0 { w } else { 0.0 }
 }
 
-/// Entry `entry` of cell `cell` (linear index) for this frame's `seed`: a streaming-RIS pick over
-/// all `params.light_count` lights by [`light_grid_weight`], replaced by a uniform pick with
-/// probability [`LIGHT_GRID_DEFENSIVE_FRACTION`], with its probability (see the [module](self)).
-/// The `build` kernel runs one invocation per entry.
-pub fn build_light_grid_entry(
+/// Lane `lane`'s share of cell `cell`'s pass over the lights for this frame's `seed`: a
+/// streaming-RIS pick among lights `lane`, `lane + 64`, … by [`light_grid_weight`], and the sum
+/// of their weights `W_lane` (0 and light 0 when they weigh nothing). The `build` kernel runs one
+/// workgroup of [`LIGHT_GRID_RESERVOIRS_PER_CELL`] lanes per cell, then
+/// [`light_grid_entry_from_lanes`] per lane.
+pub fn light_grid_lane(
+    params: &LightGridParams,
+    lights: &[GpuLight],
+    cell: u32,
+    lane: u32,
+    seed: u32,
+) -> (u32, f32) {
+    let n = min_u32(params.light_count, lights.len() as u32);
+    let cell_min = params.cell_min(params.cell_coords(cell));
+    let mut rng = Random::new(pcg_chain([cell, lane, LANE_STREAM]), seed);
+    let mut reservoir = Reservoir::EMPTY;
+    let mut i = lane;
+    while i < n {
+        let w = cell_weight(params, lights, cell_min, i);
+        reservoir.update(i, w, rng.next_f32());
+        i += LIGHT_GRID_RESERVOIRS_PER_CELL;
+    }
+    (reservoir.sample, reservoir.w_sum)
+}
+
+/// Distinguishes the lanes' random streams from the entries'.
+const LANE_STREAM: u32 = 0x6c61_6e65;
+
+/// Light `i`'s weight for the cell whose minimum corner is `cell_min` (0 when not positive and
+/// finite).
+#[inline]
+fn cell_weight(params: &LightGridParams, lights: &[GpuLight], cell_min: Vec3, i: u32) -> f32 {
+    clean_weight(light_grid_weight(
+        &lights[i as usize],
+        cell_min,
+        params.cell_size,
+        params.environment_irradiance,
+        params.emissive_multiplier,
+    ))
+}
+
+/// Entry `entry` of cell `cell` from the lanes' picks and weight sums ([`light_grid_lane`]):
+/// lane `k` chosen with probability `W_k / W` gives its pick, so the entry holds light `l` with
+/// probability `w_l / W` exactly; then, with probability [`LIGHT_GRID_DEFENSIVE_FRACTION`], a
+/// uniformly drawn light instead. Stores that probability (see the [module](self)).
+pub fn light_grid_entry_from_lanes(
     params: &LightGridParams,
     lights: &[GpuLight],
     cell: u32,
     entry: u32,
+    picks: &[u32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
+    sums: &[f32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
     seed: u32,
 ) -> LightGridEntry {
     let n = min_u32(params.light_count, lights.len() as u32);
     if n == 0 {
         return LightGridEntry::default();
     }
-    let cell_min = params.cell_min(params.cell_coords(cell));
-    let weight = |i: u32| {
-        let light = lights[i as usize];
-        clean_weight(light_grid_weight(
-            &light,
-            cell_min,
-            params.cell_size,
-            params.environment_irradiance,
-            params.emissive_multiplier,
-        ))
-    };
-    let mut rng = Random::new(pcg_chain([cell, entry]), seed);
-    let mut reservoir = Reservoir::EMPTY;
-    let mut chosen_weight = 0.0;
-    let mut i = 0;
-    while i < n {
-        let w = weight(i);
-        if reservoir.update(i, w, rng.next_f32()) {
-            chosen_weight = w;
-        }
-        i += 1;
+    let mut total = 0.0;
+    let mut k = 0;
+    while k < LIGHT_GRID_RESERVOIRS_PER_CELL as usize {
+        total += sums[k];
+        k += 1;
     }
-    let total = reservoir.w_sum;
+    let mut rng = Random::new(pcg_chain([cell, entry]), seed);
     let alpha = if total.is_finite() && total > 0.0 {
         LIGHT_GRID_DEFENSIVE_FRACTION
     } else {
         1.0
     };
-    let mut light = reservoir.sample;
+    // The lane whose share of the total holds `u · W` (the last one with weight where rounding
+    // leaves `u · W` past the running sum).
+    let target = rng.next_f32() * total;
+    let mut light = 0;
+    let mut running = 0.0;
+    let mut found = false;
+    k = 0;
+    while k < LIGHT_GRID_RESERVOIRS_PER_CELL as usize {
+        if sums[k] > 0.0 && !found {
+            light = picks[k];
+            running += sums[k];
+            found = target < running;
+        }
+        k += 1;
+    }
     if rng.next_f32() < alpha {
         light = min_u32(to_u32_clamped(rng.next_f32() * n as f32), n - 1);
-        chosen_weight = weight(light);
     }
+    let light = min_u32(light, n - 1);
+    let cell_min = params.cell_min(params.cell_coords(cell));
     let from_weights = if alpha < 1.0 {
-        (1.0 - alpha) * chosen_weight / total
+        (1.0 - alpha) * cell_weight(params, lights, cell_min, light) / total
     } else {
         0.0
     };
@@ -407,6 +454,25 @@ pub fn build_light_grid_entry(
         light,
         pmf: from_weights + alpha / n as f32,
     }
+}
+
+/// Every entry of cell `cell`: the lanes, then each entry from them (the CPU's version of the
+/// `build` kernel's workgroup).
+pub fn build_light_grid_cell(
+    params: &LightGridParams,
+    lights: &[GpuLight],
+    cell: u32,
+    seed: u32,
+) -> [LightGridEntry; LIGHT_GRID_RESERVOIRS_PER_CELL as usize] {
+    let mut picks = [0u32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize];
+    let mut sums = [0.0f32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize];
+    for lane in 0..LIGHT_GRID_RESERVOIRS_PER_CELL {
+        (picks[lane as usize], sums[lane as usize]) =
+            light_grid_lane(params, lights, cell, lane, seed);
+    }
+    core::array::from_fn(|entry| {
+        light_grid_entry_from_lanes(params, lights, cell, entry as u32, &picks, &sums, seed)
+    })
 }
 
 /// A secondary hit as light sampling shades it: a diffuse surface (the reference forces the
@@ -850,16 +916,8 @@ mod tests {
     }
 
     fn build(params: &LightGridParams, lights: &[GpuLight], seed: u32) -> Vec<LightGridEntry> {
-        (0..params.entry_count())
-            .map(|e| {
-                build_light_grid_entry(
-                    params,
-                    lights,
-                    e / LIGHT_GRID_RESERVOIRS_PER_CELL,
-                    e % LIGHT_GRID_RESERVOIRS_PER_CELL,
-                    seed,
-                )
-            })
+        (0..params.cell_count())
+            .flat_map(|cell| build_light_grid_cell(params, lights, cell, seed))
             .collect()
     }
 
@@ -1121,12 +1179,12 @@ mod tests {
             environment_irradiance: 0.0,
             ..params
         };
-        let e = build_light_grid_entry(&black_params, &black, 0, 0, 0);
-        assert_eq!(e.pmf, 1.0 / black.len() as f32);
+        for e in build_light_grid_cell(&black_params, &black, 0, 0) {
+            assert_eq!(e.pmf, 1.0 / black.len() as f32);
+        }
         let mut nan_light = s.lights.clone();
         nan_light[3].intensity = [f32::NAN; 3];
-        for i in 0..LIGHT_GRID_RESERVOIRS_PER_CELL {
-            let e = build_light_grid_entry(&params, &nan_light, 0, i, 0);
+        for e in build_light_grid_cell(&params, &nan_light, 0, 0) {
             assert!(e.pmf > 0.0 && e.pmf <= 1.0, "{e:?}");
         }
     }
@@ -1141,9 +1199,11 @@ mod tests {
         let cell = params.cell_index(params.cell_of(Vec3::ZERO));
         let mut counts = vec![0u32; n];
         let mut pmf = vec![0.0f32; n];
+        // One entry per build: entries of one build share the lanes' picks, so only entries of
+        // different builds are independent draws.
         let trials = 100_000;
         for t in 0..trials {
-            let e = build_light_grid_entry(&params, &s.lights, cell, t % 64, t / 64);
+            let e = build_light_grid_cell(&params, &s.lights, cell, t)[(t % 64) as usize];
             counts[e.light as usize] += 1;
             assert!(pmf[e.light as usize] == 0.0 || pmf[e.light as usize] == e.pmf);
             pmf[e.light as usize] = e.pmf;

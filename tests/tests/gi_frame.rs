@@ -24,7 +24,12 @@ use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::{Buffer, Context, KernelModule};
+use gi_shared::cache_view::PASS_LIGHT_GRID;
 use gi_shared::camera::CameraParams;
+use gi_shared::hash::pcg_chain;
+use gi_shared::light_grid::{
+    LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams, build_light_grid_cell,
+};
 use gi_tests::{context, finish_without_validation_messages, scene_path};
 use glam::{Quat, Vec3};
 
@@ -510,4 +515,42 @@ fn both_tracing_variants_render_the_same_frame_cleanly() {
         relmse < 1e-3 && bias.abs() < 0.01,
         "relMSE {relmse}, bias {bias}"
     );
+}
+
+/// The light grid's build on the GPU (one workgroup per cell, the lanes sharing the pass over the
+/// lights through workgroup memory) draws the CPU's entries: the same lights, each with the
+/// probability the CPU computes (256 lights: every lane streams four).
+#[test]
+fn the_light_grid_build_matches_the_cpu() {
+    let scene = load("many-lights.gltf");
+    let gpu = Gpu::new(KernelVariant::Software, &scene);
+    let mut gi = gpu.renderer(settings());
+    gpu.run(&mut gi, 1, |_| scene_camera(&scene, SIDE, SIDE));
+    let res = gi.cache_resources();
+    let params: Vec<LightGridParams> = res.light_grid.read_back(&gpu.ctx).unwrap();
+    let entries: Vec<LightGridEntry> = res.light_grid_entries.read_back(&gpu.ctx).unwrap();
+    let params = params[0];
+    assert!(params.light_count >= 256, "{params:?}");
+    assert!(params.cell_count() > 1, "{params:?}");
+    let (_, pass, _) = gi.last_frame().unwrap();
+    let seed = pcg_chain([pass.view.seed, pass.view.frame_index, PASS_LIGHT_GRID]);
+    let (mut same, mut total) = (0, 0);
+    for cell in 0..params.cell_count() {
+        let cpu = build_light_grid_cell(&params, &gpu.lights.lights, cell, seed);
+        let gpu_cell = &entries[(cell * LIGHT_GRID_RESERVOIRS_PER_CELL) as usize..][..cpu.len()];
+        for (c, g) in cpu.iter().zip(gpu_cell) {
+            total += 1;
+            if c.light == g.light {
+                same += 1;
+                assert!(
+                    (c.pmf - g.pmf).abs() <= 1e-5 * c.pmf,
+                    "cell {cell}: {c:?} {g:?}"
+                );
+            }
+        }
+    }
+    // Rounding may flip a streaming pick in the last bit of a comparison, rarely.
+    assert!(same * 100 >= total * 99, "{same} of {total} entries agree");
+    drop(gi);
+    gpu.finish();
 }

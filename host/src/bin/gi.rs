@@ -2,6 +2,8 @@
 
 #[path = "gi/gi_render.rs"]
 mod gi_render;
+#[path = "gi/gi_sweep.rs"]
+mod gi_sweep;
 
 use clap::{Parser, Subcommand};
 use gi_host::gbuffer::{GBufferData, GBufferImages, GBufferPass, scene_camera, write_debug_pngs};
@@ -18,6 +20,7 @@ use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
 use gi_render::{GiArgs, Method, render_gi};
 use gi_shared::camera::CameraParams;
+use gi_sweep::{SweepArgs, run_sweep};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -169,6 +172,12 @@ enum Command {
         #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(0..=64))]
         max_bounces: u32,
     },
+    /// Measure what each GI setting costs and buys: every preset, each knob alone, other
+    /// resolutions and the other tracing variant, on each scene, static and orbiting, against
+    /// path-traced references; the equal-time comparison with the path tracer; optionally how
+    /// the cost scales with pixels, triangles and lights. Writes CSV, JSON, Markdown tables and
+    /// plots (PNG and SVG).
+    Sweep(SweepArgs),
     /// Compare a test image with a reference: RMSE, relative MSE, PSNR and FLIP, and optionally
     /// FLIP's error heat map. Images are OpenEXR (linear) or PNG/JPEG (sRGB).
     Compare {
@@ -268,6 +277,11 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     {
         return compare(reference, test, *exposure, heat_map.as_deref());
     }
+    if let Some(Command::Sweep(args)) = &cli.command
+        && let Some(dir) = &args.replot
+    {
+        return gi_sweep::replot(dir);
+    }
     if let Some(Command::Benchmark {
         scenes,
         width,
@@ -319,7 +333,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         gi,
     }) = &cli.command
     {
-        if gi.method == Method::Gi {
+        if gi.method() == Method::Gi {
             let options = ViewOptions {
                 sky: view.sky.unwrap_or(Vec3::ZERO),
                 emissive_multiplier: view.emissive_multiplier,
@@ -348,6 +362,9 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         };
         let output = view.output(out, *width, *height);
         render(&ctx, scene, &output, view.camera(), view.sky()?, &settings)?;
+    }
+    if let Some(Command::Sweep(args)) = &cli.command {
+        run_sweep(&ctx, &options, args)?;
     }
     if let Some(Command::CacheView {
         scene,

@@ -15,9 +15,7 @@ use gi_shared::camera::CameraParams;
 use gi_shared::hash::pcg_chain;
 use gi_shared::hash_cells::read::filtered_value;
 use gi_shared::hash_cells::storage::{find_tile, slots_per_bucket};
-use gi_shared::hash_cells::{
-    CellDescriptor, DIRECTION_BINS, MAX_LOD, MAX_SAMPLE_COUNT, cell_descriptor, tile_slot,
-};
+use gi_shared::hash_cells::{CellDescriptor, DIRECTION_BINS, MAX_LOD, cell_descriptor, tile_slot};
 use gi_shared::layout::{HashCellValue, HashGridParams};
 use glam::{UVec2, Vec3};
 use std::path::{Path, PathBuf};
@@ -29,7 +27,7 @@ pub enum DebugView {
     Hash,
     /// The LOD: blue (fine) to red (coarse), over the LODs in view.
     Lod,
-    /// The adaptive read's sample count: black (none) to white (16 or more).
+    /// The adaptive read's sample count: black (none) to white (the sample cap, 16 by default).
     SampleCount,
     /// The cell's filtered radiance.
     Radiance,
@@ -130,7 +128,7 @@ fn pixel_cell(
                 best.evicted = true;
             }
             if let Some(tile) = find_tile(keys, &desc, grid) {
-                let v = filtered_value(values, tile, desc.cell);
+                let v = filtered_value(values, tile, desc.cell, grid.sample_cap);
                 if best.value.is_none_or(|b| v.count > b.count) {
                     best.desc = desc;
                     best.value = Some(v);
@@ -189,7 +187,7 @@ pub fn debug_views(
                     }
                     (DebugView::SampleCount, Some(c)) => {
                         let n = c.value.map_or(0.0, |v| v.count);
-                        [(n / MAX_SAMPLE_COUNT as f32).min(1.0); 3]
+                        [(n / grid.sample_cap.max(1) as f32).min(1.0); 3]
                     }
                     (DebugView::Radiance, Some(c)) => {
                         c.value.map_or([0.0; 3], |v| v.mean().to_array())

@@ -10,6 +10,7 @@ pub mod debug_views;
 pub mod gi_denoiser;
 pub mod hash_cells;
 pub mod lighting;
+pub mod presets;
 pub mod primary_lighting;
 pub mod probe_debug_views;
 pub mod renderer;
@@ -19,4 +20,5 @@ pub mod settings;
 pub mod world_cache;
 
 pub use cache_view::{CacheState, CacheView, Occupancy, ViewOptions};
+pub use presets::Preset;
 pub use settings::{GiSettings, SpawnRate};

@@ -3,7 +3,8 @@
 
 use crate::error::{Error, Result};
 use gi_shared::hash_cells::{
-    DEFAULT_CELL_SIZE_PIXELS, MAX_NUM_TILES_LOG2, MIN_CELL_SIZE, TILES_PER_BUCKET_LOG2,
+    DEFAULT_CELL_SIZE_PIXELS, MAX_NUM_TILES_LOG2, MAX_SAMPLE_COUNT, MIN_CELL_SIZE,
+    TILES_PER_BUCKET_LOG2,
 };
 use gi_shared::layout::{MAX_FRAME_HEIGHT, MAX_FRAME_WIDTH};
 use gi_shared::lights::MAX_LIGHT_CANDIDATES;
@@ -14,6 +15,10 @@ pub const MIN_AUTO_TILES_LOG2: u32 = 10;
 /// Pixels per tile [`GiSettings::for_resolution`] budgets: one tile per 32 pixels gives the
 /// reference's 65 536 tiles at 1920 × 1080.
 pub const AUTO_PIXELS_PER_TILE: u64 = 32;
+
+/// Largest [`GiSettings::sample_cap`]: a cell's sum stays exact in `f32` far beyond it, and a
+/// history of more than 1024 frames would answer to a change of light only after seconds.
+pub const MAX_SAMPLE_CAP: u32 = 1024;
 
 /// Everything a GI frame can be tuned by.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,6 +39,12 @@ pub struct GiSettings {
     /// samples (less noise) over a larger footprint (more bias: light and shadow smeared over
     /// the cell).
     pub cell_size_pixels: f32,
+    /// Sample-count cap of a cache cell's history (reference: 16; 1 to [`MAX_SAMPLE_CAP`]), also
+    /// the count below which a read steps to the coarser mip. Cost: none per frame. Quality: a
+    /// higher cap averages more frames (less noise, slower response to changing light: the
+    /// newest sample weighs 1/cap) and reads coarser mips for longer (more blur); a lower cap
+    /// reacts faster and is noisier.
+    pub sample_cap: u32,
     /// Smallest world-space cell, in metres (reference: 0.1). Cost: none. Quality: stops cells
     /// near the camera from becoming so small that they never gather enough samples.
     pub min_cell_size: f32,
@@ -145,6 +156,7 @@ impl Default for GiSettings {
             buckets_log2: gi_shared::hash_cells::NUM_BUCKETS_LOG2,
             tiles_per_bucket_log2: TILES_PER_BUCKET_LOG2,
             cell_size_pixels: DEFAULT_CELL_SIZE_PIXELS,
+            sample_cap: MAX_SAMPLE_COUNT,
             min_cell_size: MIN_CELL_SIZE,
             temporal_feedback: true,
             restir: false,
@@ -229,6 +241,12 @@ impl GiSettings {
                 ),
             );
         }
+        if self.sample_cap == 0 || self.sample_cap > MAX_SAMPLE_CAP {
+            return bad(
+                "sample_cap",
+                format!("{}: must be 1 to {MAX_SAMPLE_CAP}", self.sample_cap),
+            );
+        }
         if !(self.min_cell_size.is_finite() && self.min_cell_size >= 0.0) {
             return bad(
                 "min_cell_size",
@@ -299,6 +317,10 @@ mod tests {
             ..ok
         };
         assert_eq!(name(min, 64, 64), "min_cell_size");
+        for sample_cap in [0, MAX_SAMPLE_CAP + 1] {
+            let cap = GiSettings { sample_cap, ..ok };
+            assert_eq!(name(cap, 64, 64), "sample_cap");
+        }
         let cands = GiSettings {
             light_candidates: 0,
             ..ok

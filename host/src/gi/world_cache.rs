@@ -146,6 +146,7 @@ impl WorldCache {
         grid.min_cell_size = s.min_cell_size;
         grid.num_buckets_log2 = s.buckets_log2;
         grid.tiles_per_bucket_log2 = s.tiles_per_bucket_log2;
+        grid.sample_cap = s.sample_cap;
         let mut flags = frame.extra_flags;
         for (on, flag) in [
             (s.temporal_feedback, FLAG_FEEDBACK),

@@ -1,11 +1,12 @@
 //! Geometry made in code: closed meshes (a cube, an icosphere), scenes built from them, and rays
 //! aimed exactly at their shared vertices and edges, which a watertight tracer never lets
-//! through. Used by the tracing tests and the tracing benchmark.
+//! through. Used by the tracing tests and the tracing benchmark; and rooms of any triangle and
+//! light count for `gi bench`'s scaling sweeps ([`scaling_room`]).
 
-use super::{Aabb, Instance, Material, Mesh, Scene};
+use super::{Aabb, Camera, Instance, Light, LightKind, Material, Mesh, Scene};
 use gi_shared::random::Random;
 use gi_shared::ray::Ray;
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec3, Vec4};
 use std::collections::HashMap;
 use std::path::PathBuf;
 
@@ -187,6 +188,112 @@ pub fn scene(meshes: Vec<Mesh>, instances: &[(u32, Mat4)]) -> Option<Scene> {
     Some(scene)
 }
 
+/// Half extents of [`scaling_room`]'s room, in metres.
+pub const ROOM_HALF_EXTENTS: Vec3 = Vec3::new(4.0, 1.5, 4.0);
+/// Spheres on [`scaling_room`]'s floor: a 4 × 4 grid.
+pub const ROOM_SPHERES: u32 = 16;
+/// Total power of [`scaling_room`]'s point lights, shared equally, in W/sr: the image's light
+/// stays the same whatever their count.
+pub const ROOM_LIGHT_INTENSITY: f32 = 12.0;
+
+/// A closed room (walls facing inward) holding [`ROOM_SPHERES`] icospheres of `sphere_levels`
+/// subdivisions (`16 · 20 · 4^levels` triangles plus the room's 12; at most
+/// [`MAX_ICOSPHERE_LEVELS`]) and `lights` point lights spread under the ceiling, all of one grey
+/// diffuse material, with a camera in a corner looking across: the generated scene of `gi
+/// bench`'s triangle-count and light-count sweeps. `None` for 0 lights.
+pub fn scaling_room(sphere_levels: u32, lights: u32) -> Option<Scene> {
+    if lights == 0 || sphere_levels > MAX_ICOSPHERE_LEVELS {
+        return None;
+    }
+    let h = ROOM_HALF_EXTENTS;
+    let corner = |i: u32| {
+        Vec3::new(
+            if i & 1 == 0 { -h.x } else { h.x },
+            if i & 2 == 0 { -h.y } else { h.y },
+            if i & 4 == 0 { -h.z } else { h.z },
+        )
+    };
+    // Each face its own four vertices (flat normals), counter-clockwise seen from inside.
+    let faces = [
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+    ];
+    let positions: Vec<Vec3> = faces.iter().flatten().map(|&i| corner(i)).collect();
+    let triangles = (0..6u32)
+        .flat_map(|f| [[4 * f, 4 * f + 1, 4 * f + 2], [4 * f, 4 * f + 2, 4 * f + 3]])
+        .collect();
+    let room = mesh("room", positions, triangles);
+    let side = ROOM_SPHERES.isqrt();
+    let spacing = 2.0 * h.x / side as f32;
+    let radius = 0.3 * spacing;
+    let mut instances = vec![(0, Mat4::IDENTITY)];
+    for i in 0..ROOM_SPHERES {
+        let x = -h.x + spacing * ((i % side) as f32 + 0.5);
+        let z = -h.z + spacing * ((i / side) as f32 + 0.5);
+        let centre = Vec3::new(x, -h.y + radius, z);
+        instances.push((
+            1,
+            Mat4::from_scale_rotation_translation(
+                Vec3::splat(radius),
+                glam::Quat::IDENTITY,
+                centre,
+            ),
+        ));
+    }
+    let mut scene = scene(vec![room, icosphere(sphere_levels)], &instances)?;
+    scene.materials = vec![Material {
+        name: "grey".into(),
+        base_color: Vec4::new(0.6, 0.6, 0.6, 1.0),
+        metallic: 0.0,
+        double_sided: true,
+        ..Material::default()
+    }];
+    let per_side = lights.isqrt().max(1);
+    let rows = lights.div_ceil(per_side);
+    scene.lights = (0..lights)
+        .map(|i| {
+            let u = ((i % per_side) as f32 + 0.5) / per_side as f32;
+            let v = ((i / per_side) as f32 + 0.5) / rows as f32;
+            Light {
+                name: format!("light {i}"),
+                kind: LightKind::Point,
+                intensity: Vec3::splat(ROOM_LIGHT_INTENSITY / lights as f32),
+                position: Vec3::new(
+                    (2.0 * u - 1.0) * 0.8 * h.x,
+                    0.8 * h.y,
+                    (2.0 * v - 1.0) * 0.8 * h.z,
+                ),
+                direction: Vec3::NEG_Z,
+                range: None,
+            }
+        })
+        .collect();
+    let eye = Vec3::new(0.9 * h.x, 0.5 * h.y, 0.9 * h.z);
+    // Camera to world: x right, y up, looking down -z.
+    let forward = (Vec3::new(-0.3 * h.x, -h.y, -0.3 * h.z) - eye).normalize();
+    let right = forward.cross(Vec3::Y).normalize();
+    let up = right.cross(forward);
+    scene.cameras = vec![Camera {
+        name: "corner".into(),
+        yfov: 60f32.to_radians(),
+        aspect_ratio: None,
+        znear: 0.01,
+        zfar: None,
+        transform: Mat4::from_cols(
+            right.extend(0.0),
+            up.extend(0.0),
+            (-forward).extend(0.0),
+            eye.extend(1.0),
+        ),
+    }];
+    scene.update_derived();
+    Some(scene)
+}
+
 /// `transform` followed by a move of 32 times its scale along (1, 1, 1): a [`cube`] or
 /// [`icosphere`] placed by it, and the outside origins of [`ray_at_shared_feature`], then lie
 /// away from the coordinate planes, every coordinate of a ray within a factor 2 of its target's.
@@ -274,6 +381,26 @@ mod tests {
 
     /// Both meshes are closed (every edge has exactly two triangles, in opposite directions)
     /// and counter-clockwise seen from outside.
+    #[test]
+    fn scaling_rooms_hold_the_asked_triangles_and_lights() {
+        for (levels, lights) in [(0, 1), (2, 7), (3, 64)] {
+            let room = scaling_room(levels, lights).unwrap();
+            let spheres = ROOM_SPHERES as usize * 20 * 4usize.pow(levels);
+            assert_eq!(room.triangle_count(), 12 + spheres);
+            assert_eq!(room.lights.len(), lights as usize);
+            let total: f32 = room.lights.iter().map(|l| l.intensity.x).sum();
+            assert!((total - ROOM_LIGHT_INTENSITY).abs() < 1e-3);
+            // Lights and camera inside the room, the camera looking into it.
+            let inside = |p: Vec3| p.abs().cmplt(ROOM_HALF_EXTENTS).all();
+            assert!(room.lights.iter().all(|l| inside(l.position)));
+            let camera = &room.cameras[0];
+            assert!(inside(camera.position()));
+            assert!(inside(camera.position() + camera.forward()));
+        }
+        assert!(scaling_room(1, 0).is_none());
+        assert!(scaling_room(MAX_ICOSPHERE_LEVELS + 1, 1).is_none());
+    }
+
     #[test]
     fn meshes_are_closed_and_face_outward() {
         for (mesh, count) in [(cube(), 12), (icosphere(2), 320)] {

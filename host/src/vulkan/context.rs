@@ -66,8 +66,19 @@ pub(crate) struct SharedDevice {
     pub(crate) accel: Option<ash::khr::acceleration_structure::Device>,
     pub(crate) buffers: ResourceRegistry<vk::Buffer>,
     pub(crate) images: ResourceRegistry<vk::Image>,
-    // Dropped after the device (fields drop after `drop`).
-    _instance: Instance,
+    // Dropped by `drop`, after the device and under the same lock.
+    instance: ManuallyDrop<Instance>,
+}
+
+/// Held while an instance or device is created or destroyed: loaders and drivers race there when
+/// threads (parallel tests, an engine's worker threads) do it at once. Seen as a SIGSEGV of
+/// lavapipe in CI; NVIDIA's driver 595 does the same (kvark/blade#336).
+static LIFETIMES: Mutex<()> = Mutex::new(());
+
+fn lifetimes() -> std::sync::MutexGuard<'static, ()> {
+    LIFETIMES
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
 impl Drop for SharedDevice {
@@ -75,7 +86,9 @@ impl Drop for SharedDevice {
         unsafe {
             self.device.device_wait_idle().ok();
             ManuallyDrop::drop(&mut self.allocator);
+            let _held = lifetimes();
             self.device.destroy_device(None);
+            ManuallyDrop::drop(&mut self.instance);
         }
     }
 }
@@ -115,6 +128,7 @@ fn device_rank(t: vk::PhysicalDeviceType) -> u32 {
 impl Context {
     /// Opens the loader, picks a device and enables exactly what the chosen kernel variant needs.
     pub fn new(options: &ContextOptions) -> Result<Self> {
+        let held = lifetimes();
         let entry = match std::env::var_os(LOADER_ENV) {
             Some(path) => unsafe { ash::Entry::load_from(&path) }.map_err(|e| {
                 Error::NoLoader(format!("{} ({LOADER_ENV}={})", e, path.to_string_lossy()))
@@ -285,7 +299,9 @@ impl Context {
                 return Err(e);
             }
         };
-        // From here on, `shared` destroys the device and instance if a later step fails.
+        // From here on, `shared` destroys the device and instance (taking the lock) if a later
+        // step fails.
+        drop(held);
         let shared = Arc::new(SharedDevice {
             device: device.clone(),
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
@@ -293,7 +309,7 @@ impl Context {
                 .then(|| ash::khr::acceleration_structure::Device::new(&instance, &device)),
             buffers: ResourceRegistry::default(),
             images: ResourceRegistry::default(),
-            _instance: owner,
+            instance: ManuallyDrop::new(owner),
         });
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(queue_family)

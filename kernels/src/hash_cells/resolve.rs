@@ -4,7 +4,9 @@
 //!
 //! Set 0: cache-view counters, queries, values, pixels.
 
-use gi_shared::cache_view::{CacheQuery, CacheViewPixel, QUERY_COUNT, cache_radiance};
+use gi_shared::cache_view::{
+    CachePassParams, CacheQuery, CacheViewPixel, QUERY_COUNT, cache_radiance,
+};
 use gi_shared::layout::HashCellValue;
 use gi_shared::math::min_u32;
 use spirv_std::glam::{UVec3, Vec3};
@@ -14,6 +16,7 @@ use spirv_std::spirv;
 #[spirv(compute(threads(64)))]
 pub fn resolve_radiance_cache(
     #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] params: &CachePassParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] counters: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] queries: &[CacheQuery],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] values: &[HashCellValue],
@@ -24,7 +27,7 @@ pub fn resolve_radiance_cache(
         return;
     }
     let query = queries[id.x as usize];
-    let radiance = cache_radiance(values, &query);
+    let radiance = cache_radiance(values, &query, params.grid.sample_cap);
     let r = query.ray_index as usize;
     if radiance.max_element() > 0.0 && r < pixels.len() {
         let mut pixel = pixels[r];

@@ -1,6 +1,6 @@
 //! UpdateLightGrid (`gi_shared::light_grid`): [`update_light_grid`] turns this frame's hit bounds
-//! into the grid's parameters and the indirect dispatch of [`build_light_grid`], which draws each
-//! entry of each cell by streaming RIS over all lights.
+//! into the grid's parameters and the indirect dispatch of [`build_light_grid`]: one workgroup
+//! per cell, whose 64 lanes share the pass over all lights, then each draws one entry.
 //!
 //! `update_light_grid`, set 0: hit bounds (`u32`), grid parameters (`LightGridParams`), indirect
 //! arguments (`DispatchIndirect`). `build_light_grid`, set 0: grid parameters, entries
@@ -13,9 +13,10 @@ use gi_shared::hash::pcg_chain;
 use gi_shared::indirect::{DispatchIndirect, dispatch_for_count};
 use gi_shared::light_grid::{
     LIGHT_GRID_MAX_CELLS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams,
-    build_light_grid_entry, light_grid_params, read_hit_bounds,
+    light_grid_entry_from_lanes, light_grid_lane, light_grid_params, read_hit_bounds,
 };
 use gi_shared::lights::GpuLight;
+use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::spirv;
 
@@ -50,29 +51,40 @@ pub fn update_light_grid(
     }
 }
 
-/// Draws entry `id.x` (cell `id.x / 64`, entry `id.x % 64`) of the grid.
+/// Cell `group.x` of the grid: lane `local` streams over its share of the lights, then draws
+/// entry `local`.
 #[spirv(compute(threads(64)))]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "an entry point takes one argument per binding"
+)]
 pub fn build_light_grid(
-    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(workgroup_id)] group: UVec3,
+    #[spirv(local_invocation_index)] local: u32,
     #[spirv(push_constant)] params: &CachePassParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] grid: &[LightGridParams],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] entries: &mut [LightGridEntry],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] lights: &[GpuLight],
+    #[spirv(workgroup)] picks: &mut [u32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
+    #[spirv(workgroup)] sums: &mut [f32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
 ) {
+    // The whole workgroup is in or out of the grid together: no lane leaves before the barrier.
     if grid.is_empty() {
         return;
     }
     let g = grid[0];
-    let i = id.x;
-    if i >= g.entry_count() || i as usize >= entries.len() {
+    let cell = group.x;
+    let i = cell * LIGHT_GRID_RESERVOIRS_PER_CELL + local;
+    if cell >= g.cell_count() {
         return;
     }
     let seed = pcg_chain([params.view.seed, params.view.frame_index, PASS_LIGHT_GRID]);
-    entries[i as usize] = build_light_grid_entry(
-        &g,
-        lights,
-        i / LIGHT_GRID_RESERVOIRS_PER_CELL,
-        i % LIGHT_GRID_RESERVOIRS_PER_CELL,
-        seed,
-    );
+    let (pick, sum) = light_grid_lane(&g, lights, cell, local, seed);
+    picks[local as usize] = pick;
+    sums[local as usize] = sum;
+    workgroup_memory_barrier_with_group_sync();
+    if (i as usize) < entries.len() {
+        entries[i as usize] =
+            light_grid_entry_from_lanes(&g, lights, cell, local, picks, sums, seed);
+    }
 }

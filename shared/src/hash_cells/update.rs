@@ -5,30 +5,32 @@
 //! 1, 2 and 3 on the first 16, 4 and 1 invocations.
 //!
 //! Blend: with history mean `m` over `c0` samples and `k` new samples of mean `a`, the new count
-//! is `c = min(c0 + k, 16)` and the mean is the running mean that keeps the newest `c` samples'
-//! worth of weight: `(m · (c − k') + a · k') / c` with `k' = min(k, 16)`. Below the cap this is the
-//! exact mean of all samples; at the cap the history keeps weight `16 − k'`. For `k = 1` it equals
+//! is `c = min(c0 + k, cap)` (the sample cap, 16 by default) and the mean is the running mean that
+//! keeps the newest `c` samples' worth of weight: `(m · (c − k') + a · k') / c` with
+//! `k' = min(k, cap)`. Below the cap this is the exact mean of all samples; at the cap the history
+//! keeps weight `cap − k'`. For `k = 1` it equals
 //! the reference's `lerp(m, a, 1/c)`; for `k > 1` the reference gives the `k` samples the weight
 //! of one, this gives them `k`. A cell without samples (`k = 0`) is left unchanged, where the
 //! reference decrements its count (so stale cells of a touched tile drifted to coarser mips).
 
 use super::accumulate::{accumulator_word, clear_accumulator, load_accumulator};
-use super::{MAX_SAMPLE_COUNT, MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_CELL_RATIO, cell_index};
+use super::{MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_CELL_RATIO, cell_index};
 use crate::atomics::AtomicWords;
 use crate::layout::{HashCellAccumulator, HashCellValue};
-use crate::math::{clamp, min, min_u32};
+use crate::math::{clamp, max_u32, min, min_u32};
 
 /// A mip-0 cell's new value from its old value (`(rgb · n, n)`) and the frame's accumulator (see
 /// the module documentation for the weights).
 #[inline]
-pub fn blend_cell(old: HashCellValue, acc: HashCellAccumulator) -> HashCellValue {
+pub fn blend_cell(old: HashCellValue, acc: HashCellAccumulator, cap: u32) -> HashCellValue {
     if acc.count == 0 {
         return old;
     }
-    let cap = MAX_SAMPLE_COUNT as f32;
+    let cap_count = max_u32(cap, 1);
+    let cap = cap_count as f32;
     let k = acc.count as f32;
-    let k_kept = min_u32(acc.count, MAX_SAMPLE_COUNT) as f32;
-    // Mip-0 counts are integers in 0..=16; the clamp also turns a NaN count into 0.
+    let k_kept = min_u32(acc.count, cap_count) as f32;
+    // Mip-0 counts are integers in 0..=cap; the clamp also turns a NaN count into 0.
     let c0 = clamp(old.count, 0.0, cap);
     let c = min(c0 + k_kept, cap);
     let history_weight = c - k_kept;
@@ -53,6 +55,7 @@ pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
     accumulators: &mut W,
     tile: u32,
     cell: u32,
+    cap: u32,
 ) {
     let cell = min_u32(cell, MIP0_CELLS_PER_TILE - 1);
     let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
@@ -60,7 +63,7 @@ pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
     let base = accumulator_word(tile, xy);
     let acc = load_accumulator(accumulators, base);
     if acc.count != 0 {
-        values[index] = blend_cell(values[index], acc);
+        values[index] = blend_cell(values[index], acc, cap);
         clear_accumulator(accumulators, base);
     }
 }
@@ -104,10 +107,11 @@ pub fn update_tile<W: AtomicWords + ?Sized>(
     values: &mut [HashCellValue],
     accumulators: &mut W,
     tile: u32,
+    cap: u32,
 ) {
     let mut cell = 0;
     while cell < MIP0_CELLS_PER_TILE {
-        update_mip0_cell(values, accumulators, tile, cell);
+        update_mip0_cell(values, accumulators, tile, cell, cap);
         cell += 1;
     }
     let mut mip = 1;
@@ -126,6 +130,7 @@ mod tests {
     use super::*;
     use crate::fixed_point;
     use crate::hash_cells::CELLS_PER_TILE;
+    use crate::hash_cells::MAX_SAMPLE_COUNT;
     use crate::hash_cells::accumulate::accumulate_sample;
     use crate::layout::ACCUMULATOR_WORDS;
     use glam::Vec3;
@@ -149,35 +154,49 @@ mod tests {
         let a = Vec3::new(3.0, 0.0, 0.5);
         // k = 0: unchanged (the reference would drop the count to 4).
         let old = HashCellValue::new(m * 5.0, 5.0);
-        assert_eq!(blend_cell(old, acc(Vec3::ZERO, 0)), old);
+        assert_eq!(blend_cell(old, acc(Vec3::ZERO, 0), MAX_SAMPLE_COUNT), old);
         // Empty history: the new samples' mean, count k.
-        let v = blend_cell(HashCellValue::ZERO, acc(a * 3.0, 3));
+        let v = blend_cell(HashCellValue::ZERO, acc(a * 3.0, 3), MAX_SAMPLE_COUNT);
         assert_eq!(v.count, 3.0);
         assert!(close(v.mean(), a));
         // k = 1 below the cap: lerp(m, a, 1/c), as the reference.
-        let v = blend_cell(old, acc(a, 1));
+        let v = blend_cell(old, acc(a, 1), MAX_SAMPLE_COUNT);
         assert_eq!(v.count, 6.0);
         assert!(close(v.mean(), m + (a - m) / 6.0));
         // k = 1 at the cap: lerp(m, a, 1/16).
         let full = HashCellValue::new(m * 16.0, 16.0);
-        let v = blend_cell(full, acc(a, 1));
+        let v = blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT);
         assert_eq!(v.count, 16.0);
         assert!(close(v.mean(), m + (a - m) / 16.0));
         // k = 4 below the cap: the exact mean of 5 + 4 samples.
-        let v = blend_cell(old, acc(a * 4.0, 4));
+        let v = blend_cell(old, acc(a * 4.0, 4), MAX_SAMPLE_COUNT);
         assert_eq!(v.count, 9.0);
         assert!(close(v.mean(), (m * 5.0 + a * 4.0) / 9.0));
         // k = 4 crossing the cap from 14: history keeps weight 12.
-        let v = blend_cell(HashCellValue::new(m * 14.0, 14.0), acc(a * 4.0, 4));
+        let v = blend_cell(
+            HashCellValue::new(m * 14.0, 14.0),
+            acc(a * 4.0, 4),
+            MAX_SAMPLE_COUNT,
+        );
         assert_eq!(v.count, 16.0);
         assert!(close(v.mean(), (m * 12.0 + a * 4.0) / 16.0));
         // k > 16: the history is replaced by the new mean.
-        let v = blend_cell(full, acc(a * 40.0, 40));
+        let v = blend_cell(full, acc(a * 40.0, 40), MAX_SAMPLE_COUNT);
         assert_eq!(v.count, 16.0);
         assert!(close(v.mean(), a));
         // A corrupt count is treated as empty history.
         let nan = HashCellValue::new(m, f32::NAN);
-        assert!(close(blend_cell(nan, acc(a, 1)).mean(), a));
+        assert!(close(
+            blend_cell(nan, acc(a, 1), MAX_SAMPLE_COUNT).mean(),
+            a
+        ));
+        // Another cap: 4 keeps a quarter of the weight per new sample; 0 reads as 1.
+        let v = blend_cell(HashCellValue::new(m * 4.0, 4.0), acc(a, 1), 4);
+        assert_eq!(v.count, 4.0);
+        assert!(close(v.mean(), m + (a - m) / 4.0));
+        let v = blend_cell(old, acc(a * 2.0, 2), 0);
+        assert_eq!(v.count, 1.0);
+        assert!(close(v.mean(), a));
     }
 
     #[test]
@@ -197,7 +216,7 @@ mod tests {
         let untouched = cell_index(1, 0, 0, 0) as usize;
         accs[accumulator_word(1, [0, 0])..][..7].fill(0);
         values[untouched] = HashCellValue::new(Vec3::splat(3.0), 3.0);
-        update_tile(&mut values, &mut accs[..], 1);
+        update_tile(&mut values, &mut accs[..], 1, MAX_SAMPLE_COUNT);
         assert!(accs.iter().all(|&w| w == 0));
         assert!(
             values[..CELLS_PER_TILE as usize]
@@ -240,7 +259,7 @@ mod tests {
         }
         accs[accumulator_word(1, [0, 0])..][..7].fill(0);
         for cell in (0..64).rev() {
-            update_mip0_cell(&mut other, &mut accs[..], 1, cell);
+            update_mip0_cell(&mut other, &mut accs[..], 1, cell, MAX_SAMPLE_COUNT);
         }
         for mip in 1..NUM_MIPS {
             for cell in 0..mip_cell_count(mip) {

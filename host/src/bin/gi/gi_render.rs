@@ -5,7 +5,7 @@ use super::{Output, Sky, describe, load_scene, on_off, view_camera, write_image}
 use gi_host::gi::camera_path::CameraPath;
 use gi_host::gi::probe_debug_views::{gi_debug_views, write_gi_debug_views};
 use gi_host::gi::renderer::{DEFAULT_GI_FRAMES, GiRenderer};
-use gi_host::gi::{GiSettings, SpawnRate, ViewOptions};
+use gi_host::gi::{GiSettings, Preset, SpawnRate, ViewOptions};
 use gi_host::image_io::{HdrImage, ToneMap};
 use gi_host::metrics::{self, CompareSettings};
 use gi_host::scene::gpu_data::ShadingData;
@@ -58,12 +58,30 @@ pub enum Technique {
     LeakFixes,
 }
 
+/// A quality preset of `gi render` (README, "Speed and accuracy": each one's measured cost and
+/// error).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PresetArg {
+    /// GI, 1/16 of the probes traced per frame, coarser cache cells.
+    Fast,
+    /// GI with the reference's settings.
+    Balanced,
+    /// GI, every probe traced every frame, no probe filter.
+    Quality,
+    /// The path tracer (`--method path`).
+    Reference,
+}
+
 /// The options of `gi render` for `--method gi`.
 #[derive(clap::Args)]
 pub struct GiArgs {
     /// Renderer: `path` (the reference path tracer, the ground truth) or `gi` (GI-1.0).
     #[arg(long, value_enum, default_value_t = Method::Path)]
     pub method: Method,
+    /// A quality preset: `fast`, `balanced` or `quality` (GI, its settings before --spawn-rate,
+    /// --no and --restir), or `reference` (the path tracer); instead of --method.
+    #[arg(long, value_enum, conflicts_with = "method")]
+    pub preset: Option<PresetArg>,
     /// GI: frames to render; the last is written. The default lets the denoiser's history
     /// reach its 64-frame cap.
     #[arg(long, default_value_t = DEFAULT_GI_FRAMES, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
@@ -85,9 +103,10 @@ pub struct GiArgs {
     /// denoiser).
     #[arg(long)]
     pub debug_views: Option<PathBuf>,
-    /// GI: probes traced per frame: `1` (every probe tile), `1/4` (the default) or `1/16`.
-    #[arg(long, default_value = "1/4", value_parser = parse_spawn_rate)]
-    pub spawn_rate: SpawnRate,
+    /// GI: probes traced per frame: `1` (every probe tile), `1/4` or `1/16`; default: the
+    /// preset's (`balanced`: 1/4).
+    #[arg(long, value_parser = parse_spawn_rate)]
+    pub spawn_rate: Option<SpawnRate>,
     /// GI: techniques to switch off, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub no: Vec<Technique>,
@@ -106,11 +125,27 @@ fn parse_spawn_rate(s: &str) -> Result<SpawnRate, String> {
 }
 
 impl GiArgs {
+    /// The renderer: the preset's, else `--method`'s.
+    pub fn method(&self) -> Method {
+        match self.preset {
+            Some(PresetArg::Reference) => Method::Path,
+            Some(_) => Method::Gi,
+            None => self.method,
+        }
+    }
+
     /// The settings for a `width × height` frame.
     pub fn settings(&self, width: u32, height: u32) -> GiSettings {
-        let mut s = GiSettings::for_resolution(width, height);
-        s.spawn_rate = self.spawn_rate;
-        s.restir = self.restir;
+        let preset = match self.preset {
+            Some(PresetArg::Fast) => Preset::Fast,
+            Some(PresetArg::Quality) => Preset::Quality,
+            _ => Preset::Balanced,
+        };
+        let mut s = preset.settings(width, height);
+        if let Some(rate) = self.spawn_rate {
+            s.spawn_rate = rate;
+        }
+        s.restir |= self.restir;
         for t in &self.no {
             match t {
                 Technique::Reprojection => s.reprojection = false,
@@ -191,11 +226,14 @@ pub fn render_gi(
     let gpu = GpuScene::upload(ctx, &scene, None, &shading, &lights)?;
     let s = &settings;
     println!(
-        "gi:                  {} frames, spawn tile {} px, reprojection {}, parallax {}, backup {}, \
-         patching {}, guiding {}, hysteresis {}, probe filter {}, jitter {}, relaxed {}, \
-         temporal {}, spatial {}, feedback {}, leak fixes {}, ReSTIR {}",
+        "gi:                  {} frames, spawn tile {} px, cache cells {} px, sample cap {}, \
+         reprojection {}, parallax {}, backup {}, patching {}, guiding {}, hysteresis {}, \
+         probe filter {}, jitter {}, relaxed {}, temporal {}, spatial {}, feedback {}, \
+         leak fixes {}, ReSTIR {}",
         args.frames,
         s.spawn_rate.tile(),
+        s.cell_size_pixels,
+        s.sample_cap,
         on_off(s.reprojection),
         on_off(s.parallax),
         on_off(s.radiance_backup),

@@ -1,0 +1,214 @@
+//! How a GI frame's cost scales: against pixels (expected linear), against triangles (tracing
+//! expected logarithmic: a BVH), against punctual lights (expected flat: above
+//! [`gi_shared::primary_lighting::EXACT_DIRECT_LIGHTS`] the primary hit resamples one light, and
+//! the cache's light grid keeps a few candidates per cell). Each sweep renders
+//! [`procedural::scaling_room`] with the `balanced` preset, static camera, and averages the GPU
+//! time of the frames after a warm-up.
+
+use crate::error::{Error, Result};
+use crate::gi::Preset;
+use crate::gi::renderer::GiRenderer;
+use crate::scene::procedural::{self, ROOM_SPHERES};
+use crate::vulkan::Context;
+use serde::{Deserialize, Serialize};
+
+use super::LoadedScene;
+
+/// The passes that trace rays: their sum is the frame's tracing time.
+pub const TRACING_PASSES: [&str; 4] = [
+    "GBuffer",
+    "PopulateScreenProbes",
+    "PopulateRadianceCache",
+    "DirectLight",
+];
+
+/// What the scaling sweeps vary.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScalingConfig {
+    /// Resolutions of the pixel sweep (room with `base_levels` spheres and `base_lights`).
+    pub resolutions: Vec<(u32, u32)>,
+    /// Icosphere subdivisions of the triangle sweep (`16 · 20 · 4^levels` triangles).
+    pub sphere_levels: Vec<u32>,
+    /// Light counts of the light sweep.
+    pub light_counts: Vec<u32>,
+    /// Resolution of the triangle and light sweeps.
+    pub width: u32,
+    /// Resolution of the triangle and light sweeps.
+    pub height: u32,
+    /// Subdivisions where the sweep does not vary them.
+    pub base_levels: u32,
+    /// Lights where the sweep does not vary them.
+    pub base_lights: u32,
+    /// Frames rendered before timing.
+    pub warmup_frames: u32,
+    /// Frames timed.
+    pub frames: u32,
+}
+
+impl ScalingConfig {
+    /// The full sweeps at a `width × height` base: resolutions from a quarter to four times its
+    /// pixels, 1.3 k to 1.3 M triangles, 1 to 1024 lights.
+    pub fn full(width: u32, height: u32) -> Self {
+        Self {
+            resolutions: vec![
+                (width / 2, height / 2),
+                (width, height),
+                (width * 2, height * 2),
+                (width * 4, height * 4),
+            ],
+            sphere_levels: vec![1, 2, 3, 4, 5, 6],
+            light_counts: vec![1, 4, 16, 64, 256, 1024],
+            width,
+            height,
+            base_levels: 3,
+            base_lights: 4,
+            warmup_frames: 4,
+            frames: 8,
+        }
+    }
+}
+
+/// Which sweep a point belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axis {
+    /// Pixels.
+    Pixels,
+    /// Triangles.
+    Triangles,
+    /// Punctual lights.
+    Lights,
+}
+
+impl Axis {
+    /// Its name in files and tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Pixels => "pixels",
+            Self::Triangles => "triangles",
+            Self::Lights => "lights",
+        }
+    }
+}
+
+/// One measured point.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ScalingPoint {
+    /// The sweep.
+    pub axis: Axis,
+    /// Its x: pixels, triangles or lights.
+    pub x: f64,
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// Triangles.
+    pub triangles: usize,
+    /// Punctual lights.
+    pub lights: u32,
+    /// GPU ms per frame.
+    pub ms: f64,
+    /// GPU ms per frame of the [`TRACING_PASSES`].
+    pub tracing_ms: f64,
+}
+
+/// Runs the three sweeps on `ctx`, printing each point.
+pub fn run(ctx: &Context, config: &ScalingConfig) -> Result<Vec<ScalingPoint>> {
+    let mut points = Vec::new();
+    let room = |levels: u32, lights: u32| {
+        procedural::scaling_room(levels, lights).ok_or(Error::InvalidArgument {
+            name: "scaling",
+            why: format!("no room of {levels} subdivisions and {lights} lights"),
+        })
+    };
+    let base = LoadedScene::upload(ctx, room(config.base_levels, config.base_lights)?, None)?;
+    for &(w, h) in &config.resolutions {
+        points.push(point(ctx, &base, Axis::Pixels, w, h, config)?);
+    }
+    for &levels in &config.sphere_levels {
+        let scene = LoadedScene::upload(ctx, room(levels, config.base_lights)?, None)?;
+        points.push(point(
+            ctx,
+            &scene,
+            Axis::Triangles,
+            config.width,
+            config.height,
+            config,
+        )?);
+    }
+    for &lights in &config.light_counts {
+        let scene = LoadedScene::upload(ctx, room(config.base_levels, lights)?, None)?;
+        points.push(point(
+            ctx,
+            &scene,
+            Axis::Lights,
+            config.width,
+            config.height,
+            config,
+        )?);
+    }
+    Ok(points)
+}
+
+fn point(
+    ctx: &Context,
+    scene: &LoadedScene,
+    axis: Axis,
+    width: u32,
+    height: u32,
+    config: &ScalingConfig,
+) -> Result<ScalingPoint> {
+    let mut gi = GiRenderer::new(
+        ctx,
+        &scene.lights,
+        width,
+        height,
+        Preset::Balanced.settings(width, height),
+        scene.options,
+    )?;
+    let camera = scene.camera(width, height);
+    let (mut ms, mut tracing_ms) = (0.0, 0.0);
+    for f in 0..config.warmup_frames + config.frames {
+        gi.render_frame(ctx, &scene.gpu, &camera)?;
+        if f >= config.warmup_frames {
+            let t = gi.timings();
+            ms += t.last_total_ms();
+            tracing_ms += t
+                .passes()
+                .iter()
+                .filter(|p| TRACING_PASSES.contains(&p.name.as_str()))
+                .map(|p| p.last_ms)
+                .sum::<f64>();
+        }
+    }
+    let n = f64::from(config.frames.max(1));
+    let triangles = scene.scene.triangle_count();
+    let lights = scene.scene.lights.len() as u32;
+    let p = ScalingPoint {
+        axis,
+        x: match axis {
+            Axis::Pixels => f64::from(width) * f64::from(height),
+            Axis::Triangles => triangles as f64,
+            Axis::Lights => f64::from(lights),
+        },
+        width,
+        height,
+        triangles,
+        lights,
+        ms: ms / n,
+        tracing_ms: tracing_ms / n,
+    };
+    println!(
+        "scaling {:<9} {:>10}: {:>9.2} ms per frame, {:>9.2} ms tracing ({}x{}, {} triangles in {} spheres, {} lights)",
+        axis.name(),
+        p.x,
+        p.ms,
+        p.tracing_ms,
+        width,
+        height,
+        triangles,
+        ROOM_SPHERES,
+        lights
+    );
+    Ok(p)
+}

@@ -1,0 +1,86 @@
+//! Quality presets: named points of the error-against-cost curve that `gi bench` measures
+//! (README, "Speed and accuracy", for each preset's measured point on each scene).
+//!
+//! The fourth preset of `gi`, `reference`, is the path tracer itself (`--method path`).
+
+use super::settings::{GiSettings, SpawnRate};
+use std::fmt;
+
+/// A named set of [`GiSettings`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Preset {
+    /// The cheapest frame that stays clean: one probe traced per 32 × 32 pixels per frame
+    /// (1/16 of the tiles) and cache cells of 64 pixels (fewer, longer-lived tiles). Slower to
+    /// answer a change of light and a disocclusion, noisier while the camera moves.
+    Fast,
+    /// The reference's settings at this resolution: 1/4 of the tiles traced per frame, 32-pixel
+    /// cache cells, a 16-sample cap. The default.
+    Balanced,
+    /// Every probe tile traced every frame (four times the probe rays of `balanced`) and no
+    /// probe filter: with four times the rays a probe needs no help from its neighbours, and
+    /// the filter's blur across them is what the error then consists of (it halves the Cornell
+    /// box's error). The least error, still and moving, for about twice the frame time.
+    Quality,
+}
+
+impl Preset {
+    /// Every preset, cheapest first.
+    pub const ALL: [Preset; 3] = [Preset::Fast, Preset::Balanced, Preset::Quality];
+
+    /// Its name on the command line and in tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Fast => "fast",
+            Self::Balanced => "balanced",
+            Self::Quality => "quality",
+        }
+    }
+
+    /// The preset by name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+
+    /// Its settings for a `width × height` frame (the cache sized by
+    /// [`GiSettings::for_resolution`]).
+    pub fn settings(self, width: u32, height: u32) -> GiSettings {
+        let base = GiSettings::for_resolution(width, height);
+        match self {
+            Self::Fast => GiSettings {
+                spawn_rate: SpawnRate::Sixteenth,
+                cell_size_pixels: 64.0,
+                ..base
+            },
+            Self::Balanced => base,
+            Self::Quality => GiSettings {
+                spawn_rate: SpawnRate::Full,
+                probe_filter: false,
+                ..base
+            },
+        }
+    }
+}
+
+impl fmt::Display for Preset {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_are_valid_distinct_and_named() {
+        let settings: Vec<GiSettings> = Preset::ALL.iter().map(|p| p.settings(320, 180)).collect();
+        for (p, s) in Preset::ALL.iter().zip(&settings) {
+            s.validate(320, 180).unwrap();
+            assert_eq!(Preset::from_name(p.name()), Some(*p));
+        }
+        assert_eq!(settings[1], GiSettings::for_resolution(320, 180));
+        assert_ne!(settings[0], settings[1]);
+        assert_ne!(settings[2], settings[1]);
+        assert_eq!(Preset::from_name("reference"), None);
+    }
+}
