@@ -12,6 +12,16 @@ fn gi(args: &[&str], env: &[(&str, &str)]) -> Output {
     cmd.output().expect("gi runs")
 }
 
+/// The stdout of a run that must succeed (its stderr in the failure message).
+fn succeeded(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
 fn single_error_line(out: &Output) -> String {
     assert!(
         !out.status.success(),
@@ -89,11 +99,7 @@ fn compare_reports_metrics_and_writes_a_heat_map() {
         ],
         &[],
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("RMSE") && text.contains("FLIP"), "{text}");
     assert!(image::open(&heat).is_ok_and(|i| i.width() == 4 && i.height() == 2));
@@ -130,11 +136,7 @@ fn render_writes_an_exr_and_a_png() {
         ],
         &[],
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let image = HdrImage::read(&out_exr).unwrap();
     assert_eq!((image.width(), image.height()), (16, 12));
     assert!(image.pixels().iter().flatten().any(|&c| c > 0.0));
@@ -171,11 +173,7 @@ fn render_writes_an_exr_and_a_png() {
         ],
         &[],
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     // The corners look past the box into the environment.
     assert_eq!(HdrImage::read(&lit).unwrap().pixel(0, 0), [0.5; 3]);
     let missing = dir.join("missing.hdr");
@@ -220,12 +218,7 @@ fn presets_choose_the_renderer_and_its_settings() {
             ],
             &[],
         );
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).into_owned()
+        succeeded(&out)
     };
     let fast = run("fast");
     assert!(

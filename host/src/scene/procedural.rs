@@ -17,30 +17,29 @@ pub const INTERIOR_RADIUS: f32 = 0.7;
 /// The cube `[-1, 1]³` (12 triangles), counter-clockwise seen from outside, with face normals
 /// at its (shared) vertices averaged.
 pub fn cube() -> Mesh {
-    let positions: Vec<Vec3> = (0..8)
-        .map(|i| {
-            Vec3::new(
-                if i & 1 == 0 { -1.0 } else { 1.0 },
-                if i & 2 == 0 { -1.0 } else { 1.0 },
-                if i & 4 == 0 { -1.0 } else { 1.0 },
-            )
-        })
-        .collect();
-    // Per face: a quad counter-clockwise from outside, -x, +x, -y, +y, -z, +z.
-    let quads = [
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-    ];
-    let triangles = quads
+    let positions: Vec<Vec3> = (0..8).map(|i| box_corner(i, Vec3::ONE)).collect();
+    let triangles = BOX_FACES
         .iter()
         .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
         .collect();
     mesh("cube", positions, triangles)
 }
+
+/// Corner `i` of the box `[-h, h]`: `+h` along axis `k` where bit `k` of `i` is set.
+fn box_corner(i: u32, h: Vec3) -> Vec3 {
+    Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), h, -h)
+}
+
+/// The faces of a box of [`box_corner`]s: quads counter-clockwise seen from outside, -x, +x, -y,
+/// +y, -z, +z.
+const BOX_FACES: [[u32; 4]; 6] = [
+    [0, 4, 6, 2],
+    [1, 3, 7, 5],
+    [0, 1, 5, 4],
+    [2, 6, 7, 3],
+    [0, 2, 3, 1],
+    [4, 5, 7, 6],
+];
 
 /// Most subdivisions [`icosphere`] makes: 21 million triangles.
 pub const MAX_ICOSPHERE_LEVELS: u32 = 10;
@@ -206,23 +205,9 @@ pub fn scaling_room(sphere_levels: u32, lights: u32) -> Option<Scene> {
         return None;
     }
     let h = ROOM_HALF_EXTENTS;
-    let corner = |i: u32| {
-        Vec3::new(
-            if i & 1 == 0 { -h.x } else { h.x },
-            if i & 2 == 0 { -h.y } else { h.y },
-            if i & 4 == 0 { -h.z } else { h.z },
-        )
-    };
     // Each face its own four vertices (flat normals), counter-clockwise seen from inside.
-    let faces = [
-        [0, 2, 6, 4],
-        [1, 5, 7, 3],
-        [0, 4, 5, 1],
-        [2, 3, 7, 6],
-        [0, 1, 3, 2],
-        [4, 6, 7, 5],
-    ];
-    let positions: Vec<Vec3> = faces.iter().flatten().map(|&i| corner(i)).collect();
+    let faces = BOX_FACES.map(|[a, b, c, d]| [a, d, c, b]);
+    let positions: Vec<Vec3> = faces.iter().flatten().map(|&i| box_corner(i, h)).collect();
     let triangles = (0..6u32)
         .flat_map(|f| [[4 * f, 4 * f + 1, 4 * f + 2], [4 * f, 4 * f + 2, 4 * f + 3]])
         .collect();
