@@ -3,6 +3,9 @@
 
 use std::process::{Command, Output};
 
+/// The repository's Cornell box.
+const CORNELL_BOX: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-box.gltf");
+
 fn gi(args: &[&str], env: &[(&str, &str)]) -> Output {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_gi"));
     cmd.args(args).env_remove("GI_DEVICE");
@@ -119,7 +122,7 @@ fn render_writes_an_exr_and_a_png() {
     use gi_host::image_io::HdrImage;
     let dir = std::env::temp_dir().join(format!("gi-cli-render-{}", std::process::id()));
     let out_exr = dir.join("cornell.exr");
-    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-box.gltf");
+    let scene = CORNELL_BOX;
     let out = gi(
         &[
             "--validation",
@@ -195,7 +198,7 @@ fn render_writes_an_exr_and_a_png() {
 #[test]
 fn presets_choose_the_renderer_and_its_settings() {
     let dir = std::env::temp_dir().join(format!("gi-cli-preset-{}", std::process::id()));
-    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cornell-box.gltf");
+    let scene = CORNELL_BOX;
     let run = |preset: &str| {
         let out_exr = dir.join(format!("{preset}.exr"));
         let out = gi(

@@ -34,7 +34,6 @@ fn a_tiny_sweep_measures_every_point_and_writes_every_output() {
             height: 18,
             base_levels: 0,
             base_lights: 1,
-            warmup_frames: 1,
             frames: 2,
         }),
         out: out.clone(),

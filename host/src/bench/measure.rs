@@ -9,7 +9,8 @@ use crate::gi::GiSettings;
 use crate::gi::renderer::GiRenderer;
 use crate::image_io::HdrImage;
 use crate::metrics::{self, CompareSettings};
-use crate::vulkan::Context;
+use crate::vulkan::{Context, FrameTimings};
+use gi_shared::color::luminance;
 use serde::{Deserialize, Serialize};
 
 /// Frames at the end of a run over which the frame-to-frame change is averaged.
@@ -84,8 +85,7 @@ pub fn run_gi(
         scene.options,
     )?;
     let gi_bytes = MemoryTable::of(ctx).total_bytes().saturating_sub(before);
-    let mut frame_ms = Vec::with_capacity(spec.frames as usize);
-    let mut pass_ms: Vec<PassMs> = Vec::new();
+    let mut times = FrameTimes::default();
     // Short runs keep at least their last frame's time.
     let warmup = WARMUP_FRAMES.min(spec.frames - 1);
     let mut relmse_per_frame = Vec::with_capacity(spec.frames as usize);
@@ -96,17 +96,7 @@ pub fn run_gi(
         let camera = scene.camera_at(spec.motion, f, spec.width, spec.height);
         gi.render_frame(ctx, &scene.gpu, &camera)?;
         if f >= warmup {
-            let timings = gi.timings();
-            frame_ms.push(timings.last_total_ms());
-            for p in timings.passes() {
-                match pass_ms.iter_mut().find(|q| q.pass == p.name) {
-                    Some(q) => q.ms += p.last_ms,
-                    None => pass_ms.push(PassMs {
-                        pass: p.name.clone(),
-                        ms: p.last_ms,
-                    }),
-                }
-            }
+            times.add(gi.timings());
         }
         let image = resample(&gi.image(ctx)?, reference.width(), reference.height())?;
         relmse_per_frame.push(metrics::relative_mse(reference, &image)?);
@@ -119,12 +109,10 @@ pub fn run_gi(
     }
     let last = previous.unwrap_or(reference.clone());
     let compared = metrics::compare(reference, &last, &CompareSettings::default())?.metrics;
-    let timed = frame_ms.len().max(1) as f64;
-    pass_ms.iter_mut().for_each(|p| p.ms /= timed);
     Ok(RunResult {
-        ms_mean: mean(&frame_ms),
-        ms_p95: percentile(&frame_ms, 0.95),
-        passes: pass_ms,
+        ms_mean: times.mean_ms(),
+        ms_p95: percentile(&times.frame_ms, 0.95),
+        passes: times.passes(),
         gi_bytes,
         relmse: compared.relative_mse,
         flip: compared.flip,
@@ -132,6 +120,48 @@ pub fn run_gi(
         temporal_change: mean(&changes),
         relmse_per_frame,
     })
+}
+
+/// The GPU times of the frames a run times.
+#[derive(Clone, Debug, Default)]
+pub struct FrameTimes {
+    /// Each frame's total, in milliseconds.
+    pub frame_ms: Vec<f64>,
+    /// Each pass's time summed over the frames.
+    pass_sums: Vec<PassMs>,
+}
+
+impl FrameTimes {
+    /// Adds the last frame of `timings`.
+    pub fn add(&mut self, timings: &FrameTimings) {
+        self.frame_ms.push(timings.last_total_ms());
+        for p in timings.passes() {
+            match self.pass_sums.iter_mut().find(|q| q.pass == p.name) {
+                Some(q) => q.ms += p.last_ms,
+                None => self.pass_sums.push(PassMs {
+                    pass: p.name.clone(),
+                    ms: p.last_ms,
+                }),
+            }
+        }
+    }
+
+    /// Mean milliseconds per frame.
+    pub fn mean_ms(&self) -> f64 {
+        mean(&self.frame_ms)
+    }
+
+    /// Mean milliseconds per frame of each pass.
+    pub fn passes(&self) -> Vec<PassMs> {
+        let n = self.frame_ms.len().max(1) as f64;
+        self.pass_sums
+            .iter()
+            .map(|p| PassMs {
+                pass: p.pass.clone(),
+                ms: p.ms / n,
+            })
+            .collect()
+    }
 }
 
 /// The `q`-quantile (nearest rank) of `values`; 0 for none.
@@ -153,15 +183,12 @@ fn mean(values: &[f64]) -> f64 {
     }
 }
 
-fn luminance(rgb: [f32; 3]) -> f64 {
-    f64::from(0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2])
-}
-
 /// Mean `|Y(b) − Y(a)|` over mean `Y(b)` (non-finite pixels skipped); 0 for a black image.
 pub fn relative_change(a: &HdrImage, b: &HdrImage) -> f64 {
     let (mut diff, mut sum) = (0.0, 0.0);
     for (&pa, &pb) in a.pixels().iter().zip(b.pixels()) {
-        let (ya, yb) = (luminance(pa), luminance(pb));
+        let y = |rgb: [f32; 3]| f64::from(luminance(glam::Vec3::from_array(rgb)));
+        let (ya, yb) = (y(pa), y(pb));
         if ya.is_finite() && yb.is_finite() {
             diff += (yb - ya).abs();
             sum += yb.abs();

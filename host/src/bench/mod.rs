@@ -25,9 +25,7 @@ use crate::error::{Error, Result};
 use crate::gbuffer::scene_camera;
 use crate::gi::ViewOptions;
 use crate::gi::camera_path::CameraPath;
-use crate::image_io::HdrImage;
 use crate::scene::Scene;
-use crate::scene::gpu_data::ShadingData;
 use crate::scene::lights::{Environment, LightSet};
 use crate::scene::upload::GpuScene;
 use crate::vulkan::Context;
@@ -97,13 +95,12 @@ impl Motion {
     pub fn path(self, base: &CameraParams, centre: glam::Vec3) -> CameraPath {
         match self {
             Self::Static => CameraPath::Static,
-            Self::Orbit => {
-                let distance = (centre - base.position()).dot(base.forward()).max(0.0);
-                CameraPath::Orbit {
-                    pivot: base.position() + base.forward() * distance * ORBIT_PIVOT_FRACTION,
-                    degrees_per_frame: ORBIT_DEGREES_PER_FRAME,
-                }
-            }
+            Self::Orbit => CameraPath::orbit_toward(
+                base,
+                centre,
+                ORBIT_DEGREES_PER_FRAME,
+                ORBIT_PIVOT_FRACTION,
+            ),
         }
     }
 }
@@ -196,6 +193,16 @@ impl BenchConfig {
     }
 }
 
+impl BenchConfig {
+    /// Frames of a run along `motion`.
+    pub fn frames_of(&self, motion: Motion) -> u32 {
+        match motion {
+            Motion::Static => self.frames,
+            Motion::Orbit => self.motion_frames,
+        }
+    }
+}
+
 /// A scene loaded, uploaded to one context, with its camera.
 pub struct LoadedScene {
     /// The scene.
@@ -218,12 +225,8 @@ impl LoadedScene {
 
     /// Uploads a scene (loaded or generated) lit by its lights and `environment`.
     pub fn upload(ctx: &Context, scene: Scene, environment: Option<&Path>) -> Result<Self> {
-        let environment = environment
-            .map(|p| HdrImage::read(p).and_then(|i| Environment::from_image(&i)))
-            .transpose()?;
-        let shading = ShadingData::new(&scene)?;
-        let lights = LightSet::new(&scene, environment, true);
-        let gpu = GpuScene::upload(ctx, &scene, None, &shading, &lights)?;
+        let environment = environment.map(Environment::read).transpose()?;
+        let (lights, gpu) = GpuScene::upload_lit(ctx, &scene, environment, true)?;
         Ok(Self {
             scene,
             lights,
@@ -334,12 +337,13 @@ pub fn run(
         );
         let mut references = Vec::new();
         for &motion in &motions {
-            let frames = match motion {
-                Motion::Static => config.frames,
-                Motion::Orbit => config.motion_frames,
-            };
             references.push(reference::reference(
-                ctx, &scene, bench, motion, frames, config,
+                ctx,
+                &scene,
+                bench,
+                motion,
+                config.frames_of(motion),
+                config,
             )?);
         }
         let points = sweep::points(
@@ -355,10 +359,7 @@ pub fn run(
                     (sweep::Group::Variant, Some((o, s))) => (*o, s),
                     _ => (ctx, &scene),
                 };
-                let frames = match motion {
-                    Motion::Static => config.frames,
-                    Motion::Orbit => config.motion_frames,
-                };
+                let frames = config.frames_of(motion);
                 let result = measure::run_gi(
                     run_ctx,
                     run_scene,
@@ -383,7 +384,7 @@ pub fn run(
                     100.0 * result.mean_bias,
                     result.temporal_change
                 );
-                if motion == Motion::Static && point.label() == "balanced" {
+                if motion == Motion::Static && point.label() == crate::gi::Preset::Balanced.name() {
                     balanced_static = Some(result.clone());
                 }
                 report.points.push(report::PointRecord::new(
@@ -397,22 +398,8 @@ pub fn run(
                 ));
             }
         }
-        if config.equal_time_max_spp > 0 {
-            let balanced = match balanced_static {
-                Some(b) => b,
-                None => measure::run_gi(
-                    ctx,
-                    &scene,
-                    &measure::RunSpec {
-                        settings: crate::gi::Preset::Balanced.settings(config.width, config.height),
-                        width: config.width,
-                        height: config.height,
-                        motion: Motion::Static,
-                        frames: config.frames,
-                    },
-                    &references[0],
-                )?,
-            };
+        // `sweep::points` always holds `balanced`: the equal-time comparison reuses its run.
+        if let Some(balanced) = balanced_static.filter(|_| config.equal_time_max_spp > 0) {
             let e =
                 equal_time::measure(ctx, &scene, &bench.name, &balanced, &references[0], config)?;
             println!("{e}");

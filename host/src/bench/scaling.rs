@@ -13,6 +13,7 @@ use crate::vulkan::Context;
 use serde::{Deserialize, Serialize};
 
 use super::LoadedScene;
+use super::measure::{FrameTimes, WARMUP_FRAMES};
 
 /// The passes that trace rays: their sum is the frame's tracing time.
 pub const TRACING_PASSES: [&str; 4] = [
@@ -39,9 +40,7 @@ pub struct ScalingConfig {
     pub base_levels: u32,
     /// Lights where the sweep does not vary them.
     pub base_lights: u32,
-    /// Frames rendered before timing.
-    pub warmup_frames: u32,
-    /// Frames timed.
+    /// Frames timed (after [`WARMUP_FRAMES`]).
     pub frames: u32,
 }
 
@@ -62,7 +61,6 @@ impl ScalingConfig {
             height,
             base_levels: 3,
             base_lights: 4,
-            warmup_frames: 4,
             frames: 8,
         }
     }
@@ -167,21 +165,19 @@ fn point(
         scene.options,
     )?;
     let camera = scene.camera(width, height);
-    let (mut ms, mut tracing_ms) = (0.0, 0.0);
-    for f in 0..config.warmup_frames + config.frames {
+    let mut times = FrameTimes::default();
+    for f in 0..WARMUP_FRAMES + config.frames {
         gi.render_frame(ctx, &scene.gpu, &camera)?;
-        if f >= config.warmup_frames {
-            let t = gi.timings();
-            ms += t.last_total_ms();
-            tracing_ms += t
-                .passes()
-                .iter()
-                .filter(|p| TRACING_PASSES.contains(&p.name.as_str()))
-                .map(|p| p.last_ms)
-                .sum::<f64>();
+        if f >= WARMUP_FRAMES {
+            times.add(gi.timings());
         }
     }
-    let n = f64::from(config.frames.max(1));
+    let tracing_ms = times
+        .passes()
+        .iter()
+        .filter(|p| TRACING_PASSES.contains(&p.pass.as_str()))
+        .map(|p| p.ms)
+        .sum();
     let triangles = scene.scene.triangle_count();
     let lights = scene.scene.lights.len() as u32;
     let p = ScalingPoint {
@@ -195,8 +191,8 @@ fn point(
         height,
         triangles,
         lights,
-        ms: ms / n,
-        tracing_ms: tracing_ms / n,
+        ms: times.mean_ms(),
+        tracing_ms,
     };
     println!(
         "scaling {:<9} {:>10}: {:>9.2} ms per frame, {:>9.2} ms tracing ({}x{}, {} triangles in {} spheres, {} lights)",

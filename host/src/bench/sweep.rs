@@ -80,7 +80,12 @@ pub fn points(
             )
         }));
     } else {
-        points.push(at(Group::Preset, "preset", "balanced".into(), balanced));
+        points.push(at(
+            Group::Preset,
+            "preset",
+            Preset::Balanced.name().into(),
+            balanced,
+        ));
     }
     if sweeps.knobs {
         let b = balanced;

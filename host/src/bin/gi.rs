@@ -550,9 +550,7 @@ fn parse_strategy(s: &str) -> Result<Strategy, String> {
 /// (so that light sampling finds it too), else none.
 fn sky_environment(path: Option<&Path>, sky: Option<Vec3>) -> gi_host::Result<Option<Environment>> {
     match (path, sky) {
-        (Some(p), _) => HdrImage::read(p)
-            .and_then(|i| Environment::from_image(&i))
-            .map(Some),
+        (Some(p), _) => Environment::read(p).map(Some),
         (None, Some(s)) if s.max_element() > 0.0 => Environment::constant(s).map(Some),
         _ => Ok(None),
     }
@@ -568,9 +566,7 @@ struct Uploaded(GpuScene);
 
 impl Uploaded {
     fn new(ctx: &Context, scene: &Scene, sky: Sky) -> gi_host::Result<Self> {
-        let shading = ShadingData::new(scene)?;
-        let lights = LightSet::new(scene, sky.environment, sky.sample);
-        GpuScene::upload(ctx, scene, None, &shading, &lights).map(Self)
+        GpuScene::upload_lit(ctx, scene, sky.environment, sky.sample).map(|(_, gpu)| Self(gpu))
     }
 
     /// Renders `settings.samples` paths per pixel of `camera`, reporting progress to `progress`.
@@ -787,9 +783,7 @@ fn cache_view(
     let scene = load_scene(path)?;
     describe(path, &scene);
     let camera = view_camera(view, &scene, width, height);
-    let shading = ShadingData::new(&scene)?;
-    let lights = LightSet::new(&scene, sky.environment, sky.sample);
-    let gpu = GpuScene::upload(ctx, &scene, None, &shading, &lights)?;
+    let (lights, gpu) = GpuScene::upload_lit(ctx, &scene, sky.environment, sky.sample)?;
     let s = &run.settings;
     println!(
         "cache:               {} buckets x {} tiles = {} tiles, cells of {} px (min {} m), \

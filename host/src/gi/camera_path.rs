@@ -35,6 +35,22 @@ pub struct Keyframe {
 }
 
 impl CameraPath {
+    /// An orbit of `base` turning `degrees_per_frame` about the vertical axis through the point
+    /// `pivot_fraction` of the way (0: the camera itself, a pan; 1: the point looked at) toward
+    /// the depth of `centre` (the scene's centre) along the view.
+    pub fn orbit_toward(
+        base: &CameraParams,
+        centre: Vec3,
+        degrees_per_frame: f32,
+        pivot_fraction: f32,
+    ) -> Self {
+        let distance = (centre - base.position()).dot(base.forward()).max(0.0);
+        Self::Orbit {
+            pivot: base.position() + base.forward() * distance * pivot_fraction,
+            degrees_per_frame,
+        }
+    }
+
     /// Reads a path file: one camera per line, `px py pz tx ty tz [fov_degrees]` (spaces or
     /// commas), `#` starts a comment. Errors name the file and the line.
     pub fn read(path: &Path) -> Result<Self> {

@@ -122,6 +122,11 @@ impl Environment {
         )
     }
 
+    /// The equirectangular environment image at `path` (OpenEXR or Radiance HDR).
+    pub fn read(path: &std::path::Path) -> Result<Self> {
+        HdrImage::read(path).and_then(|i| Self::from_image(&i))
+    }
+
     /// The environment of an equirectangular image.
     pub fn from_image(image: &HdrImage) -> Result<Self> {
         Self::new(

@@ -170,6 +170,20 @@ impl GpuScene {
         })
     }
 
+    /// Uploads `scene` lit by its emitters and `environment` (importance-sampled where
+    /// `sample_environment`), its BVH built here: the lights and the scene on the device.
+    pub fn upload_lit(
+        ctx: &Context,
+        scene: &Scene,
+        environment: Option<super::lights::Environment>,
+        sample_environment: bool,
+    ) -> Result<(LightSet, Self)> {
+        let shading = ShadingData::new(scene)?;
+        let lights = LightSet::new(scene, environment, sample_environment);
+        let gpu = Self::upload(ctx, scene, None, &shading, &lights)?;
+        Ok((lights, gpu))
+    }
+
     /// Uploads `scene` with its shading data and lights (`bvh` as for [`SceneGeometry::new`]).
     pub fn upload(
         ctx: &Context,

@@ -8,8 +8,6 @@ use gi_host::gi::renderer::{DEFAULT_GI_FRAMES, GiRenderer};
 use gi_host::gi::{GiSettings, Preset, SpawnRate, ViewOptions};
 use gi_host::image_io::{HdrImage, ToneMap};
 use gi_host::metrics::{self, CompareSettings};
-use gi_host::scene::gpu_data::ShadingData;
-use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::Context;
 use gi_shared::camera::CameraParams;
@@ -171,15 +169,7 @@ impl GiArgs {
 
     /// The camera path around `base` in `scene_centre`'s neighbourhood.
     fn camera_path(&self, base: &CameraParams, scene_centre: Vec3) -> gi_host::Result<CameraPath> {
-        let orbit = |degrees: f32| {
-            let distance = (scene_centre - base.position())
-                .dot(base.forward())
-                .max(0.0);
-            CameraPath::Orbit {
-                pivot: base.position() + base.forward() * distance,
-                degrees_per_frame: degrees,
-            }
-        };
+        let orbit = |degrees: f32| CameraPath::orbit_toward(base, scene_centre, degrees, 1.0);
         match self.camera_path.as_str() {
             "static" => Ok(CameraPath::Static),
             "orbit" => Ok(orbit(0.5)),
@@ -221,9 +211,7 @@ pub fn render_gi(
     describe(path, &scene);
     let base = view_camera(view, &scene, width, height);
     let camera_path = args.camera_path(&base, scene.bounds.center())?;
-    let shading = ShadingData::new(&scene)?;
-    let lights = LightSet::new(&scene, sky.environment, sky.sample);
-    let gpu = GpuScene::upload(ctx, &scene, None, &shading, &lights)?;
+    let (lights, gpu) = GpuScene::upload_lit(ctx, &scene, sky.environment, sky.sample)?;
     let s = &settings;
     println!(
         "gi:                  {} frames, spawn tile {} px, cache cells {} px, sample cap {}, \
