@@ -257,7 +257,7 @@ pub fn render_on_cpu(shading: &ShadingData, bvh: &Bvh, camera: &CameraParams) ->
                 &shading.triangles,
                 &shading.materials,
                 &shading.textures,
-                &shading.texels,
+                &shading.texels[..],
             )
         })
         .collect();

@@ -266,7 +266,7 @@ pub fn render_pixel_on_cpu(
                 &shading.triangles,
                 &shading.materials,
                 &shading.textures,
-                &shading.texels,
+                &shading.texels[..],
                 &lights.lights,
                 &lights.triangle_table,
                 texels,

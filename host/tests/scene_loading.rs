@@ -437,11 +437,11 @@ fn textured_scene_decodes_its_checkerboard() {
         panic!("{} textures", scene.textures.len())
     };
     assert_eq!((texture.width, texture.height), (64, 64));
-    assert_eq!(texture.rgba8.len(), 64 * 64 * 4);
+    assert_eq!(texture.levels[0].len(), 64 * 64 * 4);
     assert!(texture.srgb);
     assert_eq!(texture.wrap, [Wrap::Repeat; 2]);
-    assert_eq!(&texture.rgba8[..4], &[230, 230, 230, 255]);
-    assert_eq!(&texture.rgba8[8 * 4..8 * 4 + 4], &[40, 40, 40, 255]);
+    assert_eq!(&texture.levels[0][..4], &[230, 230, 230, 255]);
+    assert_eq!(&texture.levels[0][8 * 4..8 * 4 + 4], &[40, 40, 40, 255]);
     // Both materials use it, and every mesh has UVs.
     assert!(
         scene
@@ -506,7 +506,7 @@ fn blender_export_loads() {
         scene
             .textures
             .iter()
-            .all(|t| t.srgb && t.rgba8.len() == (t.width * t.height * 4) as usize)
+            .all(|t| t.srgb && t.levels[0].len() == (t.width * t.height * 4) as usize)
     );
     assert!(scene.cameras.is_empty() && scene.lights.is_empty());
     // The emissive quad ("light.000", emissiveFactor 1) hangs under the ceiling at y = 3.

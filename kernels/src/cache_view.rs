@@ -9,6 +9,7 @@
 //! normal and albedo, pixels, accumulation (`[f32; 4]`: sum and count), feedback history
 //! (`FeedbackTexel`). Push constants: `CachePassParams`. Workgroups of 8 × 8 pixels.
 
+use crate::texture_images::{Bindless, SceneTextures};
 use crate::atomics::DeviceWords;
 use crate::gbuffer::{DepthImage, HalfImage, IdImage, UnormImage};
 use gi_shared::append_list::append;
@@ -54,7 +55,7 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] texels: &[u32],
+        #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
@@ -89,14 +90,14 @@ traced_kernel! {
         let hit = scene.closest_hit(&ray);
         let shaded = shade_cache_hit(
             &view, &ray, &surface, &hit, index, instances, meshes, vertices, triangles, materials,
-            textures, texels, lights, light_table, environment, environment_cdf,
+            textures, &Bindless(texture_images), lights, light_table, environment, environment_cdf,
         );
         let emission = primary_emission(materials, ids_texel, e, view.emissive_multiplier);
         out.emissive = if emission.max_element() > 0.0 { 1 } else { 0 };
         let mut base = emission;
         let direct = primary_direct_light(
             &view, &surface, a.truncate(), instances, meshes, vertices, triangles, materials,
-            textures, texels, lights, environment, environment_cdf, &mut rng,
+            textures, &Bindless(texture_images), lights, environment, environment_cdf, &mut rng,
         );
         if direct.radiance.max_element() > 0.0 && !scene.any_hit(&direct.ray) {
             base += direct.radiance;

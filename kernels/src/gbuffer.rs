@@ -7,6 +7,7 @@
 //! (instances, meshes, vertices, triangles, materials, texture table, texels; the lights that
 //! follow are unused). Workgroups of 8 × 8 pixels.
 
+use crate::texture_images::{Bindless, SceneTextures};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::{GBufferTexel, gbuffer_texel, in_image};
 use gi_shared::scene_data::{
@@ -70,7 +71,7 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] texels: &[u32],
+        #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
     ) {
         let pixel = UVec2::new(id.x, id.y);
         if !in_image(camera, pixel) {
@@ -79,7 +80,7 @@ traced_kernel! {
         let ray = primary_ray(camera, pixel, camera.jitter());
         let hit = scene.closest_hit(&ray);
         let texel = gbuffer_texel(
-            camera, &ray, &hit, instances, meshes, vertices, triangles, materials, textures, texels,
+            camera, &ray, &hit, instances, meshes, vertices, triangles, materials, textures, &Bindless(texture_images),
         );
         write_texel!(
             pixel,

@@ -48,6 +48,7 @@ mod scan;
 pub mod screen_probes;
 #[cfg(not(feature = "ray-query"))]
 mod smoke;
+mod texture_images;
 mod trace_rays;
 
 #[cfg(not(feature = "ray-query"))]

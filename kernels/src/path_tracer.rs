@@ -9,6 +9,7 @@
 //! texels) and its distribution (`f32`). Push constants: `PathTracerParams`. Workgroups of 8 × 8
 //! pixels.
 
+use crate::texture_images::{Bindless, SceneTextures};
 use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
 use gi_shared::lights::GpuLight;
@@ -50,7 +51,7 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] texels: &[u32],
+        #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
@@ -74,7 +75,7 @@ traced_kernel! {
                 triangles,
                 materials,
                 textures,
-                texels,
+                &Bindless(texture_images),
                 lights,
                 light_table,
                 environment,

@@ -15,6 +15,7 @@
 //! Both: workgroups of 8 × 8 pixels, dispatched `[ceil(W / 8), ceil(H / 8), 1]`; per-pixel
 //! buffers indexed `y × W + x`.
 
+use crate::texture_images::SceneTextures;
 use crate::gbuffer::{DepthImage, HalfImage, IdImage};
 use gi_shared::cache_view::{pass_random, primary_emission, primary_surface};
 use gi_shared::camera::{CameraParams, primary_ray};
@@ -54,7 +55,7 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] _triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] _textures: &[GpuTexture],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] _texels: &[u32],
+        #[spirv(descriptor_set = 2, binding = 6)] _texture_images: &SceneTextures,
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] _light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],

@@ -11,8 +11,13 @@ pub const WORKGROUP_SIZE: u32 = 64;
 /// - `VulkanMemoryModelDeviceScope`: device-scope atomics (`kernels/src/atomics.rs`).
 /// - `GroupNonUniform`, `GroupNonUniformArithmetic`: subgroup ids and subgroup scans in compute
 ///   kernels (the prefix scan).
+/// - `ShaderNonUniform`, `RuntimeDescriptorArray`, `SampledImageArrayNonUniformIndexing`: the
+///   scene's bindless texture array, indexed per invocation (`kernels/src/texture_images.rs`).
 pub const KERNEL_CAPABILITIES: &[&str] = &[
     "VulkanMemoryModelDeviceScope",
     "GroupNonUniform",
     "GroupNonUniformArithmetic",
+    "ShaderNonUniform",
+    "RuntimeDescriptorArray",
+    "SampledImageArrayNonUniformIndexing",
 ];

@@ -99,6 +99,9 @@ use crate::path_tracer::{
 use crate::radiance_feedback::{accepts, reproject};
 use crate::random::Random;
 use crate::ray::{HitRecord, Ray, offset_ray_origin};
+use crate::ray_cone::RayCone;
+use crate::screen_probes::PROBE_CELLS;
+use crate::textures::TextureImages;
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, NONE, hit_surface,
 };
@@ -521,7 +524,7 @@ pub struct CacheHit {
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
 )]
-pub fn shade_cache_hit(
+pub fn shade_cache_hit<I: TextureImages + ?Sized>(
     view: &CacheViewParams,
     ray: &Ray,
     primary: &PrimarySurface,
@@ -533,7 +536,7 @@ pub fn shade_cache_hit(
     triangles: &[GpuTriangle],
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
-    texels: &[u32],
+    images: &I,
     lights: &[GpuLight],
     light_table: &[u32],
     environment: &[[f32; 4]],
@@ -562,8 +565,9 @@ pub fn shade_cache_hit(
             * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
         return out;
     }
+    let cone = RayCone::hemisphere_share(0.0, PROBE_CELLS);
     let (surface, material) = hit_surface(
-        instances, meshes, vertices, triangles, materials, textures, texels, hit,
+        instances, meshes, vertices, triangles, materials, textures, images, ray, cone, hit,
     );
     let emission = material.emissive * view.emissive_multiplier;
     if emission.max_element() > 0.0
@@ -644,7 +648,7 @@ pub fn path_params(view: &CacheViewParams) -> PathTracerParams {
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
 )]
-pub fn primary_direct_light(
+pub fn primary_direct_light<I: TextureImages + ?Sized>(
     view: &CacheViewParams,
     surface: &PrimarySurface,
     albedo: Vec3,
@@ -654,7 +658,7 @@ pub fn primary_direct_light(
     triangles: &[GpuTriangle],
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
-    texels: &[u32],
+    images: &I,
     lights: &[GpuLight],
     environment: &[[f32; 4]],
     environment_cdf: &[f32],
@@ -686,7 +690,7 @@ pub fn primary_direct_light(
         triangles,
         materials,
         textures,
-        texels,
+        images,
         lights,
         environment,
         environment_cdf,
@@ -1259,7 +1263,7 @@ mod tests {
                 &[],
                 &[],
                 &[],
-                &[],
+                &[][..],
                 &lights,
                 &[],
                 &[],
@@ -1311,7 +1315,7 @@ mod tests {
                 &[],
                 &[],
                 &[],
-                &[],
+                &[][..],
                 &lights,
                 &environment,
                 &cdf,
@@ -1331,7 +1335,7 @@ mod tests {
                 &[],
                 &[],
                 &[],
-                &[],
+                &[][..],
                 &lights,
                 &[],
                 &environment,

@@ -32,6 +32,8 @@ use glam::{UVec2, UVec4, Vec3, Vec4};
 
 use crate::camera::{CameraParams, to_clip, uv_of_clip};
 use crate::ray::{HitRecord, Ray};
+use crate::ray_cone::RayCone;
+use crate::textures::TextureImages;
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, hit_surface,
 };
@@ -119,7 +121,7 @@ fn rows_equal(a: &[[f32; 4]; 4], b: &[[f32; 4]; 4]) -> bool {
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
 )]
-pub fn gbuffer_texel(
+pub fn gbuffer_texel<I: TextureImages + ?Sized>(
     camera: &CameraParams,
     ray: &Ray,
     hit: &HitRecord,
@@ -129,13 +131,14 @@ pub fn gbuffer_texel(
     triangles: &[GpuTriangle],
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
-    texels: &[u32],
+    images: &I,
 ) -> GBufferTexel {
     if !hit.is_hit() {
         return GBufferTexel::SKY;
     }
+    let cone = RayCone::pixel(camera.tan_half_fov_y, camera.image_size[1]);
     let (surface, material) = hit_surface(
-        instances, meshes, vertices, triangles, materials, textures, texels, hit,
+        instances, meshes, vertices, triangles, materials, textures, images, ray, cone, hit,
     );
     let direction = Vec3::from_array(ray.direction);
     // The point on the ray, not the interpolated one: depth and motion then agree with the
@@ -238,7 +241,7 @@ mod tests {
             &triangles,
             &materials,
             &[],
-            &[],
+            &[][..],
         )
     }
 

@@ -74,6 +74,8 @@ use crate::random::Random;
 use crate::ray::{HitRecord, Ray, offset_ray_origin};
 use crate::reservoir::Reservoir;
 use crate::sampling::{sample_cosine_hemisphere, tangent_to_world};
+use crate::ray_cone::RayCone;
+use crate::textures::TextureImages;
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, Surface, fetch_surface,
     hit_surface, sample_material,
@@ -432,7 +434,7 @@ pub fn emitter_light_pdf(
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
 )]
-pub fn shade(
+pub fn shade<I: TextureImages + ?Sized>(
     path: &mut PathState,
     hit: &HitRecord,
     params: &PathTracerParams,
@@ -442,7 +444,7 @@ pub fn shade(
     triangles: &[GpuTriangle],
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
-    texels: &[u32],
+    images: &I,
     lights: &[GpuLight],
     light_table: &[u32],
     environment: &[[f32; 4]],
@@ -463,8 +465,18 @@ pub fn shade(
         path.active = false;
         return;
     }
+    // The ground truth reads level 0: its samples integrate pixel and hemisphere themselves.
     let (surface, material) = hit_surface(
-        instances, meshes, vertices, triangles, materials, textures, texels, hit,
+        instances,
+        meshes,
+        vertices,
+        triangles,
+        materials,
+        textures,
+        images,
+        &path.ray,
+        RayCone::POINT,
+        hit,
     );
     let mut ng = surface.geometric_normal;
     let mut ns = surface.shading_normal;
@@ -524,7 +536,7 @@ pub fn shade(
             triangles,
             materials,
             textures,
-            texels,
+            images,
             lights,
             environment,
             environment_cdf,
@@ -579,7 +591,7 @@ pub struct DirectLightSample {
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
 )]
-pub fn sample_direct_light(
+pub fn sample_direct_light<I: TextureImages + ?Sized>(
     frame: &ShadingFrame,
     params: &PathTracerParams,
     instances: &[GpuInstance],
@@ -588,7 +600,7 @@ pub fn sample_direct_light(
     triangles: &[GpuTriangle],
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
-    texels: &[u32],
+    images: &I,
     lights: &[GpuLight],
     environment: &[[f32; 4]],
     environment_cdf: &[f32],
@@ -648,7 +660,15 @@ pub fn sample_direct_light(
             light.primitive,
             chosen.barycentrics,
         );
-        radiance = sample_material(materials, textures, texels, s.material, s.uv).emissive
+        radiance = sample_material(
+            materials,
+            textures,
+            images,
+            s.material,
+            s.uv,
+            f32::NEG_INFINITY,
+        )
+        .emissive
             * params.emissive_multiplier;
     }
     out.radiance = chosen.weight * radiance * reservoir.ucw;
@@ -790,7 +810,7 @@ mod tests {
             &[],
             &[],
             &[],
-            &[],
+            &[][..],
             &[],
             &[],
             &[],

@@ -12,8 +12,8 @@
 //! * [`GpuTriangle`] (16 bytes): every mesh's triangles, concatenated; a hit's primitive indexes
 //!   its mesh's run.
 //! * [`GpuMaterial`] (48 bytes).
-//! * [`GpuTexture`] (32 bytes), the texture table, and the texels: one `u32` per texel, RGBA8 with
-//!   red in the low byte, all textures concatenated row by row (top row first).
+//! * [`GpuTexture`] (32 bytes), the texture table. The texels are sampled images on the device
+//!   and one `u32` array on the CPU (see [`crate::textures`]).
 //!
 //! # Robustness
 //!
@@ -22,7 +22,9 @@
 //! default white material, a texture reading as 1), so a malformed upload gives wrong colours,
 //! never a fault.
 
-use crate::ray::HitRecord;
+use crate::ray::{HitRecord, Ray};
+use crate::ray_cone::RayCone;
+use crate::textures::{TextureImages, texture_lod};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3, Vec4};
 use num_traits::Float;
@@ -234,11 +236,13 @@ impl Default for GpuMaterial {
 /// | 12     | `srgb`   |
 /// | 16     | `wrap_u` |
 /// | 20     | `wrap_v` |
-/// | 24     | `_pad`   |
+/// | 24     | `levels` |
+/// | 28     | `_pad`   |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct GpuTexture {
-    /// Index of the texture's first texel in the texel buffer.
+    /// Index of the texture's first texel in the CPU's texel array (see [`crate::textures`]);
+    /// unused on the device, where each texture is its own image.
     pub offset: u32,
     /// Width in texels.
     pub width: u32,
@@ -250,8 +254,10 @@ pub struct GpuTexture {
     pub wrap_u: u32,
     /// Wrap mode of v.
     pub wrap_v: u32,
+    /// Mip levels stored, level 0 first (at least 1).
+    pub levels: u32,
     /// Explicit padding.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 /// The surface at a hit, in world space.
@@ -270,6 +276,9 @@ pub struct Surface {
     pub material: u32,
     /// World-space area of the triangle.
     pub area: f32,
+    /// Area of the triangle in texture coordinates (UV units²; 0 without UVs): with `area`, the
+    /// texture's density on the surface ([`crate::ray_cone`]).
+    pub uv_area: f32,
     /// The triangle's size: its largest edge coordinate, in world space (see
     /// [`crate::ray::offset_ray_origin`]).
     pub size: f32,
@@ -333,10 +342,14 @@ pub fn fetch_surface(
         + Vec3::from_array(b.normal) * w1
         + Vec3::from_array(c.normal) * w2;
     let shading_normal = inst.transform_normal(n).normalize_or(geometric_normal);
-    let uv = if mesh.has_uvs != 0 {
-        Vec2::new(a.u, a.v) * w0 + Vec2::new(b.u, b.v) * w1 + Vec2::new(c.u, c.v) * w2
+    let (uv, uv_area) = if mesh.has_uvs != 0 {
+        let (ta, tb, tc) = (Vec2::new(a.u, a.v), Vec2::new(b.u, b.v), Vec2::new(c.u, c.v));
+        (
+            ta * w0 + tb * w1 + tc * w2,
+            0.5 * Float::abs((tb - ta).perp_dot(tc - ta)),
+        )
     } else {
-        Vec2::ZERO
+        (Vec2::ZERO, 0.0)
     };
     Surface {
         // Relative to a vertex: rounding then depends on the triangle's size, not on how far from
@@ -347,6 +360,7 @@ pub fn fetch_surface(
         uv,
         material: tri.material,
         area: 0.5 * cross.length(),
+        uv_area,
         size: e1.abs().max(e2.abs()).max((pc - pb).abs()).max_element(),
     }
 }
@@ -360,17 +374,20 @@ pub struct MaterialSample {
     pub emissive: Vec3,
 }
 
-/// The surface `hit` landed on and its material there: what every pass that shades a hit needs.
+/// The surface `hit` (of `ray`) landed on and its material there, its textures filtered for the
+/// footprint of `cone` around the ray: what every pass that shades a hit needs.
 #[allow(clippy::too_many_arguments, reason = "one argument per scene buffer")]
 #[inline]
-pub fn hit_surface(
+pub fn hit_surface<I: TextureImages + ?Sized>(
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
     vertices: &[GpuVertex],
     triangles: &[GpuTriangle],
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
-    texels: &[u32],
+    images: &I,
+    ray: &Ray,
+    cone: RayCone,
     hit: &HitRecord,
 ) -> (Surface, MaterialSample) {
     let surface = fetch_surface(
@@ -382,17 +399,35 @@ pub fn hit_surface(
         hit.primitive,
         Vec2::from_array(hit.barycentrics),
     );
-    let material = sample_material(materials, textures, texels, surface.material, surface.uv);
+    let direction = Vec3::from_array(ray.direction);
+    let length = direction.length();
+    let lod = cone.footprint_lod(
+        hit.t * length,
+        direction / length,
+        surface.geometric_normal,
+        surface.area,
+        surface.uv_area,
+    );
+    let material = sample_material(
+        materials,
+        textures,
+        images,
+        surface.material,
+        surface.uv,
+        lod,
+    );
     (surface, material)
 }
 
-/// Material `material` at texture coordinate `uv`; the default material when out of range.
-pub fn sample_material(
+/// Material `material` at texture coordinate `uv`, its textures filtered for a footprint of level
+/// `footprint_lod` ([`crate::ray_cone`]); the default material when out of range.
+pub fn sample_material<I: TextureImages + ?Sized>(
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
-    texels: &[u32],
+    images: &I,
     material: u32,
     uv: Vec2,
+    footprint_lod: f32,
 ) -> MaterialSample {
     let m = if (material as usize) < materials.len() {
         materials[material as usize]
@@ -400,26 +435,35 @@ pub fn sample_material(
         GpuMaterial::default()
     };
     let base = Vec4::from_array(m.base_color)
-        * sample_texture_index(textures, texels, m.base_color_texture, uv);
+        * sample_texture_index(textures, images, m.base_color_texture, uv, footprint_lod);
     let emissive = Vec3::from_array(m.emissive)
-        * sample_texture_index(textures, texels, m.emissive_texture, uv).truncate();
+        * sample_texture_index(textures, images, m.emissive_texture, uv, footprint_lod)
+            .truncate();
     MaterialSample {
         base_color: base,
         emissive,
     }
 }
 
-/// Texture `index` of the table at `uv`; 1 (the factor alone) for [`NONE`] or out of range.
+/// Texture `index` of the table at `uv` for a footprint of level `footprint_lod`; 1 (the factor
+/// alone) for [`NONE`] or out of range.
 #[inline]
-fn sample_texture_index(textures: &[GpuTexture], texels: &[u32], index: u32, uv: Vec2) -> Vec4 {
+fn sample_texture_index<I: TextureImages + ?Sized>(
+    textures: &[GpuTexture],
+    images: &I,
+    index: u32,
+    uv: Vec2,
+    footprint_lod: f32,
+) -> Vec4 {
     if (index as usize) < textures.len() {
-        sample_texture(&textures[index as usize], texels, uv)
+        let texture = &textures[index as usize];
+        images.sample(texture, index, uv, texture_lod(texture, footprint_lod))
     } else {
         Vec4::ONE
     }
 }
 
-/// Bilinear sample of `texture` at `uv` (`(0, 0)` is the top-left corner of the first texel) with
+/// Bilinear sample of one level, `texture`, at `uv` (`(0, 0)` is the top-left corner of the first texel) with
 /// its wrap modes; sRGB colour channels are decoded to linear before filtering, like an `_SRGB`
 /// image format. Non-finite coordinates read as 0; a texture whose texels lie outside `texels`, or
 /// that is empty, reads as 1.
@@ -567,7 +611,8 @@ mod tests {
         assert_eq!(offset_of!(GpuTexture, srgb), 12);
         assert_eq!(offset_of!(GpuTexture, wrap_u), 16);
         assert_eq!(offset_of!(GpuTexture, wrap_v), 20);
-        assert_eq!(offset_of!(GpuTexture, _pad), 24);
+        assert_eq!(offset_of!(GpuTexture, levels), 24);
+        assert_eq!(offset_of!(GpuTexture, _pad), 28);
     }
 
     fn rgba(r: u32, g: u32, b: u32, a: u32) -> u32 {
@@ -590,7 +635,8 @@ mod tests {
             srgb,
             wrap_u: wrap,
             wrap_v: wrap,
-            _pad: [0; 2],
+            levels: 1,
+            _pad: 0,
         };
         (t, texels)
     }
@@ -647,7 +693,8 @@ mod tests {
             srgb: 1,
             wrap_u: WRAP_REPEAT,
             wrap_v: WRAP_REPEAT,
-            _pad: [0; 2],
+            levels: 1,
+            _pad: 0,
         };
         let s = sample_texture(&t, &[rgba(230, 40, 0, 128)], Vec2::splat(0.3));
         assert!((s.x - 0.791_298).abs() < 1e-5, "{s}");
@@ -674,7 +721,7 @@ mod tests {
         assert_eq!(sample_texture(&big, &texels, Vec2::ZERO), Vec4::ONE);
         let empty = GpuTexture { width: 0, ..t };
         assert_eq!(sample_texture(&empty, &texels, Vec2::ZERO), Vec4::ONE);
-        let m = sample_material(&[], &[], &[], 3, Vec2::ZERO);
+        let m = sample_material(&[], &[], &[][..], 3, Vec2::ZERO, 0.0);
         assert_eq!(m.base_color, Vec4::ONE);
         assert_eq!(m.emissive, Vec3::ZERO);
         let s = fetch_surface(&[], &[], &[], &[], 0, 0, Vec2::splat(0.3));

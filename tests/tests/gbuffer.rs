@@ -65,7 +65,7 @@ fn render(variant: KernelVariant, loaded: &Loaded, cameras: &[CameraParams]) -> 
     // Texture storage exists only for a scene with textures.
     let textured = !loaded.scene.textures.is_empty();
     assert_eq!(scene.shading.has_buffer("textures"), textured);
-    assert_eq!(scene.shading.has_buffer("texels"), textured);
+    assert_eq!(scene.shading.texture_bytes() > 0, textured);
     let mut pass = GBufferPass::new(&ctx).unwrap();
     let images = GBufferImages::new(&ctx, WIDTH, HEIGHT).unwrap();
     let mut out = vec![];
@@ -367,7 +367,11 @@ fn motion_vectors_follow_a_known_camera_move() {
 
 #[test]
 fn textured_scene_shows_the_checker() {
-    let loaded = load("textured.gltf");
+    let mut loaded = load("textured.gltf");
+    // Level 0 alone: at this size the floor is minified, and every mip level would blend the
+    // squares (mip selection has its own test below).
+    loaded.scene.textures[0].levels.truncate(1);
+    loaded.shading = ShadingData::new(&loaded.scene).unwrap();
     let texture = &loaded.scene.textures[0];
     assert_eq!(
         (texture.width, texture.height, texture.srgb),
@@ -421,5 +425,68 @@ fn textured_scene_shows_the_checker() {
             lights >= 10 && darks >= 10,
             "{name}: {lights} light, {darks} dark"
         );
+    }
+}
+
+/// Mip selection by ray cones: the checker floor's texture replaced by a chain whose every level
+/// is one known grey (level `l`: 60 + 20·l of 255, linear), so the albedo tells which level the
+/// G-buffer read. The device (both variants) agrees with the CPU's trilinear filter, and the level
+/// read matches the ray cone's, `log2(t·α / |cos θ|) + ½·log2(uv area / area) + log2(64)`, along
+/// the whole floor: coarser with distance and grazing.
+#[test]
+fn ray_cones_pick_the_mip_level_the_footprint_needs() {
+    let mut loaded = load("textured.gltf");
+    let grey = |l: u32| 60 + 20 * l;
+    {
+        let t = &mut loaded.scene.textures[0];
+        t.srgb = false;
+        t.levels = (0..gi_shared::textures::mip_levels(t.width, t.height))
+            .map(|l| {
+                let (w, h) = gi_shared::textures::level_size(t.width, t.height, l);
+                let v = grey(l) as u8;
+                [v, v, v, 255].repeat((w * h) as usize)
+            })
+            .collect();
+        assert_eq!(t.levels.len(), 7);
+    }
+    loaded.shading = ShadingData::new(&loaded.scene).unwrap();
+    let camera = scene_camera(&loaded.scene, WIDTH, HEIGHT);
+    let cpu = render_on_cpu(&loaded.shading, &loaded.bvh, &camera);
+    let floor = material(&loaded.scene, "checker floor");
+    let factor = loaded.scene.materials[floor as usize].base_color.x;
+    let alpha = (2.0 * camera.tan_half_fov_y / HEIGHT as f32).atan();
+    let mut checked = 0;
+    let (mut finest, mut coarsest) = (f32::MAX, f32::MIN);
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let t = cpu.texel(x, y);
+            if t.ids.z != floor {
+                continue;
+            }
+            let ray = primary_ray(&camera, UVec2::new(x, y), Vec2::ZERO);
+            let d = Vec3::from_array(ray.direction);
+            // G-buffer depth is along the view axis; the distance is along the ray.
+            let distance = t.depth / d.normalize().dot(camera.forward());
+            let cosine = d.normalize().dot(Vec3::Y).abs();
+            // The floor's UVs: u = z/2 + 2, v = 2 - x/2, so UV area = world area / 4.
+            let expected = (distance * alpha / cosine).log2() - 1.0 + 6.0;
+            let expected = expected.clamp(0.0, 6.0);
+            let grey_read = t.albedo.x / factor * 255.0;
+            let level_read = (grey_read - 60.0) / 20.0;
+            assert!(
+                (level_read - expected).abs() < 0.1,
+                "pixel ({x}, {y}): level {level_read:.3} read, {expected:.3} expected"
+            );
+            finest = finest.min(level_read);
+            coarsest = coarsest.max(level_read);
+            checked += 1;
+        }
+    }
+    println!("floor: {checked} pixels, levels {finest:.2} to {coarsest:.2}");
+    assert!(checked > 200, "{checked} floor pixels");
+    assert!(coarsest - finest > 1.5, "levels {finest} to {coarsest}");
+    for variant in KernelVariant::ALL {
+        let gpu = render(variant, &loaded, &[camera]).remove(0);
+        assert_agree(&format!("mip levels {variant} vs cpu"), &cpu, &gpu);
     }
 }

@@ -1,17 +1,21 @@
 //! The scene's shading data in the layouts of `gi_shared::scene_data`: built on the CPU
 //! ([`ShadingData`], which the CPU reference of the kernels reads too) and uploaded to storage
-//! buffers ([`GpuShadingData`]).
+//! buffers and sampled images ([`GpuShadingData`]).
 //!
-//! Only what the scene has is stored: without textures there is no texture table and no texel
-//! buffer (the kernels' bindings then get a 16-byte placeholder, since a Vulkan buffer cannot be
-//! empty). Every buffer must fit one storage binding ([`MAX_STORAGE_BUFFER_BYTES`]); a scene that
-//! does not is an error naming the scene and the buffer.
+//! Only what the scene has is stored: without textures there is no texture table (the kernels'
+//! binding then gets a 16-byte placeholder, since a Vulkan buffer cannot be empty) and the
+//! texture array stays unwritten. Every buffer must fit one storage binding
+//! ([`MAX_STORAGE_BUFFER_BYTES`]); a scene that does not is an error naming the scene and the
+//! buffer. Textures are images, one each, so their total size has no such bound.
 
 use super::{Scene, Wrap};
 use crate::error::{Error, Result};
-use crate::vulkan::{Buffer, Context, Resource};
+use crate::vulkan::{
+    Buffer, Context, Resource, Samplers, TextureImage, TextureLevels, upload_textures,
+};
 use ash::vk;
 use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
+use gi_shared::textures::{level_offset, level_size};
 use gi_shared::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, NONE,
     WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT,
@@ -32,7 +36,9 @@ pub struct ShadingData {
     pub materials: Vec<GpuMaterial>,
     /// The texture table, one per `Scene::textures`; empty without textures.
     pub textures: Vec<GpuTexture>,
-    /// Every texture's RGBA8 texels (red in the low byte), concatenated; empty without textures.
+    /// Every texture's RGBA8 texels (red in the low byte), each texture's levels after one
+    /// another (`gi_shared::textures`); empty without textures. The CPU reference reads them; the
+    /// device gets one image per texture.
     pub texels: Vec<u32>,
 }
 
@@ -142,21 +148,25 @@ impl ShadingData {
                 srgb: u32::from(t.srgb),
                 wrap_u: wrap_code(t.wrap[0]),
                 wrap_v: wrap_code(t.wrap[1]),
-                _pad: [0; 2],
+                levels: t.levels.len() as u32,
+                _pad: 0,
             });
-            let texel_count = t.width as usize * t.height as usize;
-            let start = data.texels.len();
-            data.texels.extend(
-                t.rgba8
-                    .as_chunks::<4>()
-                    .0
-                    .iter()
-                    .take(texel_count)
-                    .map(|c| u32::from_le_bytes(*c)),
-            );
-            // A short pixel array (the loader never makes one) still gets its full size, white.
-            data.texels.resize(start + texel_count, u32::MAX);
-            check_size(scene, "texels", &data.texels)?;
+            for (l, level) in t.levels.iter().enumerate() {
+                let (w, h) = level_size(t.width, t.height, l as u32);
+                let texel_count = w as usize * h as usize;
+                let start = data.texels.len();
+                data.texels.extend(
+                    level
+                        .as_chunks::<4>()
+                        .0
+                        .iter()
+                        .take(texel_count)
+                        .map(|c| u32::from_le_bytes(*c)),
+                );
+                // A short level (the loader never makes one) still gets its full size, white.
+                data.texels.resize(start + texel_count, u32::MAX);
+            }
+            u32_index(scene, "texels", data.texels.len())?;
         }
         check_size(scene, "instances", &data.instances)?;
         check_size(scene, "meshes", &data.meshes)?;
@@ -168,47 +178,48 @@ impl ShadingData {
     }
 }
 
-/// Names of the shading data's buffers, in binding order.
-pub const BUFFER_NAMES: [&str; 7] = [
+/// Names of the shading data's buffers, in binding order (the texture array follows them).
+pub const BUFFER_NAMES: [&str; 6] = [
     "instances",
     "meshes",
     "vertices",
     "triangles",
     "materials",
     "textures",
-    "texels",
 ];
 
-/// The shading data in storage buffers, bound as the first seven bindings of the scene's set 2 in
-/// the order of [`BUFFER_NAMES`].
+/// The shading data on the device: storage buffers bound as the first six bindings of the
+/// scene's set 2 in the order of [`BUFFER_NAMES`], then the texture array
+/// ([`crate::vulkan::TEXTURES_BINDING`]).
 pub struct GpuShadingData {
     /// One per name of [`BUFFER_NAMES`]; `None` for a kind the scene does not have (the texture
-    /// table and texels of a scene without textures).
-    buffers: [Option<Buffer>; 7],
+    /// table of a scene without textures).
+    buffers: [Option<Buffer>; 6],
     /// 16 zero bytes, bound in place of absent kinds: too short for one record of any kind but
-    /// triangles and texels, so the kernels' bounds checks see an empty array. `None` when every
-    /// kind is present.
+    /// triangles, so the kernels' bounds checks see an empty array. `None` when every kind is
+    /// present.
     placeholder: Option<Buffer>,
+    /// One image per texture, in table order.
+    images: Vec<TextureImage>,
+    /// Their descriptors: view, sampler (by wrap modes), layout.
+    descriptors: Vec<vk::DescriptorImageInfo>,
+    /// Kept alive as long as the descriptors.
+    _samplers: Samplers,
 }
 
 impl GpuShadingData {
-    /// Uploads `data` to device-local storage buffers.
+    /// Uploads `data` to device-local storage buffers and one sampled image per texture.
     pub fn new(ctx: &Context, data: &ShadingData) -> Result<Self> {
-        let contents: [&[u8]; 7] = [
+        let contents: [&[u8]; 6] = [
             bytemuck::cast_slice(&data.instances),
             bytemuck::cast_slice(&data.meshes),
             bytemuck::cast_slice(&data.vertices),
             bytemuck::cast_slice(&data.triangles),
             bytemuck::cast_slice(&data.materials),
             bytemuck::cast_slice(&data.textures),
-            bytemuck::cast_slice(&data.texels),
         ];
-        let mut uploaded = Self {
-            buffers: Default::default(),
-            placeholder: None,
-        };
-        for (slot, (name, bytes)) in uploaded
-            .buffers
+        let mut buffers: [Option<Buffer>; 6] = Default::default();
+        for (slot, (name, bytes)) in buffers
             .iter_mut()
             .zip(BUFFER_NAMES.into_iter().zip(contents))
         {
@@ -222,33 +233,93 @@ impl GpuShadingData {
                 vk::BufferUsageFlags::empty(),
             )?);
         }
-        if uploaded.buffers.iter().any(Option::is_none) {
-            uploaded.placeholder = Some(Buffer::device_zeroed::<[u32; 4]>(
+        let placeholder = match buffers.iter().any(Option::is_none) {
+            true => Some(Buffer::device_zeroed::<[u32; 4]>(
                 ctx,
                 "shading data placeholder",
                 1,
-            )?);
+            )?),
+            false => None,
+        };
+        let slots = ctx.capabilities().scene_texture_slots();
+        if data.textures.len() > slots as usize {
+            return Err(Error::InvalidArgument {
+                name: "textures",
+                why: format!(
+                    "the scene has {} textures; the device's texture array holds {slots}",
+                    data.textures.len()
+                ),
+            });
         }
-        Ok(uploaded)
+        let names: Vec<String> = (0..data.textures.len())
+            .map(|i| format!("texture {i}"))
+            .collect();
+        let texel_bytes: &[u8] = bytemuck::cast_slice(&data.texels);
+        let levels: Vec<TextureLevels<'_>> = data
+            .textures
+            .iter()
+            .zip(&names)
+            .map(|(t, name)| TextureLevels {
+                name,
+                width: t.width,
+                height: t.height,
+                srgb: t.srgb != 0,
+                levels: (0..t.levels)
+                    .map(|l| {
+                        let (w, h) = level_size(t.width, t.height, l);
+                        let start = (t.offset as usize + level_offset(t.width, t.height, l)) * 4;
+                        &texel_bytes[start..start + w as usize * h as usize * 4]
+                    })
+                    .collect(),
+            })
+            .collect();
+        let images = upload_textures(ctx, &levels)?;
+        let mut samplers = Samplers::new(ctx);
+        let descriptors = data
+            .textures
+            .iter()
+            .zip(&images)
+            .map(|(t, image)| {
+                Ok(vk::DescriptorImageInfo::default()
+                    .sampler(samplers.get(ctx, [t.wrap_u, t.wrap_v])?)
+                    .image_view(image.view)
+                    .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Self {
+            buffers,
+            placeholder,
+            images,
+            descriptors,
+            _samplers: samplers,
+        })
     }
 
-    /// The seven buffers, the first bindings of the scene's set 2 (`vulkan::SceneSet::Shading`),
-    /// the placeholder in place of absent kinds.
+    /// The six buffers (the placeholder in place of absent kinds) and the texture array: the
+    /// first bindings of the scene's set 2 (`vulkan::SceneSet::Shading`).
     pub fn resources(&self) -> Vec<Resource<'_>> {
-        self.buffers
+        let mut resources: Vec<Resource<'_>> = self
+            .buffers
             .iter()
             .filter_map(|b| b.as_ref().or(self.placeholder.as_ref()))
             .map(Resource::Buffer)
-            .collect()
+            .collect();
+        resources.push(Resource::Textures(&self.descriptors));
+        resources
     }
 
-    /// Whether the device holds buffer `name` of [`BUFFER_NAMES`] (false for the texture table and
-    /// texels of a scene without textures).
+    /// Whether the device holds buffer `name` of [`BUFFER_NAMES`] (false for the texture table of
+    /// a scene without textures).
     pub fn has_buffer(&self, name: &str) -> bool {
         BUFFER_NAMES
             .iter()
             .zip(&self.buffers)
             .any(|(n, b)| *n == name && b.is_some())
+    }
+
+    /// Bytes of device memory the textures take, mip chains included.
+    pub fn texture_bytes(&self) -> u64 {
+        self.images.iter().map(|i| i.bytes).sum()
     }
 }
 
@@ -296,11 +367,18 @@ mod tests {
             (t.width, t.height, 1)
         );
         assert_eq!(d.textures[0].wrap_u, WRAP_REPEAT);
-        assert_eq!(d.texels.len(), (t.width * t.height) as usize);
+        assert_eq!(d.textures[0].levels, t.levels.len() as u32);
+        let texels: usize = (0..t.levels.len() as u32)
+            .map(|l| {
+                let (w, h) = level_size(t.width, t.height, l);
+                (w * h) as usize
+            })
+            .sum();
+        assert_eq!(d.texels.len(), texels);
         // Red in the low byte.
         let first = d.texels[0];
-        assert_eq!(first & 0xff, u32::from(t.rgba8[0]));
-        assert_eq!(first >> 24, u32::from(t.rgba8[3]));
+        assert_eq!(first & 0xff, u32::from(t.levels[0][0]));
+        assert_eq!(first >> 24, u32::from(t.levels[0][3]));
         assert!(d.meshes.iter().all(|m| m.has_uvs == 1));
         assert_eq!(d.materials[0].base_color_texture, 0);
         assert_eq!(d.materials[0].emissive_texture, NONE);
@@ -309,14 +387,27 @@ mod tests {
     #[test]
     fn a_buffer_over_the_binding_limit_is_an_error_naming_scene_and_buffer() {
         let mut s = test_scene("textured.gltf");
-        // 5800² texels of 4 bytes: just over 128 MiB.
-        let side = 5800;
-        s.textures[0].width = side;
-        s.textures[0].height = side;
-        s.textures[0].rgba8 = vec![0; (side * side * 4) as usize];
+        // 2²² vertices of 32 bytes: 128 MiB, and one more.
+        let mesh = &mut s.meshes[0];
+        let count = (MAX_STORAGE_BUFFER_BYTES / 32) as usize + 1;
+        mesh.positions.resize(count, glam::Vec3::ZERO);
+        mesh.normals.resize(count, glam::Vec3::Z);
         let err = ShadingData::new(&s).unwrap_err().to_string();
         assert!(err.contains("textured.gltf"), "{err}");
-        assert!(err.contains("\"texels\""), "{err}");
+        assert!(err.contains("\"vertices\""), "{err}");
         assert!(err.contains("128 MiB"), "{err}");
+    }
+
+    #[test]
+    fn texture_levels_follow_one_another_in_the_texel_array() {
+        let mut s = test_scene("textured.gltf");
+        let t = &mut s.textures[0];
+        (t.width, t.height) = (4, 2);
+        t.levels = vec![vec![1; 32], vec![2; 8], vec![3; 4]];
+        let d = ShadingData::new(&s).unwrap();
+        assert_eq!(d.textures[0].levels, 3);
+        assert_eq!(d.texels.len(), 8 + 2 + 1);
+        assert_eq!(d.texels[8], 0x0202_0202);
+        assert_eq!(d.texels[10], 0x0303_0303);
     }
 }

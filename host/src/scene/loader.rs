@@ -651,7 +651,7 @@ impl Builder<'_> {
             width: rgba.width(),
             height: rgba.height(),
             wrap: sampler.map_or([Wrap::Repeat; 2], |s| [wrap(s.wrap_s), wrap(s.wrap_t)]),
-            rgba8: rgba.into_raw(),
+            levels: vec![rgba.into_raw()],
             // Base colour and emissive, the only textures loaded, are sRGB-encoded in glTF.
             srgb: true,
         });

@@ -315,8 +315,9 @@ pub struct Texture {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// `width × height × 4` bytes.
-    pub rgba8: Vec<u8>,
+    /// The mip chain, level 0 first: level `l` has `max(1, width >> l) × max(1, height >> l) × 4`
+    /// bytes (`gi_shared::textures::level_size`).
+    pub levels: Vec<Vec<u8>>,
     /// Whether the colour channels are sRGB-encoded (base colour and emissive textures are).
     pub srgb: bool,
     /// Wrapping of U and V (the glTF sampler's `wrapS`, `wrapT`).

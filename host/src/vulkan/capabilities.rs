@@ -63,6 +63,12 @@ pub struct Capabilities {
     pub max_workgroup_invocations: u32,
     /// Largest device-local heap in bytes.
     pub device_local_bytes: u64,
+    /// Fewest of `maxPerStageDescriptorSampledImages`, `maxPerStageDescriptorSamplers`,
+    /// `maxDescriptorSetSampledImages` and `maxDescriptorSetSamplers`: the longest texture array.
+    pub max_sampled_images: u32,
+    /// `runtimeDescriptorArray`, `shaderSampledImageArrayNonUniformIndexing` and
+    /// `descriptorBindingPartiallyBound`: the bindless texture array.
+    pub bindless_textures: bool,
 }
 
 /// The feature structs a probe fills, and device creation enables (trimmed to what kernels use).
@@ -189,8 +195,25 @@ impl Capabilities {
             accel_scratch_alignment: accel_props
                 .min_acceleration_structure_scratch_offset_alignment,
             device_local_bytes,
+            max_sampled_images: props
+                .limits
+                .max_per_stage_descriptor_sampled_images
+                .min(props.limits.max_per_stage_descriptor_samplers)
+                .min(props.limits.max_descriptor_set_sampled_images)
+                .min(props.limits.max_descriptor_set_samplers),
+            bindless_textures: chain.v12.runtime_descriptor_array == vk::TRUE
+                && chain.v12.shader_sampled_image_array_non_uniform_indexing == vk::TRUE
+                && chain.v12.descriptor_binding_partially_bound == vk::TRUE,
         };
         (caps, extensions)
+    }
+
+    /// The length of the scene's texture array (set 2): [`crate::vulkan::MAX_SCENE_TEXTURES`],
+    /// or fewer where the device allows fewer (at least 1).
+    pub fn scene_texture_slots(&self) -> u32 {
+        self.max_sampled_images
+            .min(crate::vulkan::MAX_SCENE_TEXTURES)
+            .max(1)
     }
 
     /// `cpu`, `discrete GPU`, ... for reports.
@@ -238,6 +261,8 @@ impl Capabilities {
             accel_scratch_alignment: 128,
             max_workgroup_invocations: 1024,
             device_local_bytes: 1 << 30,
+            max_sampled_images: 1 << 20,
+            bindless_textures: true,
         }
     }
 }

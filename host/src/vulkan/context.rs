@@ -335,7 +335,8 @@ impl Context {
             .iter_mut()
             .zip([SceneSet::Geometry, SceneSet::Shading])
         {
-            *slot = create_set_layout(&ctx.device, &set.binding_kinds(variant), false)?;
+            let kinds = set.binding_kinds(variant, ctx.capabilities.scene_texture_slots());
+            *slot = create_set_layout(&ctx.device, &kinds, false)?;
         }
         Ok(ctx)
     }
@@ -528,6 +529,12 @@ fn required_features(caps: &Capabilities, variant: KernelVariant) -> Result<Feat
                 subgroup(vk::SubgroupFeatureFlags::ARITHMETIC),
                 "subgroup arithmetic in compute shaders (VK_SUBGROUP_FEATURE_ARITHMETIC_BIT)",
             ),
+            // Core in Vulkan 1.2: no feature to enable.
+            "ShaderNonUniform" => (true, "ShaderNonUniform"),
+            "RuntimeDescriptorArray" | "SampledImageArrayNonUniformIndexing" => (
+                caps.bindless_textures,
+                "runtimeDescriptorArray and shaderSampledImageArrayNonUniformIndexing",
+            ),
             other => (false, other),
         };
         if !have {
@@ -542,6 +549,16 @@ fn required_features(caps: &Capabilities, variant: KernelVariant) -> Result<Feat
             _ => {}
         }
     }
+    if !caps.bindless_textures {
+        return Err(missing(
+            "runtimeDescriptorArray, shaderSampledImageArrayNonUniformIndexing and \
+             descriptorBindingPartiallyBound (descriptor indexing)",
+            "the scene's texture array",
+        ));
+    }
+    f.v12.runtime_descriptor_array = vk::TRUE;
+    f.v12.shader_sampled_image_array_non_uniform_indexing = vk::TRUE;
+    f.v12.descriptor_binding_partially_bound = vk::TRUE;
     if variant == KernelVariant::RayQuery {
         f.v12.buffer_device_address = vk::TRUE;
         f.accel.acceleration_structure = vk::TRUE;
@@ -589,6 +606,15 @@ mod tests {
             err.to_string().contains("vulkanMemoryModelDeviceScope"),
             "{err}"
         );
+        let no_bindless = Capabilities {
+            bindless_textures: false,
+            ..Capabilities::for_tests(false)
+        };
+        let err = required_features(&no_bindless, KernelVariant::Software)
+            .map(drop)
+            .unwrap_err();
+        assert!(err.to_string().contains("runtimeDescriptorArray"), "{err}");
+        assert!(err.to_string().contains("texture array"), "{err}");
     }
 
     #[test]
@@ -601,7 +627,10 @@ mod tests {
                     "Int64",
                     "VulkanMemoryModelDeviceScope",
                     "GroupNonUniform",
-                    "GroupNonUniformArithmetic"
+                    "GroupNonUniformArithmetic",
+                    "ShaderNonUniform",
+                    "RuntimeDescriptorArray",
+                    "SampledImageArrayNonUniformIndexing"
                 ]
                 .contains(cap),
                 "capability {cap} has no device feature mapping"

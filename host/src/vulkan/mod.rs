@@ -8,6 +8,7 @@ mod image;
 mod memory;
 mod ping_pong;
 mod pipeline;
+mod texture_image;
 mod timing;
 mod validation;
 
@@ -19,7 +20,8 @@ pub(crate) use memory::memory_barrier;
 pub use memory::{Buffer, BufferInfo, MemoryLocation, transfer_barrier};
 pub use ping_pong::PingPong;
 pub use pipeline::{
-    BindingKind, DescriptorSet, Kernel, KernelModule, MAX_PUSH_BINDINGS, Resource,
-    SHADING_BINDINGS, SceneSet, SceneSets, compute_barrier,
+    BindingKind, DescriptorSet, Kernel, KernelModule, MAX_PUSH_BINDINGS, MAX_SCENE_TEXTURES,
+    Resource, SHADING_BINDINGS, SceneSet, SceneSets, TEXTURES_BINDING, compute_barrier,
 };
+pub use texture_image::{STAGING_BYTES, Samplers, TextureImage, TextureLevels, upload_textures};
 pub use timing::{FrameTimings, GpuTimer, PassTiming, submit_timed};

@@ -41,7 +41,15 @@ pub enum BindingKind {
     AccelerationStructure,
     /// A storage image in the `GENERAL` layout (`Image!(2D, format = ..., sampled = false)`).
     StorageImage,
+    /// The scene's textures: an array of this many combined image samplers in
+    /// `SHADER_READ_ONLY_OPTIMAL`, partially bound (entries past the scene's textures stay
+    /// unwritten and are never read).
+    Textures(u32),
 }
+
+/// Most textures a scene may have: the length of set 2's texture array, unless the device allows
+/// fewer sampled images or samplers per stage or set (`Capabilities::scene_texture_slots`).
+pub const MAX_SCENE_TEXTURES: u32 = 1 << 14;
 
 /// A resource bound to a binding, matching its [`BindingKind`].
 #[derive(Clone, Copy)]
@@ -50,6 +58,8 @@ pub enum Resource<'a> {
     Buffer(&'a Buffer),
     /// An acceleration structure handle.
     AccelerationStructure(vk::AccelerationStructureKHR),
+    /// The scene's textures, each image view with its sampler (possibly none).
+    Textures(&'a [vk::DescriptorImageInfo]),
     /// A whole storage image.
     Image(&'a Image),
 }
@@ -413,22 +423,30 @@ pub enum SceneSet {
     /// Set 1: the geometry that kernels trace against (variant-dependent bindings, see
     /// [`SceneSet::binding_kinds`]).
     Geometry,
-    /// Set 2: the shading data and lights, [`SHADING_BINDINGS`] storage buffers: instances,
-    /// meshes, vertices, triangles, materials, texture table, texels, lights, triangle→light
-    /// table, environment texels, environment distribution.
+    /// Set 2: the shading data and lights, [`SHADING_BINDINGS`] bindings: instances, meshes,
+    /// vertices, triangles, materials, texture table (storage buffers), the textures
+    /// ([`BindingKind::Textures`], binding [`TEXTURES_BINDING`]), lights, triangle→light table,
+    /// environment texels, environment distribution (storage buffers).
     Shading,
 }
 
-/// Storage buffers in [`SceneSet::Shading`].
+/// Bindings in [`SceneSet::Shading`].
 pub const SHADING_BINDINGS: usize = 11;
+
+/// The binding of the textures in [`SceneSet::Shading`].
+pub const TEXTURES_BINDING: usize = 6;
 
 impl SceneSet {
     /// The set's bindings in `variant`.
-    pub fn binding_kinds(self, variant: KernelVariant) -> Vec<BindingKind> {
+    pub fn binding_kinds(self, variant: KernelVariant, texture_slots: u32) -> Vec<BindingKind> {
         match (self, variant) {
             (Self::Geometry, KernelVariant::RayQuery) => vec![BindingKind::AccelerationStructure],
             (Self::Geometry, KernelVariant::Software) => vec![BindingKind::StorageBuffer; 2],
-            (Self::Shading, _) => vec![BindingKind::StorageBuffer; SHADING_BINDINGS],
+            (Self::Shading, _) => {
+                let mut kinds = vec![BindingKind::StorageBuffer; SHADING_BINDINGS];
+                kinds[TEXTURES_BINDING] = BindingKind::Textures(texture_slots);
+                kinds
+            }
         }
     }
 }
@@ -446,13 +464,21 @@ impl DescriptorSet {
     /// Allocates set `kind` and points it at `resources` (in the order of
     /// [`SceneSet::binding_kinds`]), which must outlive every dispatch that binds it.
     pub fn new(ctx: &Context, kind: SceneSet, resources: &[Resource<'_>]) -> Result<Self> {
-        let kinds = kind.binding_kinds(ctx.variant());
+        let kinds = kind.binding_kinds(
+            ctx.variant(),
+            ctx.capabilities().scene_texture_slots(),
+        );
         let mut sizes: Vec<vk::DescriptorPoolSize> = vec![];
         for k in &kinds {
             let ty = descriptor_type(*k);
+            let count = descriptor_count(*k);
             match sizes.iter_mut().find(|s| s.ty == ty) {
-                Some(s) => s.descriptor_count += 1,
-                None => sizes.push(vk::DescriptorPoolSize::default().ty(ty).descriptor_count(1)),
+                Some(s) => s.descriptor_count += count,
+                None => sizes.push(
+                    vk::DescriptorPoolSize::default()
+                        .ty(ty)
+                        .descriptor_count(count),
+                ),
             }
         }
         let info = vk::DescriptorPoolCreateInfo::default()
@@ -526,11 +552,26 @@ pub(crate) fn create_set_layout(
             vk::DescriptorSetLayoutBinding::default()
                 .binding(i as u32)
                 .descriptor_type(descriptor_type(*kind))
-                .descriptor_count(1)
+                .descriptor_count(descriptor_count(*kind))
                 .stage_flags(vk::ShaderStageFlags::COMPUTE)
         })
         .collect();
+    let flags: Vec<_> = bindings
+        .iter()
+        .map(|kind| match kind {
+            BindingKind::Textures(_) => vk::DescriptorBindingFlags::PARTIALLY_BOUND,
+            _ => vk::DescriptorBindingFlags::empty(),
+        })
+        .collect();
+    let mut binding_flags =
+        vk::DescriptorSetLayoutBindingFlagsCreateInfo::default().binding_flags(&flags);
     let mut info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings);
+    if bindings
+        .iter()
+        .any(|k| matches!(k, BindingKind::Textures(_)))
+    {
+        info = info.push_next(&mut binding_flags);
+    }
     if push {
         info = info.flags(vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR);
     }
@@ -557,7 +598,7 @@ fn with_writes<R>(
             Resource::Buffer(b) => [vk::DescriptorBufferInfo::default()
                 .buffer(b.handle)
                 .range(vk::WHOLE_SIZE)],
-            Resource::AccelerationStructure(_) | Resource::Image(_) => {
+            Resource::AccelerationStructure(_) | Resource::Image(_) | Resource::Textures(_) => {
                 [vk::DescriptorBufferInfo::default()]
             }
         })
@@ -566,7 +607,7 @@ fn with_writes<R>(
         .iter()
         .map(|r| match r {
             Resource::Image(image) => [image.descriptor()],
-            Resource::Buffer(_) | Resource::AccelerationStructure(_) => {
+            Resource::Buffer(_) | Resource::AccelerationStructure(_) | Resource::Textures(_) => {
                 [vk::DescriptorImageInfo::default()]
             }
         })
@@ -575,7 +616,9 @@ fn with_writes<R>(
         .iter()
         .map(|r| match r {
             Resource::AccelerationStructure(a) => [*a],
-            Resource::Buffer(_) | Resource::Image(_) => [vk::AccelerationStructureKHR::null()],
+            Resource::Buffer(_) | Resource::Image(_) | Resource::Textures(_) => {
+                [vk::AccelerationStructureKHR::null()]
+            }
         })
         .collect();
     let mut accel_writes: Vec<vk::WriteDescriptorSetAccelerationStructureKHR<'_>> = accels
@@ -597,6 +640,17 @@ fn with_writes<R>(
         let w = match (kind, res) {
             (BindingKind::StorageBuffer, Resource::Buffer(_)) => w.buffer_info(&buffer_infos[i]),
             (BindingKind::StorageImage, Resource::Image(_)) => w.image_info(&image_infos[i]),
+            // Nothing to write for a scene without textures (a write needs one descriptor).
+            (BindingKind::Textures(_), Resource::Textures([])) => continue,
+            (BindingKind::Textures(slots), Resource::Textures(infos)) => {
+                if infos.len() > *slots as usize {
+                    return Err(format!(
+                        "{} textures, more than the {slots} the device's texture array holds",
+                        infos.len()
+                    ));
+                }
+                w.image_info(infos)
+            }
             (BindingKind::AccelerationStructure, Resource::AccelerationStructure(_)) => {
                 let mut w = w.push_next(accel_write);
                 w.descriptor_count = 1;
@@ -614,5 +668,13 @@ fn descriptor_type(kind: BindingKind) -> vk::DescriptorType {
         BindingKind::StorageBuffer => vk::DescriptorType::STORAGE_BUFFER,
         BindingKind::AccelerationStructure => vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
         BindingKind::StorageImage => vk::DescriptorType::STORAGE_IMAGE,
+        BindingKind::Textures(_) => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+    }
+}
+
+fn descriptor_count(kind: BindingKind) -> u32 {
+    match kind {
+        BindingKind::Textures(slots) => slots,
+        _ => 1,
     }
 }

@@ -10,6 +10,7 @@
 //! `CachePassParams`. One workgroup of 64 invocations per spawn slot, `[spawn_grid.x,
 //! spawn_grid.y]` groups.
 
+use crate::texture_images::{Bindless, SceneTextures};
 use crate::gbuffer::{DepthImage, HalfImage};
 use gi_shared::append_list::append;
 use gi_shared::cache_view::{
@@ -56,7 +57,7 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] texels: &[u32],
+        #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
@@ -90,7 +91,7 @@ traced_kernel! {
             let hit = scene.closest_hit(&ray);
             let shaded = shade_cache_hit(
                 &params.view, &ray, &surface, &hit, index, instances, meshes, vertices, triangles,
-                materials, textures, texels, lights, light_table, environment, environment_cdf,
+                materials, textures, &Bindless(texture_images), lights, light_table, environment, environment_cdf,
             );
             if hit.is_hit() {
                 record.hit_distance = hit.t * direction.length();
