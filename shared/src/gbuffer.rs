@@ -219,7 +219,8 @@ mod tests {
             first_vertex: 0,
             vertex_count: 4,
             has_uvs: 0,
-            _pad: [0; 3],
+            flags: 0,
+            _pad: [0; 2],
         }];
         let materials = [GpuMaterial {
             base_color: [0.8, 0.1, 0.1, 1.0],
@@ -229,6 +230,8 @@ mod tests {
             metallic: 0.0,
             roughness: 1.0,
             double_sided: 0,
+            alpha_cutoff: 0.0,
+            _pad: [0; 3],
         }];
         let ray = primary_ray(camera, UVec2::new(16, 16), Vec2::ZERO);
         gbuffer_texel(

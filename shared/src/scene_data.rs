@@ -11,7 +11,7 @@
 //! * [`GpuVertex`] (32 bytes): every mesh's vertices, concatenated, in object space.
 //! * [`GpuTriangle`] (16 bytes): every mesh's triangles, concatenated; a hit's primitive indexes
 //!   its mesh's run.
-//! * [`GpuMaterial`] (48 bytes).
+//! * [`GpuMaterial`] (64 bytes).
 //! * [`GpuTexture`] (32 bytes), the texture table. The texels are sampled images on the device
 //!   and one `u32` array on the CPU (see [`crate::textures`]).
 //!
@@ -101,6 +101,10 @@ impl GpuInstance {
     }
 }
 
+/// [`GpuMesh::flags`] bit: some of the mesh's triangles have an alpha-masked material, so
+/// tracing must test their alpha ([`alpha_visible`]) before accepting a hit.
+pub const MESH_ALPHA_TESTED: u32 = 1;
+
 /// A mesh: a run of triangles and a run of vertices (32 bytes).
 ///
 /// | offset | field            |
@@ -110,7 +114,8 @@ impl GpuInstance {
 /// | 8      | `first_vertex`   |
 /// | 12     | `vertex_count`   |
 /// | 16     | `has_uvs`        |
-/// | 20     | `_pad`           |
+/// | 20     | `flags`          |
+/// | 24     | `_pad`           |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMesh {
@@ -124,8 +129,10 @@ pub struct GpuMesh {
     pub vertex_count: u32,
     /// 1 when the vertices carry UVs; 0 when the mesh has none (UVs then read as zero).
     pub has_uvs: u32,
+    /// [`MESH_ALPHA_TESTED`] or 0.
+    pub flags: u32,
     /// Explicit padding.
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 2],
 }
 
 impl GpuMesh {
@@ -136,7 +143,8 @@ impl GpuMesh {
         first_vertex: 0,
         vertex_count: 0,
         has_uvs: 0,
-        _pad: [0; 3],
+        flags: 0,
+        _pad: [0; 2],
     };
 }
 
@@ -181,7 +189,7 @@ pub struct GpuTriangle {
     pub material: u32,
 }
 
-/// A material (48 bytes). Texture indices index the texture table, [`NONE`] for none.
+/// A material (64 bytes). Texture indices index the texture table, [`NONE`] for none.
 ///
 /// | offset | field                |
 /// |--------|----------------------|
@@ -192,6 +200,8 @@ pub struct GpuTriangle {
 /// | 36     | `metallic`           |
 /// | 40     | `roughness`          |
 /// | 44     | `double_sided`       |
+/// | 48     | `alpha_cutoff`       |
+/// | 52     | `_pad`               |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -209,6 +219,12 @@ pub struct GpuMaterial {
     pub roughness: f32,
     /// 1 when the back face is lit like the front.
     pub double_sided: u32,
+    /// glTF's `alphaCutoff` of an alpha-masked material: a point whose base colour alpha
+    /// (factor × texture, level 0) is below it is not there, for every ray ([`alpha_visible`]).
+    /// 0 for an opaque material.
+    pub alpha_cutoff: f32,
+    /// Explicit padding.
+    pub _pad: [u32; 3],
 }
 
 impl Default for GpuMaterial {
@@ -222,6 +238,8 @@ impl Default for GpuMaterial {
             metallic: 0.0,
             roughness: 1.0,
             double_sided: 0,
+            alpha_cutoff: 0.0,
+            _pad: [0; 3],
         }
     }
 }
@@ -363,6 +381,52 @@ pub fn fetch_surface(
         uv_area,
         size: e1.abs().max(e2.abs()).max((pc - pb).abs()).max_element(),
     }
+}
+
+/// Whether the surface of triangle `primitive` of `instance` exists at `barycentrics`: false only
+/// where its material is alpha-masked and the base colour's alpha (factor × texture at level 0,
+/// the exact coverage: no mip level erodes it) is below the cutoff. Tracing calls it for the
+/// triangles of meshes flagged [`MESH_ALPHA_TESTED`].
+#[allow(clippy::too_many_arguments, reason = "one argument per scene buffer")]
+pub fn alpha_visible<I: TextureImages + ?Sized>(
+    instances: &[GpuInstance],
+    meshes: &[GpuMesh],
+    vertices: &[GpuVertex],
+    triangles: &[GpuTriangle],
+    materials: &[GpuMaterial],
+    textures: &[GpuTexture],
+    images: &I,
+    instance: u32,
+    primitive: u32,
+    barycentrics: Vec2,
+) -> bool {
+    let s = fetch_surface(
+        instances,
+        meshes,
+        vertices,
+        triangles,
+        instance,
+        primitive,
+        barycentrics,
+    );
+    let cutoff = if (s.material as usize) < materials.len() {
+        materials[s.material as usize].alpha_cutoff
+    } else {
+        0.0
+    };
+    // Opaque materials skip the texture read.
+    if !(cutoff > 0.0) {
+        return true;
+    }
+    let m = sample_material(
+        materials,
+        textures,
+        images,
+        s.material,
+        s.uv,
+        f32::NEG_INFINITY,
+    );
+    m.base_color.w >= cutoff
 }
 
 /// What a material looks like at one point.
@@ -583,7 +647,8 @@ mod tests {
         assert_eq!(offset_of!(GpuMesh, first_vertex), 8);
         assert_eq!(offset_of!(GpuMesh, vertex_count), 12);
         assert_eq!(offset_of!(GpuMesh, has_uvs), 16);
-        assert_eq!(offset_of!(GpuMesh, _pad), 20);
+        assert_eq!(offset_of!(GpuMesh, flags), 20);
+        assert_eq!(offset_of!(GpuMesh, _pad), 24);
 
         assert_eq!(size_of::<GpuVertex>(), 32);
         assert_eq!(offset_of!(GpuVertex, position), 0);
@@ -595,7 +660,7 @@ mod tests {
         assert_eq!(offset_of!(GpuTriangle, indices), 0);
         assert_eq!(offset_of!(GpuTriangle, material), 12);
 
-        assert_eq!(size_of::<GpuMaterial>(), 48);
+        assert_eq!(size_of::<GpuMaterial>(), 64);
         assert_eq!(offset_of!(GpuMaterial, base_color), 0);
         assert_eq!(offset_of!(GpuMaterial, emissive), 16);
         assert_eq!(offset_of!(GpuMaterial, base_color_texture), 28);
@@ -603,6 +668,8 @@ mod tests {
         assert_eq!(offset_of!(GpuMaterial, metallic), 36);
         assert_eq!(offset_of!(GpuMaterial, roughness), 40);
         assert_eq!(offset_of!(GpuMaterial, double_sided), 44);
+        assert_eq!(offset_of!(GpuMaterial, alpha_cutoff), 48);
+        assert_eq!(offset_of!(GpuMaterial, _pad), 52);
 
         assert_eq!(size_of::<GpuTexture>(), 32);
         assert_eq!(offset_of!(GpuTexture, offset), 0);
@@ -730,6 +797,87 @@ mod tests {
     }
 
     #[test]
+    fn alpha_masks_cut_where_alpha_is_below_the_cutoff() {
+        // One triangle with UVs = its xy, a 2 × 2 texture whose right column has alpha 0.
+        let v = |p: [f32; 2]| GpuVertex {
+            position: [p[0], p[1], 0.0],
+            u: p[0],
+            normal: [0.0, 0.0, 1.0],
+            v: p[1],
+        };
+        let vertices = [v([0.0, 0.0]), v([1.0, 0.0]), v([0.0, 1.0])];
+        let triangles = [GpuTriangle {
+            indices: [0, 1, 2],
+            material: 0,
+        }];
+        let meshes = [GpuMesh {
+            triangle_count: 1,
+            vertex_count: 3,
+            has_uvs: 1,
+            flags: MESH_ALPHA_TESTED,
+            ..GpuMesh::EMPTY
+        }];
+        let instances = [GpuInstance {
+            object_to_world: [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+            ],
+            normal_to_world: [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+            ],
+            mesh: 0,
+            winding: 1.0,
+            _pad: [0; 2],
+        }];
+        let (mut texture, texels) = two_by_two(WRAP_CLAMP_TO_EDGE, 0);
+        texture.offset = 1;
+        let textures = [texture];
+        // Texels: black, white / red, green with alpha 0 (see `two_by_two`): the bottom right
+        // texel (u > 0.5, v > 0.5) is transparent; rows run along v.
+        let masked = GpuMaterial {
+            base_color_texture: 0,
+            alpha_cutoff: 0.5,
+            ..GpuMaterial::default()
+        };
+        let visible = |material: GpuMaterial, uv: Vec2| {
+            // Barycentrics of (u, v) on this triangle: (u, v) themselves.
+            alpha_visible(
+                &instances,
+                &meshes,
+                &vertices,
+                &triangles,
+                &[material],
+                &textures,
+                &texels[..],
+                0,
+                0,
+                uv,
+            )
+        };
+        assert!(visible(masked, Vec2::new(0.1, 0.1)));
+        assert!(visible(masked, Vec2::new(0.1, 0.8)));
+        // Texel (1, 1) alone has alpha 0; its centre (0.75, 0.75) lies outside the triangle, but
+        // barycentrics are what count here.
+        assert!(!visible(masked, Vec2::new(0.75, 0.75)));
+        // The same point with an opaque material, or a cutoff of 0: visible.
+        assert!(visible(GpuMaterial::default(), Vec2::new(0.75, 0.75)));
+        let zero = GpuMaterial {
+            alpha_cutoff: 0.0,
+            ..masked
+        };
+        assert!(visible(zero, Vec2::new(0.75, 0.75)));
+        // The factor's alpha multiplies the texture's.
+        let faint = GpuMaterial {
+            base_color: [1.0, 1.0, 1.0, 0.4],
+            ..masked
+        };
+        assert!(!visible(faint, Vec2::new(0.1, 0.1)));
+    }
+
+    #[test]
     fn surface_of_a_mirrored_scaled_instance() {
         // One triangle in the z = 0 plane facing +z, placed with x mirrored, scaled and moved.
         let v = |p: [f32; 3], uv: [f32; 2]| GpuVertex {
@@ -753,7 +901,8 @@ mod tests {
             first_vertex: 0,
             vertex_count: 3,
             has_uvs: 1,
-            _pad: [0; 3],
+            flags: 0,
+            _pad: [0; 2],
         }];
         let instances = [GpuInstance {
             object_to_world: [

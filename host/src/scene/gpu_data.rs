@@ -17,7 +17,7 @@ use ash::vk;
 use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
 use gi_shared::textures::{level_offset, level_size};
 use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, NONE,
+    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED, NONE,
     WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT,
 };
 
@@ -87,7 +87,18 @@ impl ShadingData {
                 first_vertex,
                 vertex_count: u32_index(scene, "vertices", mesh.positions.len())?,
                 has_uvs: u32::from(mesh.uvs.is_some()),
-                _pad: [0; 3],
+                flags: if mesh.materials.iter().any(|&m| {
+                    scene
+                        .materials
+                        .get(m as usize)
+                        .and_then(|m| m.alpha_cutoff)
+                        .is_some_and(|c| c > 0.0)
+                }) {
+                    MESH_ALPHA_TESTED
+                } else {
+                    0
+                },
+                _pad: [0; 2],
             });
             for (i, (p, n)) in mesh.positions.iter().zip(&mesh.normals).enumerate() {
                 let uv = mesh
@@ -138,6 +149,9 @@ impl ShadingData {
                 metallic: m.metallic,
                 roughness: m.roughness,
                 double_sided: u32::from(m.double_sided),
+                // MASK at 0 passes every alpha: opaque.
+                alpha_cutoff: m.alpha_cutoff.unwrap_or(0.0),
+                _pad: [0; 3],
             })
             .collect();
         for t in &scene.textures {

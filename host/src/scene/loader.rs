@@ -492,14 +492,23 @@ impl Builder<'_> {
         let m = &doc.root.materials[index];
         let element = label("materials", index, m.name.as_deref());
         let pbr = &m.pbr_metallic_roughness;
-        if m.alpha_mode != Checked::Valid(AlphaMode::Opaque) {
-            self.ctx.warn(
-                "alpha mode",
-                &element,
-                "alpha modes MASK and BLEND are not supported: the material is opaque",
-                1,
-            );
-        }
+        let alpha_cutoff = match m.alpha_mode {
+            Checked::Valid(AlphaMode::Mask) => {
+                let cutoff = m.alpha_cutoff.map_or(0.5, |c| c.0);
+                // NaN and out-of-range cutoffs: glTF requires >= 0; 1 keeps only full alpha.
+                Some(if cutoff.is_nan() { 0.5 } else { cutoff.clamp(0.0, 1.0) })
+            }
+            Checked::Valid(AlphaMode::Blend) => {
+                self.ctx.warn(
+                    "alpha mode BLEND",
+                    &element,
+                    "alphaMode BLEND is treated as MASK with cutoff 0.5: there is no transparency",
+                    1,
+                );
+                Some(0.5)
+            }
+            _ => None,
+        };
         let ignored = [
             (
                 m.normal_texture.is_some(),
@@ -557,6 +566,7 @@ impl Builder<'_> {
             metallic,
             roughness,
             double_sided: m.double_sided,
+            alpha_cutoff,
         }
     }
 

@@ -46,7 +46,8 @@
 //! is dropped and the material uses its factor alone; non-triangle primitives, orthographic
 //! cameras, extensions in `extensionsUsed` that the loader does not support, UV sets after the
 //! first, vertex colours, tangents, skins, morph targets, animations, normal, occlusion and
-//! metallic-roughness textures, and alpha modes other than opaque are ignored; nodes with a
+//! metallic-roughness textures are ignored; `BLEND` materials are alpha-masked at 0.5 (no
+//! transparency); nodes with a
 //! singular transform, and lights and cameras with invalid parameters, are skipped.
 
 pub mod bvh;
@@ -281,6 +282,10 @@ pub struct Material {
     pub roughness: f32,
     /// Whether the back face is lit like the front.
     pub double_sided: bool,
+    /// `alphaCutoff` of an alpha-masked material (`alphaMode` `MASK`, and `BLEND`, which is
+    /// treated as `MASK` at 0.5): where the base colour's alpha is below it, the surface is not
+    /// there. `None` for an opaque material.
+    pub alpha_cutoff: Option<f32>,
 }
 
 impl Default for Material {
@@ -295,6 +300,7 @@ impl Default for Material {
             metallic: 1.0,
             roughness: 1.0,
             double_sided: false,
+            alpha_cutoff: None,
         }
     }
 }
