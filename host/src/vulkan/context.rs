@@ -511,6 +511,16 @@ fn required_features(caps: &Capabilities, variant: KernelVariant) -> Result<Feat
         ));
     }
     f.v12.vulkan_memory_model = vk::TRUE;
+    if !caps.bindless_textures {
+        return Err(missing(
+            "runtimeDescriptorArray, shaderSampledImageArrayNonUniformIndexing and \
+             descriptorBindingPartiallyBound (descriptor indexing)",
+            "the scene's texture array",
+        ));
+    }
+    f.v12.runtime_descriptor_array = vk::TRUE;
+    f.v12.shader_sampled_image_array_non_uniform_indexing = vk::TRUE;
+    f.v12.descriptor_binding_partially_bound = vk::TRUE;
     for cap in gi_shared::abi::KERNEL_CAPABILITIES {
         let subgroup = |op| caps.subgroup_operations.contains(op);
         let (have, name) = match *cap {
@@ -549,16 +559,6 @@ fn required_features(caps: &Capabilities, variant: KernelVariant) -> Result<Feat
             _ => {}
         }
     }
-    if !caps.bindless_textures {
-        return Err(missing(
-            "runtimeDescriptorArray, shaderSampledImageArrayNonUniformIndexing and \
-             descriptorBindingPartiallyBound (descriptor indexing)",
-            "the scene's texture array",
-        ));
-    }
-    f.v12.runtime_descriptor_array = vk::TRUE;
-    f.v12.shader_sampled_image_array_non_uniform_indexing = vk::TRUE;
-    f.v12.descriptor_binding_partially_bound = vk::TRUE;
     if variant == KernelVariant::RayQuery {
         f.v12.buffer_device_address = vk::TRUE;
         f.accel.acceleration_structure = vk::TRUE;
