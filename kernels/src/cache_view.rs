@@ -9,9 +9,9 @@
 //! normal and albedo, pixels, accumulation (`[f32; 4]`: sum and count), feedback history
 //! (`FeedbackTexel`). Push constants: `CachePassParams`. Workgroups of 8 × 8 pixels.
 
-use crate::texture_images::{Bindless, SceneTextures};
 use crate::atomics::DeviceWords;
 use crate::gbuffer::{DepthImage, HalfImage, IdImage, UnormImage};
+use crate::texture_images::{Bindless, SceneTextures};
 use gi_shared::append_list::append;
 use gi_shared::cache_view::{
     CachePassParams, CacheQuery, CacheViewPixel, PASS_TRACE, QUERY_COUNT, cache_ray, pass_random,

@@ -15,8 +15,8 @@
 //! Both: workgroups of 8 × 8 pixels, dispatched `[ceil(W / 8), ceil(H / 8), 1]`; per-pixel
 //! buffers indexed `y × W + x`.
 
-use crate::texture_images::SceneTextures;
 use crate::gbuffer::{DepthImage, HalfImage, IdImage};
+use crate::texture_images::SceneTextures;
 use gi_shared::cache_view::{pass_random, primary_emission, primary_surface};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;

@@ -100,11 +100,11 @@ use crate::radiance_feedback::{accepts, reproject};
 use crate::random::Random;
 use crate::ray::{HitRecord, Ray, offset_ray_origin};
 use crate::ray_cone::RayCone;
-use crate::screen_probes::PROBE_CELLS;
-use crate::textures::TextureImages;
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, NONE, hit_surface,
 };
+use crate::screen_probes::PROBE_CELLS;
+use crate::textures::TextureImages;
 use crate::world_restir::{
     PackedReservoir, RESERVOIR_GRID_BUCKETS, RESERVOIR_GRID_NONE, RESERVOIR_GRID_SLOTS_PER_BUCKET,
     ReservoirCell, ReservoirHit, TemporalResampling, find_reservoir_cell, insert_reservoir_cell,

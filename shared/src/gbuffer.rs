@@ -33,10 +33,10 @@ use glam::{UVec2, UVec4, Vec3, Vec4};
 use crate::camera::{CameraParams, to_clip, uv_of_clip};
 use crate::ray::{HitRecord, Ray};
 use crate::ray_cone::RayCone;
-use crate::textures::TextureImages;
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, hit_surface,
 };
+use crate::textures::TextureImages;
 
 /// Workgroup of the `gbuffer` kernel: `GBUFFER_TILE × GBUFFER_TILE` pixels.
 pub const GBUFFER_TILE: u32 = 8;

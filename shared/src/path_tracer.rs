@@ -72,14 +72,14 @@ use crate::lights::{
 use crate::math::{INV_PI, max, min_u32};
 use crate::random::Random;
 use crate::ray::{HitRecord, Ray, offset_ray_origin};
+use crate::ray_cone::RayCone;
 use crate::reservoir::Reservoir;
 use crate::sampling::{sample_cosine_hemisphere, tangent_to_world};
-use crate::ray_cone::RayCone;
-use crate::textures::TextureImages;
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, Surface, fetch_surface,
     hit_surface, sample_material,
 };
+use crate::textures::TextureImages;
 
 /// The largest bounce count a path may take, whatever the parameters ask.
 pub const MAX_BOUNCES: u32 = 64;

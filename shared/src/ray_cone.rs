@@ -101,7 +101,10 @@ mod tests {
         let near = cone.footprint_lod(10.0, d, n, 0.5, 0.5);
         assert!((near - (10.0 * cone.spread).log2()).abs() < 1e-5);
         let far = cone.footprint_lod(40.0, d, n, 0.5, 0.5);
-        assert!((far - near - 2.0).abs() < 1e-4, "4× as far: 2 levels coarser");
+        assert!(
+            (far - near - 2.0).abs() < 1e-4,
+            "4× as far: 2 levels coarser"
+        );
         // At 60° incidence the footprint doubles: one level.
         let slanted = Vec3::new(3f32.sqrt() * 0.5, 0.0, -0.5);
         let grazing = cone.footprint_lod(10.0, slanted, n, 0.5, 0.5);

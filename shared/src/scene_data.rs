@@ -361,7 +361,11 @@ pub fn fetch_surface(
         + Vec3::from_array(c.normal) * w2;
     let shading_normal = inst.transform_normal(n).normalize_or(geometric_normal);
     let (uv, uv_area) = if mesh.has_uvs != 0 {
-        let (ta, tb, tc) = (Vec2::new(a.u, a.v), Vec2::new(b.u, b.v), Vec2::new(c.u, c.v));
+        let (ta, tb, tc) = (
+            Vec2::new(a.u, a.v),
+            Vec2::new(b.u, b.v),
+            Vec2::new(c.u, c.v),
+        );
         (
             ta * w0 + tb * w1 + tc * w2,
             0.5 * Float::abs((tb - ta).perp_dot(tc - ta)),
@@ -501,8 +505,7 @@ pub fn sample_material<I: TextureImages + ?Sized>(
     let base = Vec4::from_array(m.base_color)
         * sample_texture_index(textures, images, m.base_color_texture, uv, footprint_lod);
     let emissive = Vec3::from_array(m.emissive)
-        * sample_texture_index(textures, images, m.emissive_texture, uv, footprint_lod)
-            .truncate();
+        * sample_texture_index(textures, images, m.emissive_texture, uv, footprint_lod).truncate();
     MaterialSample {
         base_color: base,
         emissive,

@@ -82,8 +82,16 @@ pub fn level_offset(width: u32, height: u32, level: u32) -> usize {
 /// Vulkan's `clamp(lod, 0, levels - 1)`, NaN read as 0: the level of detail a sampler uses.
 #[inline]
 pub fn clamped_lod(lod: f32, levels: u32) -> f32 {
-    let last = if levels == 0 { 0.0 } else { (levels - 1) as f32 };
-    if lod.is_nan() { 0.0 } else { clamp(lod, 0.0, last) }
+    let last = if levels == 0 {
+        0.0
+    } else {
+        (levels - 1) as f32
+    };
+    if lod.is_nan() {
+        0.0
+    } else {
+        clamp(lod, 0.0, last)
+    }
 }
 
 /// The table entry of level `level` alone, for a bilinear read.

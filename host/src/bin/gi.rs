@@ -566,7 +566,7 @@ struct Uploaded(GpuScene);
 
 impl Uploaded {
     fn new(ctx: &Context, scene: &Scene, sky: Sky) -> gi_host::Result<Self> {
-        GpuScene::upload_lit(ctx, scene, sky.environment, sky.sample).map(|(_, gpu)| Self(gpu))
+        upload(ctx, scene, sky).map(|(_, gpu)| Self(gpu))
     }
 
     /// Renders `settings.samples` paths per pixel of `camera`, reporting progress to `progress`.
@@ -632,6 +632,19 @@ fn view_camera(
         ),
         None => scene_camera(scene, width, height),
     }
+}
+
+/// Uploads `scene` lit by its emitters and `sky`, printing the time it took and the scene's
+/// device memory by part.
+fn upload(ctx: &Context, scene: &Scene, sky: Sky) -> gi_host::Result<(LightSet, GpuScene)> {
+    let start = Instant::now();
+    let (lights, gpu) = GpuScene::upload_lit(ctx, scene, sky.environment, sky.sample)?;
+    println!(
+        "upload:              {:.2} s (acceleration structure, textures, lights)",
+        start.elapsed().as_secs_f64()
+    );
+    println!("scene memory:        {}", gpu.memory());
+    Ok((lights, gpu))
 }
 
 fn load_scene(path: &Path) -> Result<Scene, Box<dyn std::error::Error>> {
@@ -783,7 +796,7 @@ fn cache_view(
     let scene = load_scene(path)?;
     describe(path, &scene);
     let camera = view_camera(view, &scene, width, height);
-    let (lights, gpu) = GpuScene::upload_lit(ctx, &scene, sky.environment, sky.sample)?;
+    let (lights, gpu) = upload(ctx, &scene, sky)?;
     let s = &run.settings;
     println!(
         "cache:               {} buckets x {} tiles = {} tiles, cells of {} px (min {} m), \

@@ -15,11 +15,11 @@ use crate::vulkan::{
 };
 use ash::vk;
 use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
-use gi_shared::textures::{level_offset, level_size};
 use gi_shared::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED, NONE,
     WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT,
 };
+use gi_shared::textures::{level_offset, level_size};
 
 /// The scene's shading data on the CPU, in GPU layouts.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -331,9 +331,16 @@ impl GpuShadingData {
             .any(|(n, b)| *n == name && b.is_some())
     }
 
-    /// Bytes of device memory the textures take, mip chains included.
+    /// Bytes of device memory the textures take, mip chains included, with their table.
     pub fn texture_bytes(&self) -> u64 {
-        self.images.iter().map(|i| i.bytes).sum()
+        let table = self.buffers[5].as_ref().map_or(0, |b| b.size);
+        table + self.images.iter().map(|i| i.bytes).sum::<u64>()
+    }
+
+    /// Bytes of device memory of the geometry and materials: instances, meshes, vertices,
+    /// triangles, materials.
+    pub fn geometry_bytes(&self) -> u64 {
+        self.buffers[..5].iter().flatten().map(|b| b.size).sum()
     }
 }
 

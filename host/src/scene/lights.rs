@@ -337,6 +337,19 @@ pub struct GpuLights {
 }
 
 impl GpuLights {
+    /// Bytes of device memory: lights, triangle table, environment and its distribution.
+    pub fn bytes(&self) -> u64 {
+        [
+            &self.lights,
+            &self.triangle_table,
+            &self.environment,
+            &self.distribution,
+        ]
+        .iter()
+        .map(|b| b.size)
+        .sum()
+    }
+
     /// Uploads `set` to device-local memory.
     pub fn new(ctx: &Context, set: &LightSet) -> Result<Self> {
         let usage = vk::BufferUsageFlags::empty();

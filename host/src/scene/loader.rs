@@ -496,7 +496,11 @@ impl Builder<'_> {
             Checked::Valid(AlphaMode::Mask) => {
                 let cutoff = m.alpha_cutoff.map_or(0.5, |c| c.0);
                 // NaN and out-of-range cutoffs: glTF requires >= 0; 1 keeps only full alpha.
-                Some(if cutoff.is_nan() { 0.5 } else { cutoff.clamp(0.0, 1.0) })
+                Some(if cutoff.is_nan() {
+                    0.5
+                } else {
+                    cutoff.clamp(0.0, 1.0)
+                })
             }
             Checked::Valid(AlphaMode::Blend) => {
                 self.ctx.warn(

@@ -56,6 +56,7 @@ mod geometry;
 pub mod gpu_data;
 pub mod lights;
 mod loader;
+pub mod memory_report;
 pub mod procedural;
 pub mod upload;
 

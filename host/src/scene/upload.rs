@@ -8,6 +8,7 @@ use super::Scene;
 use super::bvh::{Bvh, TriangleId};
 use super::gpu_data::{GpuShadingData, ShadingData};
 use super::lights::{GpuLights, LightSet};
+use super::memory_report::SceneMemory;
 use crate::error::Result;
 use crate::kernels::KernelVariant;
 use crate::vulkan::{
@@ -128,6 +129,16 @@ impl GeometryData {
     }
 
     /// The resources of set 1, in the order of [`SceneSet::binding_kinds`].
+    /// Bytes of device memory: the acceleration structures, or the BVH's buffers.
+    pub fn bytes(&self) -> u64 {
+        match self {
+            Self::RayQuery { blases, tlas } => {
+                blases.iter().map(|b| b.bytes()).sum::<u64>() + tlas.bytes()
+            }
+            Self::Software { nodes, triangles } => nodes.size + triangles.size,
+        }
+    }
+
     fn resources(&self) -> Vec<Resource<'_>> {
         match self {
             Self::RayQuery { tlas, .. } => vec![Resource::AccelerationStructure(tlas.handle)],
@@ -203,6 +214,16 @@ impl GpuScene {
         SceneSets {
             geometry: &self.geometry.set,
             shading: Some(&self.set),
+        }
+    }
+
+    /// The scene's device memory by part.
+    pub fn memory(&self) -> SceneMemory {
+        SceneMemory {
+            geometry: self.shading.geometry_bytes(),
+            bvh: self.geometry.data.bytes(),
+            textures: self.shading.texture_bytes(),
+            lights: self.lights.bytes(),
         }
     }
 }

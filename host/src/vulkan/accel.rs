@@ -45,6 +45,11 @@ fn accel_ext(ctx: &Context) -> Result<&ash::khr::acceleration_structure::Device>
 }
 
 impl AccelerationStructure {
+    /// Bytes of device memory the structure takes.
+    pub fn bytes(&self) -> u64 {
+        self._buffer.size
+    }
+
     /// Builds a bottom-level structure over `vertices` indexed by `indices` (three per triangle).
     pub fn triangles(ctx: &Context, vertices: &[[f32; 3]], indices: &[u32]) -> Result<Self> {
         if indices.is_empty() || !indices.len().is_multiple_of(3) {

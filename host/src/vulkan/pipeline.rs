@@ -464,10 +464,7 @@ impl DescriptorSet {
     /// Allocates set `kind` and points it at `resources` (in the order of
     /// [`SceneSet::binding_kinds`]), which must outlive every dispatch that binds it.
     pub fn new(ctx: &Context, kind: SceneSet, resources: &[Resource<'_>]) -> Result<Self> {
-        let kinds = kind.binding_kinds(
-            ctx.variant(),
-            ctx.capabilities().scene_texture_slots(),
-        );
+        let kinds = kind.binding_kinds(ctx.variant(), ctx.capabilities().scene_texture_slots());
         let mut sizes: Vec<vk::DescriptorPoolSize> = vec![];
         for k in &kinds {
             let ty = descriptor_type(*k);

@@ -10,8 +10,8 @@
 //! `CachePassParams`. One workgroup of 64 invocations per spawn slot, `[spawn_grid.x,
 //! spawn_grid.y]` groups.
 
-use crate::texture_images::{Bindless, SceneTextures};
 use crate::gbuffer::{DepthImage, HalfImage};
+use crate::texture_images::{Bindless, SceneTextures};
 use gi_shared::append_list::append;
 use gi_shared::cache_view::{
     CachePassParams, CacheQuery, CacheViewPixel, QUERY_COUNT, primary_surface, shade_cache_hit,

@@ -2,13 +2,13 @@
 //! out, with optional metrics against a reference and debug views.
 
 use super::{Output, Sky, describe, load_scene, on_off, view_camera, write_image};
+use crate::upload;
 use gi_host::gi::camera_path::CameraPath;
 use gi_host::gi::probe_debug_views::{gi_debug_views, write_gi_debug_views};
 use gi_host::gi::renderer::{DEFAULT_GI_FRAMES, GiRenderer};
 use gi_host::gi::{GiSettings, Preset, SpawnRate, ViewOptions};
 use gi_host::image_io::{HdrImage, ToneMap};
 use gi_host::metrics::{self, CompareSettings};
-use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::Context;
 use gi_shared::camera::CameraParams;
 use glam::Vec3;
@@ -211,7 +211,7 @@ pub fn render_gi(
     describe(path, &scene);
     let base = view_camera(view, &scene, width, height);
     let camera_path = args.camera_path(&base, scene.bounds.center())?;
-    let (lights, gpu) = GpuScene::upload_lit(ctx, &scene, sky.environment, sky.sample)?;
+    let (lights, gpu) = upload(ctx, &scene, sky)?;
     let s = &settings;
     println!(
         "gi:                  {} frames, spawn tile {} px, cache cells {} px, sample cap {}, \
