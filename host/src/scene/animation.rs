@@ -581,7 +581,7 @@ fn parse_channel(
         ));
     }
     if path == Path::Rotation {
-        for (k, q) in values.chunks_exact_mut(4).enumerate() {
+        for (k, q) in values.as_chunks_mut::<4>().0.iter_mut().enumerate() {
             // Cubic-spline tangents may be zero; the values (middle of each triple) may not.
             if per_key == 3 && k % 3 != 1 {
                 continue;
@@ -594,7 +594,7 @@ fn parse_channel(
                 ));
             }
             if per_key == 1 {
-                q.copy_from_slice(&unit.to_array());
+                *q = unit.to_array();
             }
         }
     }

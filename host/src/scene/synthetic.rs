@@ -339,7 +339,7 @@ fn sphere(g: &mut Geometry, u: u32, v: u32) {
     // of the bottom row a zero-area second one: drop them.
     let cells = g.indices.len() / 6;
     let mut kept = Vec::with_capacity(g.indices.len());
-    for (c, cell) in g.indices.chunks_exact(6).enumerate() {
+    for (c, cell) in g.indices.as_chunks::<6>().0.iter().enumerate() {
         if c < u as usize {
             kept.extend_from_slice(&cell[3..]);
         } else if c >= cells - u as usize {
@@ -509,7 +509,9 @@ mod tests {
     /// Signed volume enclosed by a closed mesh: positive when its triangles face out.
     fn volume(g: &Geometry) -> f64 {
         g.indices
-            .chunks_exact(3)
+            .as_chunks::<3>()
+            .0
+            .iter()
             .map(|t| {
                 let [a, b, c] = [0, 1, 2].map(|k| g.positions[t[k] as usize]);
                 f64::from(a.dot(b.cross(c))) / 6.0
