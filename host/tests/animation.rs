@@ -179,21 +179,22 @@ fn an_animated_parent_moves_its_children_lights_and_emissive_triangles() {
     let mut doc = Doc::new();
     let times = doc.floats("SCALAR", &[0.0, 1.0]);
     let moves = doc.floats("VEC3", &[0.0, 0.0, 0.0, 4.0, 0.0, 0.0]);
-    // Node 0 (animated) carries node 1 (a still child, offset 1 m up) with the triangle and a
-    // light.
+    // Node 1 (animated), under a still node 0 that moves it 2 m along +Z, carries node 2 (a
+    // still child, offset 1 m up) with the triangle and a light.
     let nodes = json!([
-        {"name": "parent", "children": [1]},
+        {"name": "base", "translation": [0.0, 0.0, 2.0], "children": [1]},
+        {"name": "parent", "children": [2]},
         {"name": "child", "translation": [0.0, 1.0, 0.0], "mesh": 0,
          "extensions": {"KHR_lights_punctual": {"light": 0}}},
     ]);
     let animations = json!([{
-        "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}],
+        "channels": [{"sampler": 0, "target": {"node": 1, "path": "translation"}}],
         "samplers": [linear(times, moves)],
     }]);
     let (mut scene, warnings) = doc.load("hierarchy", nodes, animations);
     assert!(warnings.is_empty(), "{warnings:#?}");
     assert_eq!(scene.set_time(0.25), [0]);
-    let offset = Vec3::new(1.0, 1.0, 0.0);
+    let offset = Vec3::new(1.0, 1.0, 2.0);
     assert!(close(
         scene.instances[0].transform,
         Mat4::from_translation(offset)

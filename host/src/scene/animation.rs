@@ -182,6 +182,7 @@ fn quat(v: &[f32]) -> Quat {
 #[derive(Clone, Debug)]
 struct DynamicInstance {
     instance: u32,
+    /// Index of its node's visit in [`SceneAnimation::dynamic`].
     visit: u32,
     /// Object-space bounds of its mesh.
     mesh_bounds: Aabb,
@@ -196,11 +197,19 @@ enum Local {
     Still(Mat4),
 }
 
+/// Where a dynamic visit hangs.
+#[derive(Clone, Copy, Debug)]
+enum Parent {
+    /// Under a still node (or at the root): its world transform.
+    Still(Mat4),
+    /// Under a dynamic visit: its index in [`SceneAnimation::dynamic`].
+    Moving(u32),
+}
+
 /// A dynamic visit: recomputed every frame.
 #[derive(Clone, Copy, Debug)]
 struct DynamicVisit {
-    visit: u32,
-    parent: Option<u32>,
+    parent: Parent,
     local: Local,
 }
 
@@ -214,9 +223,9 @@ pub struct SceneAnimation {
     /// Dynamic visits, parents before children.
     dynamic: Vec<DynamicVisit>,
     instances: Vec<DynamicInstance>,
-    /// (index into the scene's lights, visit), for lights on dynamic nodes.
+    /// (index into the scene's lights, index into `dynamic`), for lights on dynamic nodes.
     lights: Vec<(u32, u32)>,
-    /// (index into the scene's cameras, visit), for cameras on dynamic nodes.
+    /// (index into the scene's cameras, index into `dynamic`), for cameras on dynamic nodes.
     cameras: Vec<(u32, u32)>,
     /// Bounds of the static instances' world triangles.
     static_bounds: Aabb,
@@ -228,7 +237,7 @@ pub struct SceneAnimation {
 struct Scratch {
     /// Pose of each animated node.
     poses: Vec<Trs>,
-    /// World transform of each visit (the rest transform for still ones).
+    /// World transform of each dynamic visit.
     worlds: Vec<Mat4>,
     /// Instances that moved in the last [`SceneAnimation::apply`].
     moved: Vec<u32>,
@@ -293,32 +302,37 @@ impl SceneAnimation {
             .fold(0.0f32, f32::max);
 
         let visits = &hierarchy.visits;
-        let mut is_dynamic = vec![false; visits.len()];
+        // Visit -> its index in `dynamic`, for visits that move.
+        let mut dynamic_index: Vec<Option<u32>> = vec![None; visits.len()];
         let mut dynamic = Vec::new();
         for (v, visit) in visits.iter().enumerate() {
             let slot = slots[visit.node as usize];
-            let parent_dynamic = visit.parent.is_some_and(|p| is_dynamic[p as usize]);
-            if slot.is_none() && !parent_dynamic {
+            let parent = match visit.parent {
+                Some(p) => match dynamic_index[p as usize] {
+                    Some(d) => Parent::Moving(d),
+                    None => Parent::Still(visits[p as usize].world),
+                },
+                None => Parent::Still(Mat4::IDENTITY),
+            };
+            if slot.is_none() && matches!(parent, Parent::Still(_)) {
                 continue;
             }
-            is_dynamic[v] = true;
+            dynamic_index[v] = Some(dynamic.len() as u32);
             dynamic.push(DynamicVisit {
-                visit: v as u32,
-                parent: visit.parent,
+                parent,
                 local: slot.map_or(Local::Still(visit.local), Local::Animated),
             });
         }
         let on_dynamic = |visits: &[u32]| -> Vec<(u32, u32)> {
             (visits.iter().enumerate())
-                .filter(|&(_, &v)| is_dynamic[v as usize])
-                .map(|(i, &v)| (i as u32, v))
+                .filter_map(|(i, &v)| Some((i as u32, dynamic_index[v as usize]?)))
                 .collect()
         };
         let mut static_bounds = Aabb::EMPTY;
         let mut dynamic_instances = Vec::new();
         for (i, (instance, &visit)) in instances.iter().zip(&hierarchy.instances).enumerate() {
             let mesh = &meshes[instance.mesh as usize];
-            if is_dynamic[visit as usize] {
+            if let Some(visit) = dynamic_index[visit as usize] {
                 let mut mesh_bounds = Aabb::EMPTY;
                 mesh.positions.iter().for_each(|&p| mesh_bounds.grow(p));
                 dynamic_instances.push(DynamicInstance {
@@ -337,7 +351,7 @@ impl SceneAnimation {
             channels,
             scratch: Scratch {
                 poses: rest.clone(),
-                worlds: visits.iter().map(|v| v.world).collect(),
+                worlds: vec![Mat4::IDENTITY; dynamic.len()],
                 moved: Vec::with_capacity(dynamic_instances.len()),
             },
             rest,
@@ -389,15 +403,16 @@ impl SceneAnimation {
                 Path::Scale => pose.scale = Vec3::new(x, y, z),
             }
         }
-        for d in &self.dynamic {
+        for (i, d) in self.dynamic.iter().enumerate() {
             let local = match d.local {
                 Local::Animated(slot) => scratch.poses[slot as usize].matrix(),
                 Local::Still(local) => local,
             };
-            let parent = d
-                .parent
-                .map_or(Mat4::IDENTITY, |p| scratch.worlds[p as usize]);
-            scratch.worlds[d.visit as usize] = parent * local;
+            let parent = match d.parent {
+                Parent::Still(world) => world,
+                Parent::Moving(p) => scratch.worlds[p as usize],
+            };
+            scratch.worlds[i] = parent * local;
         }
     }
 
