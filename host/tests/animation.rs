@@ -150,6 +150,7 @@ impl Doc {
             "nodes": nodes,
             "meshes": [{"primitives": [{"attributes": {"POSITION": position}, "material": 0}]}],
             "materials": [{"emissiveFactor": [1.0, 1.0, 1.0]}],
+            "cameras": [{"type": "perspective", "perspective": {"yfov": 1.0, "znear": 0.1}}],
             "extensionsUsed": ["KHR_lights_punctual"],
             "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 683.0}]}},
             "accessors": self.accessors,
@@ -175,7 +176,7 @@ fn linear(input: usize, output: usize) -> Value {
 }
 
 #[test]
-fn an_animated_parent_moves_its_children_lights_and_emissive_triangles() {
+fn an_animated_parent_moves_its_children_lights_cameras_and_emissive_triangles() {
     let mut doc = Doc::new();
     let times = doc.floats("SCALAR", &[0.0, 1.0]);
     let moves = doc.floats("VEC3", &[0.0, 0.0, 0.0, 4.0, 0.0, 0.0]);
@@ -184,7 +185,7 @@ fn an_animated_parent_moves_its_children_lights_and_emissive_triangles() {
     let nodes = json!([
         {"name": "base", "translation": [0.0, 0.0, 2.0], "children": [1]},
         {"name": "parent", "children": [2]},
-        {"name": "child", "translation": [0.0, 1.0, 0.0], "mesh": 0,
+        {"name": "child", "translation": [0.0, 1.0, 0.0], "mesh": 0, "camera": 0,
          "extensions": {"KHR_lights_punctual": {"light": 0}}},
     ]);
     let animations = json!([{
@@ -200,6 +201,7 @@ fn an_animated_parent_moves_its_children_lights_and_emissive_triangles() {
         Mat4::from_translation(offset)
     ));
     assert_eq!(scene.lights[0].position, offset);
+    assert_eq!(scene.cameras[0].position(), offset);
     let [a, b, c] = scene.emissive_triangles[0].vertices;
     assert_eq!([a, b, c], [offset, offset + Vec3::X, offset + Vec3::Y]);
     assert_eq!(scene.emissive_triangles[0].area, 0.5);
