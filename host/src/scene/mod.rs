@@ -95,7 +95,8 @@ pub struct Scene {
     /// [`animation`]).
     pub bounds: Aabb,
     /// The file's node animations; `None` when it has none that can be played. The scene is
-    /// loaded in its rest pose (the nodes' own transforms), not at time 0.
+    /// loaded in its rest pose (the nodes' own transforms), not at time 0. It refers to
+    /// instances, lights and cameras by index: keep those lists as the loader made them.
     pub animation: Option<SceneAnimation>,
 }
 
