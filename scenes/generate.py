@@ -9,6 +9,7 @@ Outputs (deterministic: running it again gives the same bytes):
   many-lights.gltf + many-lights.bin
   textured.gltf + textured.bin + checker.png
   light-leak.gltf (buffer embedded)
+  moving-box.gltf (buffer embedded; a node animation)
 See README.md beside this script for what each scene holds.
 """
 
@@ -171,7 +172,7 @@ class Document:
         self.gltf["accessors"].append(accessor)
         return len(self.gltf["accessors"]) - 1
 
-    def floats(self, rows, kind, with_bounds=False):
+    def floats(self, rows, kind, with_bounds=False, target=ARRAY_BUFFER):
         flat = [float(x) for row in rows for x in row]
         bounds = None
         if with_bounds:
@@ -179,7 +180,7 @@ class Document:
             bounds = ([r6(min(r[i] for r in rows)) for i in range(n)],
                       [r6(max(r[i] for r in rows)) for i in range(n)])
         return self._accessor(struct.pack("<%df" % len(flat), *flat), FLOAT, len(rows), kind,
-                              ARRAY_BUFFER, bounds)
+                              target, bounds)
 
     def index_accessor(self, indices, component):
         fmt = {UBYTE: "B", USHORT: "H", UINT: "I"}[component]
@@ -248,6 +249,21 @@ class Document:
         return self.node(node_name, parent,
                          extensions={"KHR_lights_punctual": {"light": len(ext["lights"]) - 1}},
                          **node_fields)
+
+    def animation(self, name, channels):
+        """One animation of (node, path, times, values) channels, all LINEAR. Keyframe data has no
+        buffer view target, and the times accessor has bounds, as glTF requires."""
+        samplers, targets = [], []
+        for node, path, times, values in channels:
+            kind = "VEC4" if path == "rotation" else "VEC3"
+            samplers.append({"input": self.floats([[t] for t in times], "SCALAR",
+                                                  with_bounds=True, target=None),
+                             "output": self.floats(values, kind, target=None),
+                             "interpolation": "LINEAR"})
+            targets.append({"sampler": len(samplers) - 1,
+                            "target": {"node": node, "path": path}})
+        self.gltf.setdefault("animations", []).append(
+            {"name": name, "channels": targets, "samplers": samplers})
 
     def _finish(self):
         while len(self.bin) % 4:
@@ -483,9 +499,44 @@ def light_leak():
     doc.write_gltf("light-leak", embed=True)
 
 
+def moving_box():
+    doc = Document("Cornell-like box with a 0.4 m cube that crosses the view: its carrier node "
+                   "slides from x = -0.6 to x = 0.6 m in 2 s while the cube, its child, turns "
+                   "180 degrees about +Y. For motion vectors and ghost trails.")
+    white = doc.material("white", WHITE)
+    red = doc.material("red", RED)
+    green = doc.material("green", GREEN)
+    orange = doc.material("orange", [0.8, 0.45, 0.1])
+    light = doc.material("light", WHITE, emissive=[1.0, 0.78, 0.47], strength=17.0)
+    room = doc.mesh("room", [
+        (Geometry().quad([0, 0, 0], [0, 0, 1], [1, 0, 0]), white),  # floor
+        (Geometry().quad([0, 2, 0], [1, 0, 0], [0, 0, 1]), white),  # ceiling
+        (Geometry().quad([0, 1, -1], [1, 0, 0], [0, 1, 0]), white),  # back
+        (Geometry().quad([-1, 1, 0], [0, 1, 0], [0, 0, 1]), red),  # left
+        (Geometry().quad([1, 1, 0], [0, 0, 1], [0, 1, 0]), green),  # right
+    ])
+    lamp = doc.mesh("ceiling light", [
+        (Geometry().quad([0, 1.98, 0], [0.25, 0, 0], [0, 0, 0.2]), light)])
+    doc.node("room", mesh=room)
+    doc.node("ceiling light", mesh=lamp)
+    # The carrier translates; the cube under it rotates: the world transform at time t is
+    # T(x(t), 0.2, 0) R_y(90 t degrees) S(0.4), with x(t) = -0.6 + 0.6 t.
+    carrier = doc.node("carrier", translation=[-0.6, 0.2, 0.0])
+    cube = doc.node("cube", carrier, mesh=doc.mesh("cube", [(unit_box(), orange)]),
+                    scale=[0.4, 0.4, 0.4])
+    doc.animation("move", [
+        (carrier, "translation", [0.0, 2.0], [[-0.6, 0.2, 0.0], [0.6, 0.2, 0.0]]),
+        (cube, "rotation", [0.0, 1.0, 2.0],
+         [quat_axis_angle([0, 1, 0], a) for a in (0.0, 90.0, 180.0)]),
+    ])
+    doc.camera("camera", [0.0, 1.0, 3.9], [0.0, 1.0, 0.0], 39.3, aspect=1.0)
+    doc.write_gltf("moving-box", embed=True)
+
+
 if __name__ == "__main__":
     cornell_box()
     indirect_room()
     many_lights()
     textured()
     light_leak()
+    moving_box()

@@ -242,3 +242,64 @@ fn presets_choose_the_renderer_and_its_settings() {
     assert!(!both.status.success());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn generate_writes_a_scene_that_renders() {
+    use gi_host::image_io::HdrImage;
+    let dir = std::env::temp_dir().join(format!("gi-cli-generate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let glb = dir.join("synthetic.glb");
+    let out = gi(
+        &[
+            "generate",
+            "--triangles",
+            "10k",
+            "--unique-meshes",
+            "3",
+            "--out",
+            glb.to_str().unwrap(),
+        ],
+        &[],
+    );
+    let stdout = succeeded(&out);
+    assert!(stdout.contains("world triangles"), "{stdout}");
+    let exr = dir.join("synthetic.exr");
+    let out = gi(
+        &[
+            "--validation",
+            "render",
+            glb.to_str().unwrap(),
+            "--width",
+            "16",
+            "--height",
+            "9",
+            "--spp",
+            "2",
+            "--out",
+            exr.to_str().unwrap(),
+        ],
+        &[],
+    );
+    let stdout = succeeded(&out);
+    assert!(stdout.contains("2 emissive triangles"), "{stdout}");
+    // The camera sees the lit room: most pixels receive light.
+    let image = HdrImage::read(&exr).unwrap();
+    let lit = image
+        .pixels()
+        .iter()
+        .filter(|p| p.iter().any(|&c| c > 0.0))
+        .count();
+    assert!(lit > 16 * 9 / 2, "{lit} of 144 pixels lit");
+    std::fs::remove_dir_all(&dir).ok();
+
+    let out = gi(&["generate", "--triangles", "0", "--out", "x.glb"], &[]);
+    let err = single_error_line(&out);
+    assert!(
+        err.contains("triangles") && err.contains("1000 to"),
+        "{err}"
+    );
+    let out = gi(&["generate", "--triangles", "ten", "--out", "x.glb"], &[]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("is not a count"), "{err}");
+}

@@ -145,6 +145,7 @@ fn quad_scene(
         cameras: vec![],
         emissive_triangles: vec![],
         bounds: Aabb::EMPTY,
+        animation: None,
     };
     scene.update_derived();
     scene

@@ -15,6 +15,7 @@ use gi_host::path_tracer::{PathTracerPass, PathTracerSettings, Render, Strategy}
 use gi_host::scene::Scene;
 use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::{Environment, LightSet};
+use gi_host::scene::synthetic::{self, SyntheticParams};
 use gi_host::scene::upload::{GpuScene, build_bvh};
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
@@ -178,6 +179,23 @@ enum Command {
     /// the cost scales with pixels, triangles and lights. Writes CSV, JSON, Markdown tables and
     /// plots (PNG and SVG).
     Sweep(SweepArgs),
+    /// Write a synthetic instanced scene (GLB) for scaling tests: a closed room lit by an
+    /// emissive ceiling panel, a camera, and many instances of a few tessellated meshes (spheres,
+    /// tori, boxes) on a seeded grid, up to the requested world triangle count.
+    Generate {
+        /// World triangles: a count such as 10000, 10k, 1.5M or 2G.
+        #[arg(long, value_parser = synthetic::parse_count)]
+        triangles: u64,
+        /// The GLB file to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// Distinct meshes the instances share.
+        #[arg(long, default_value_t = SyntheticParams::default().unique_meshes)]
+        unique_meshes: u32,
+        /// Seed of the placement and mesh choice.
+        #[arg(long, default_value_t = SyntheticParams::default().seed)]
+        seed: u64,
+    },
     /// Compare a test image with a reference: RMSE, relative MSE, PSNR and FLIP, and optionally
     /// FLIP's error heat map. Images are OpenEXR (linear) or PNG/JPEG (sRGB).
     Compare {
@@ -276,6 +294,31 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     }) = &cli.command
     {
         return compare(reference, test, *exposure, heat_map.as_deref());
+    }
+    if let Some(Command::Generate {
+        triangles,
+        out,
+        unique_meshes,
+        seed,
+    }) = &cli.command
+    {
+        let params = SyntheticParams {
+            triangles: *triangles,
+            unique_meshes: *unique_meshes,
+            seed: *seed,
+        };
+        let start = Instant::now();
+        let scene = synthetic::write(&params, out)?;
+        println!(
+            "{}: {} world triangles ({} unique), {} instances, {:.1} MB, {:.2} s",
+            out.display(),
+            scene.world_triangles,
+            scene.unique_triangles,
+            scene.instances,
+            scene.glb.len() as f64 / 1e6,
+            start.elapsed().as_secs_f64()
+        );
+        return Ok(());
     }
     if let Some(Command::Sweep(args)) = &cli.command
         && let Some(dir) = &args.replot

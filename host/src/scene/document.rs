@@ -246,6 +246,12 @@ impl Document {
             .collect())
     }
 
+    /// Accessor `index` of type `ty` as floats, its components flattened, converted like
+    /// [`Document::read_vec3`].
+    pub fn read_floats(&self, ctx: &Ctx, index: usize, usage: &str, ty: Type) -> Result<Vec<f32>> {
+        self.read::<f32>(ctx, index, usage, ty, component_f32)
+    }
+
     /// Accessor `index` as vertex indices: `SCALAR` of unsigned bytes, shorts or ints.
     pub fn read_indices(&self, ctx: &Ctx, index: usize, usage: &str) -> Result<Vec<u32>> {
         let element = accessor_element(index, usage);
@@ -503,6 +509,14 @@ fn validate(ctx: &mut Ctx, root: &json::Root) -> Result<()> {
     for (path, error) in errors {
         match error {
             ValidationError::Unsupported => {}
+            // The animation parser checks every index and value it uses and drops the channels it
+            // cannot play, naming them: a broken animation costs its channels, not the scene.
+            _ if path.starts_with("animations") => ctx.warn(
+                "animation validation",
+                path,
+                "invalid animation data: channels that use it are dropped",
+                1,
+            ),
             _ if path.ends_with(".min") || path.ends_with(".max") => ctx.warn(
                 "accessor bounds",
                 path,

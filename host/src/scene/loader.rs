@@ -15,6 +15,7 @@ use std::collections::HashMap;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 use std::path::Path;
 
+use super::animation::{Hierarchy, SceneAnimation, Visit};
 use super::document::{Ctx, Document, label};
 use super::geometry::{self, CleanPrimitive, RawPrimitive};
 use super::{
@@ -43,6 +44,7 @@ pub(super) fn load(path: &Path) -> Result<(Scene, Vec<Warning>)> {
         instances: Vec::new(),
         lights: Vec::new(),
         cameras: Vec::new(),
+        hierarchy: Hierarchy::default(),
     };
     builder.build()
 }
@@ -62,6 +64,8 @@ struct Builder<'d> {
     instances: Vec<Instance>,
     lights: Vec<Light>,
     cameras: Vec<Camera>,
+    /// The nodes as visited, for the animation.
+    hierarchy: Hierarchy,
 }
 
 impl Builder<'_> {
@@ -75,21 +79,13 @@ impl Builder<'_> {
                 root.skins.len(),
             );
         }
-        if !root.animations.is_empty() {
-            self.ctx.warn(
-                "animations",
-                "animations",
-                "animations are ignored: the scene is loaded in its static pose",
-                root.animations.len(),
-            );
-        }
         for index in 0..root.materials.len() {
             let material = self.material(index);
             self.materials.push(material);
         }
         let (scene_element, roots) = self.roots();
         for node in roots {
-            self.visit(node, Mat4::IDENTITY, &mut Vec::new())?;
+            self.visit(node, None, &mut Vec::new())?;
         }
 
         let mut scene = Scene {
@@ -102,6 +98,7 @@ impl Builder<'_> {
             cameras: self.cameras,
             emissive_triangles: Vec::new(),
             bounds: Aabb::EMPTY,
+            animation: None,
         };
         if scene.triangle_count() == 0 {
             let skipped: Vec<String> = self
@@ -120,6 +117,15 @@ impl Builder<'_> {
             return Err(self.ctx.error(scene_element, why));
         }
         scene.update_derived();
+        if !self.doc.root.animations.is_empty() {
+            scene.animation = SceneAnimation::new(
+                &mut self.ctx,
+                self.doc,
+                &self.hierarchy,
+                &scene.meshes,
+                &scene.instances,
+            );
+        }
         Ok((scene, self.ctx.into_warnings()))
     }
 
@@ -169,8 +175,9 @@ impl Builder<'_> {
         ("scenes".to_owned(), roots)
     }
 
-    /// Places node `index` and its descendants under `parent`; `path` holds its ancestors.
-    fn visit(&mut self, index: usize, parent: Mat4, path: &mut Vec<usize>) -> Result<()> {
+    /// Places node `index` and its descendants under the visit `parent` (`None` at the root);
+    /// `path` holds its ancestors.
+    fn visit(&mut self, index: usize, parent: Option<u32>, path: &mut Vec<usize>) -> Result<()> {
         let doc = self.doc;
         let node = doc
             .root
@@ -190,15 +197,24 @@ impl Builder<'_> {
                 format!("the node hierarchy is deeper than {MAX_NODE_DEPTH} levels"),
             ));
         }
-        let world = local_transform(node)
-            .map(|local| parent * local)
-            .filter(Mat4::is_finite)
+        let parent_world =
+            parent.map_or(Mat4::IDENTITY, |p| self.hierarchy.visits[p as usize].world);
+        let (local, world) = local_transform(node)
+            .map(|local| (local, parent_world * local))
+            .filter(|(local, world)| local.is_finite() && world.is_finite())
             .ok_or_else(|| {
                 self.ctx.error(
                     &element,
                     "has a transform that is not finite, or a zero rotation quaternion",
                 )
             })?;
+        let visit = self.hierarchy.visits.len() as u32;
+        self.hierarchy.visits.push(Visit {
+            node: index as u32,
+            parent,
+            local,
+            world,
+        });
         let name = node
             .name
             .clone()
@@ -216,9 +232,18 @@ impl Builder<'_> {
         {
             self.light(light.light.value(), &element, &name, world)?;
         }
+        // Whatever this node placed was placed by this visit.
+        let h = &mut self.hierarchy;
+        for (placed, visits) in [
+            (self.instances.len(), &mut h.instances),
+            (self.lights.len(), &mut h.lights),
+            (self.cameras.len(), &mut h.cameras),
+        ] {
+            visits.resize(placed, visit);
+        }
         path.push(index);
         for child in node.children.iter().flatten() {
-            self.visit(child.value(), world, path)?;
+            self.visit(child.value(), Some(visit), path)?;
         }
         path.pop();
         Ok(())

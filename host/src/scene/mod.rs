@@ -45,11 +45,13 @@
 //! dropped; invalid normals are recomputed; a texture whose image is missing or cannot be decoded
 //! is dropped and the material uses its factor alone; non-triangle primitives, orthographic
 //! cameras, extensions in `extensionsUsed` that the loader does not support, UV sets after the
-//! first, vertex colours, tangents, skins, morph targets, animations, normal, occlusion and
+//! first, vertex colours, tangents, skins, morph targets, normal, occlusion and
 //! metallic-roughness textures are ignored; `BLEND` materials are alpha-masked at 0.5 (no
 //! transparency); nodes with a
 //! singular transform, and lights and cameras with invalid parameters, are skipped.
+//! Animation channels that cannot be played are dropped (see [`animation`]).
 
+pub mod animation;
 pub mod bvh;
 mod document;
 mod geometry;
@@ -58,6 +60,7 @@ pub mod lights;
 mod loader;
 pub mod memory_report;
 pub mod procedural;
+pub mod synthetic;
 pub mod upload;
 
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -65,6 +68,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use crate::Result;
+pub use animation::SceneAnimation;
 
 /// Luminous efficacy (lm/W) that converts glTF's photometric light units to radiometric ones.
 pub const LUMENS_PER_WATT: f32 = 683.0;
@@ -89,8 +93,13 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// Every world-space triangle with an emissive material; empty when there is none.
     pub emissive_triangles: Vec<EmissiveTriangle>,
-    /// Bounds of all world-space triangles.
+    /// Bounds of all world-space triangles (after [`Scene::set_time`], possibly larger: see
+    /// [`animation`]).
     pub bounds: Aabb,
+    /// The file's node animations; `None` when it has none that can be played. The scene is
+    /// loaded in its rest pose (the nodes' own transforms), not at time 0. It refers to
+    /// instances, lights and cameras by index: keep those lists as the loader made them.
+    pub animation: Option<SceneAnimation>,
 }
 
 impl Scene {
@@ -124,6 +133,38 @@ impl Scene {
         }
         self.bounds = bounds;
         self.emissive_triangles = emissive;
+    }
+
+    /// Poses the scene at `seconds` on the animation's looping clock (see [`animation`]): updates
+    /// the transforms of [`Scene::instances`], [`Scene::lights`] and [`Scene::cameras`] on
+    /// animated nodes, [`Scene::emissive_triangles`] of instances that moved, and
+    /// [`Scene::bounds`]. Returns the indices of the instances whose transform changed, in
+    /// increasing order (empty without animation). Costs O(animated nodes and what they carry),
+    /// without allocating.
+    pub fn set_time(&mut self, seconds: f32) -> &[u32] {
+        let Some(animation) = &mut self.animation else {
+            return &[];
+        };
+        animation.apply(
+            seconds,
+            animation::Posed {
+                meshes: &self.meshes,
+                instances: &mut self.instances,
+                lights: &mut self.lights,
+                cameras: &mut self.cameras,
+                emissive_triangles: &mut self.emissive_triangles,
+                bounds: &mut self.bounds,
+            },
+        )
+    }
+
+    /// Every instance's object-to-world transform at `seconds` (looped), without changing the
+    /// scene; the current transforms without animation.
+    pub fn pose_at(&self, seconds: f32) -> Vec<Mat4> {
+        match &self.animation {
+            Some(animation) => animation.pose_at(seconds, &self.instances),
+            None => self.instances.iter().map(|i| i.transform).collect(),
+        }
     }
 
     /// Number of world-space triangles: the triangles of every instance's mesh.
