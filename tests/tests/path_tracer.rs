@@ -145,6 +145,7 @@ fn quad_scene(
         cameras: vec![],
         emissive_triangles: vec![],
         bounds: Aabb::EMPTY,
+        load_stages: Vec::new(),
     };
     scene.update_derived();
     scene

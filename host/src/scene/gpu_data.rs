@@ -147,7 +147,9 @@ impl ShadingData {
             let texel_count = t.width as usize * t.height as usize;
             let start = data.texels.len();
             data.texels.extend(
-                t.rgba8
+                t.levels
+                    .first()
+                    .map_or(&[][..], Vec::as_slice)
                     .as_chunks::<4>()
                     .0
                     .iter()
@@ -299,8 +301,8 @@ mod tests {
         assert_eq!(d.texels.len(), (t.width * t.height) as usize);
         // Red in the low byte.
         let first = d.texels[0];
-        assert_eq!(first & 0xff, u32::from(t.rgba8[0]));
-        assert_eq!(first >> 24, u32::from(t.rgba8[3]));
+        assert_eq!(first & 0xff, u32::from(t.levels[0][0]));
+        assert_eq!(first >> 24, u32::from(t.levels[0][3]));
         assert!(d.meshes.iter().all(|m| m.has_uvs == 1));
         assert_eq!(d.materials[0].base_color_texture, 0);
         assert_eq!(d.materials[0].emissive_texture, NONE);
@@ -313,7 +315,7 @@ mod tests {
         let side = 5800;
         s.textures[0].width = side;
         s.textures[0].height = side;
-        s.textures[0].rgba8 = vec![0; (side * side * 4) as usize];
+        s.textures[0].levels = vec![vec![0; (side * side * 4) as usize]];
         let err = ShadingData::new(&s).unwrap_err().to_string();
         assert!(err.contains("textured.gltf"), "{err}");
         assert!(err.contains("\"texels\""), "{err}");
