@@ -442,7 +442,10 @@ fn decode_block(kind: Block, block: &[u8], srgb: bool) -> [u8; 64] {
         Block::Bc1 { alpha } => {
             bcdec_rs::bc1(block, &mut rgba, 16);
             if !alpha {
-                rgba.chunks_exact_mut(4).for_each(|t| t[3] = 255);
+                rgba.as_chunks_mut::<4>()
+                    .0
+                    .iter_mut()
+                    .for_each(|t| t[3] = 255);
             }
         }
         Block::Bc2 => bcdec_rs::bc2(block, &mut rgba, 16),
@@ -451,15 +454,20 @@ fn decode_block(kind: Block, block: &[u8], srgb: bool) -> [u8; 64] {
         Block::Bc4 => {
             let mut r = [0u8; 16];
             bcdec_rs::bc4(block, &mut r, 4, false);
-            for (t, r) in rgba.chunks_exact_mut(4).zip(r) {
-                t.copy_from_slice(&[r, r, r, 255]);
+            for (t, r) in rgba.as_chunks_mut::<4>().0.iter_mut().zip(r) {
+                *t = [r, r, r, 255];
             }
         }
         Block::Bc5 => {
             let mut rg = [0u8; 32];
             bcdec_rs::bc5(block, &mut rg, 8, false);
-            for (t, rg) in rgba.chunks_exact_mut(4).zip(rg.chunks_exact(2)) {
-                t.copy_from_slice(&[rg[0], rg[1], 0, 255]);
+            for (t, rg) in rgba
+                .as_chunks_mut::<4>()
+                .0
+                .iter_mut()
+                .zip(rg.as_chunks::<2>().0)
+            {
+                *t = [rg[0], rg[1], 0, 255];
             }
         }
         Block::Bc6h { signed } => {
@@ -470,8 +478,13 @@ fn decode_block(kind: Block, block: &[u8], srgb: bool) -> [u8; 64] {
                 let c = if srgb { linear_to_srgb(c) } else { c };
                 (c * 255.0).round() as u8
             };
-            for (t, c) in rgba.chunks_exact_mut(4).zip(rgb.chunks_exact(3)) {
-                t.copy_from_slice(&[encode(c[0]), encode(c[1]), encode(c[2]), 255]);
+            for (t, c) in rgba
+                .as_chunks_mut::<4>()
+                .0
+                .iter_mut()
+                .zip(rgb.as_chunks::<3>().0)
+            {
+                *t = [encode(c[0]), encode(c[1]), encode(c[2]), 255];
             }
         }
     }
@@ -646,7 +659,13 @@ pub(super) mod tests {
             0, 0, 0, 255, 200, 100, 50, 255, 0, 0, 0, 255, 200, 100, 50, 255,
         ];
         // 4×1 with only level 0 declared: levels 2×1 and 1×1 are generated (linear: averages).
-        let file = ktx2_file(Some(Format::R8G8B8A8_UNORM), 4, 1, &[level0.clone()], None);
+        let file = ktx2_file(
+            Some(Format::R8G8B8A8_UNORM),
+            4,
+            1,
+            std::slice::from_ref(&level0),
+            None,
+        );
         let d = decode(&file, false).unwrap();
         assert_eq!(d.levels.len(), 3);
         assert_eq!(d.levels[0], level0);
@@ -888,7 +907,13 @@ pub(super) mod tests {
     fn truncated_and_corrupt_files_are_errors_not_panics() {
         let bc1 = red_blue_checker().repeat(4);
         let files = [
-            ktx2_file(Some(Format::BC1_RGB_SRGB_BLOCK), 8, 8, &[bc1.clone()], None),
+            ktx2_file(
+                Some(Format::BC1_RGB_SRGB_BLOCK),
+                8,
+                8,
+                std::slice::from_ref(&bc1),
+                None,
+            ),
             ktx2_file(
                 Some(Format::R8G8B8A8_UNORM),
                 2,
@@ -905,10 +930,21 @@ pub(super) mod tests {
                 let why = decode(&file[..len], true).unwrap_err();
                 assert!(!why.is_empty());
             }
-            // Flipped bytes: anything may come out, but no panic.
+            // Flipped bytes, and random 32-bit values written anywhere (header fields: sizes,
+            // offsets, formats): anything may come out, but no panic.
             for i in 0..file.len() {
                 let mut bad = file.clone();
                 bad[i] ^= 0xFF;
+                let _ = decode(&bad, true);
+            }
+            let mut state = 0x9E37_79B9_7F4A_7C15u64;
+            for _ in 0..3000 {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let mut bad = file.clone();
+                let at = (state % (file.len() as u64 - 3)) as usize;
+                bad[at..at + 4].copy_from_slice(&((state >> 32) as u32).to_le_bytes());
                 let _ = decode(&bad, true);
             }
         }
