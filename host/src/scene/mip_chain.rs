@@ -12,11 +12,12 @@
 //! is separable: rows, then columns, with the exact integer overlaps as weights.
 //!
 //! Colour channels of sRGB textures are averaged in linear space (decoded through
-//! [`srgb_to_linear`], re-encoded through [`linear_to_srgb`]); alpha, and every channel of linear
+//! [`srgb_to_linear`], re-encoded to the nearest sRGB byte: the inverse,
+//! [`linear_to_srgb`](gi_shared::scene_data::linear_to_srgb), rounded); alpha, and every channel of linear
 //! textures, is averaged as stored. Results are rounded to the nearest 8-bit value. Each level is
 //! made from the one above it, in parallel over its rows.
 
-use gi_shared::scene_data::{linear_to_srgb, srgb_to_linear};
+use gi_shared::scene_data::srgb_to_linear;
 use rayon::prelude::*;
 
 /// Width or height of level `level` of a texture whose level 0 is `size`.
@@ -56,10 +57,49 @@ pub fn mip_chain(level0: Vec<u8>, width: u32, height: u32, srgb: bool) -> Vec<Ve
     levels
 }
 
-/// 8-bit value -> linear value, per channel.
+/// Cells of the sRGB encoding table over linear [0, 1]: more than the steepest slope of the sRGB
+/// curve (12.92 × 255 ≈ 3295 codes per unit, at black), so a cell never spans two code
+/// boundaries.
+const ENCODE_CELLS: usize = 4096;
+
+/// 8-bit value <-> linear value, per channel, through tables.
 struct Decode {
     colour: [f32; 256],
-    srgb: bool,
+    /// For sRGB colour, encoding without a power function per channel.
+    encode: Option<SrgbEncode>,
+}
+
+/// Linear value -> nearest sRGB byte.
+struct SrgbEncode {
+    /// `thresholds[b]`: the linear value from which byte `b + 1` is nearer than byte `b` (the
+    /// decoded midpoint of the two codes); infinity after the last.
+    thresholds: [f32; 256],
+    /// The byte at the start of each of [`ENCODE_CELLS`] equal cells of [0, 1].
+    cells: Vec<u8>,
+}
+
+impl SrgbEncode {
+    fn new() -> Self {
+        let thresholds = std::array::from_fn(|b| match b {
+            255 => f32::INFINITY,
+            _ => srgb_to_linear((b as f32 + 0.5) / 255.0),
+        });
+        let cells = (0..ENCODE_CELLS)
+            .map(|i| {
+                let start = i as f32 / ENCODE_CELLS as f32;
+                thresholds.partition_point(|&t| t <= start) as u8
+            })
+            .collect();
+        Self { thresholds, cells }
+    }
+
+    fn encode(&self, c: f32) -> u8 {
+        let c = c.clamp(0.0, 1.0);
+        let cell = ((c * ENCODE_CELLS as f32) as usize).min(ENCODE_CELLS - 1);
+        let b = self.cells[cell];
+        // At most one code boundary lies inside a cell.
+        b + u8::from(c >= self.thresholds[b as usize])
+    }
 }
 
 impl Decode {
@@ -68,7 +108,10 @@ impl Decode {
             let c = v as f32 / 255.0;
             if srgb { srgb_to_linear(c) } else { c }
         });
-        Self { colour, srgb }
+        Self {
+            colour,
+            encode: srgb.then(SrgbEncode::new),
+        }
     }
 
     fn texel(&self, t: &[u8; 4]) -> [f32; 4] {
@@ -82,9 +125,9 @@ impl Decode {
 
     fn encode(&self, linear: [f32; 4]) -> [u8; 4] {
         let quantise = |c: f32| (c.clamp(0.0, 1.0) * 255.0).round() as u8;
-        let colour = |c: f32| match self.srgb {
-            true => quantise(linear_to_srgb(c)),
-            false => quantise(c),
+        let colour = |c: f32| match &self.encode {
+            Some(srgb) => srgb.encode(c),
+            None => quantise(c),
         };
         [
             colour(linear[0]),
@@ -149,6 +192,7 @@ fn downsample(src: &[u8], width: u32, height: u32, decode: &Decode) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use gi_shared::scene_data::linear_to_srgb;
 
     fn image(w: u32, h: u32, f: impl Fn(u32, u32) -> [u8; 4]) -> Vec<u8> {
         (0..h)
@@ -278,6 +322,20 @@ mod tests {
             image(2, 1, |x, _| [if x < 1 { 0 } else { 200 }, 0, 0, 255])
         );
         assert_eq!(levels[3], [100, 0, 0, 255]);
+    }
+
+    #[test]
+    fn the_encoding_table_rounds_like_the_transfer_function() {
+        let decode = Decode::new(true);
+        for i in 0..=100_000 {
+            let linear = i as f32 / 100_000.0;
+            let exact = linear_to_srgb(linear) * 255.0;
+            let table = decode.encode([linear; 4])[0];
+            // The same byte, except where the exact value is within float noise of a midpoint.
+            if (exact - exact.floor() - 0.5).abs() > 1e-3 {
+                assert_eq!(table, exact.round() as u8, "{linear}");
+            }
+        }
     }
 
     #[test]
