@@ -370,9 +370,9 @@ pub struct Texture {
     pub width: u32,
     /// Height of level 0 in pixels.
     pub height: u32,
-    /// The mip levels, level 0 first, down to 1×1: level `l` is
-    /// [`Texture::level_size`]`(l)` and holds `width × height × 4` bytes. The file's own levels
-    /// when it has a complete chain, otherwise made by [`mip_chain::mip_chain`] (which says how).
+    /// The mip levels, level 0 first, down to 1×1: level `l` holds the
+    /// [`Texture::level_size`]`(l)` texels, 4 bytes each. The file's own levels when it has a
+    /// complete chain, otherwise made by [`mip_chain::mip_chain`] (which says how).
     pub levels: Vec<Vec<u8>>,
     /// Whether the colour channels are sRGB-encoded (base colour and emissive textures are).
     pub srgb: bool,
