@@ -444,6 +444,17 @@ fn textured_scene_decodes_its_checkerboard() {
     assert_eq!(texture.wrap, [Wrap::Repeat; 2]);
     assert_eq!(&texture.levels[0][..4], &[230, 230, 230, 255]);
     assert_eq!(&texture.levels[0][8 * 4..8 * 4 + 4], &[40, 40, 40, 255]);
+    // The mips, generated down to 1×1: at 8×8 each texel is one 8×8 square of the checkerboard.
+    assert_eq!(texture.levels.len(), 7);
+    assert_eq!(texture.level_size(3), (8, 8));
+    assert_eq!(
+        &texture.levels[3][..8],
+        &[230, 230, 230, 255, 40, 40, 40, 255]
+    );
+    assert_eq!(
+        texture.bytes(),
+        (0..7).map(|l| (64 >> l) * (64 >> l) * 4).sum::<usize>()
+    );
     // Both materials use it, and every mesh has UVs.
     assert!(
         scene
@@ -545,4 +556,40 @@ fn blender_export_loads() {
     );
     // Light-unit conversion is the documented one.
     assert_eq!(LUMENS_PER_WATT, 683.0);
+}
+
+#[test]
+#[cfg_attr(
+    not(third_party_scenes),
+    ignore = "../shared/scenes/third-party is absent (third-party scenes are not in the repository)"
+)]
+fn bitterli_textures_decode_the_same_in_parallel_as_one_by_one() {
+    for file in [
+        "../shared/scenes/third-party/bitterli/bathroom/bathroom.glb",
+        "../shared/scenes/third-party/bitterli/living-room/living-room.glb",
+    ] {
+        let one_thread = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let (sequential, sequential_warnings) = one_thread.install(|| load(file));
+        let (parallel, warnings) = load(file);
+        eprintln!("{file}, 1 thread:  {}", sequential.load_report());
+        eprintln!(
+            "{file}, {} threads: {}",
+            rayon::current_num_threads(),
+            parallel.load_report()
+        );
+        assert_eq!(warnings, sequential_warnings);
+        assert_eq!(parallel.textures, sequential.textures);
+        assert_eq!(parallel.materials, sequential.materials);
+        assert!(!parallel.textures.is_empty());
+        for t in &parallel.textures {
+            let last = t.levels.len() - 1;
+            assert_eq!(t.level_size(last), (1, 1), "{}", t.name);
+            assert_eq!(t.levels.len(), (t.width.max(t.height).ilog2() + 1) as usize);
+        }
+        let names: Vec<&str> = parallel.load_stages.iter().map(|s| s.name).collect();
+        assert_eq!(names, ["parse", "geometry", "textures", "derived"]);
+    }
 }

@@ -146,6 +146,7 @@ fn quad_scene(
         emissive_triangles: vec![],
         bounds: Aabb::EMPTY,
         animation: None,
+        load_stages: Vec::new(),
     };
     scene.update_derived();
     scene

@@ -522,10 +522,7 @@ fn gbuffer(
     height: u32,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let start = Instant::now();
-    let (scene, warnings) = Scene::load(path)?;
-    for w in &warnings {
-        eprintln!("warning: {w}");
-    }
+    let scene = load_scene(path)?;
     let shading = ShadingData::new(&scene)?;
     let bvh = match ctx.variant() {
         KernelVariant::Software => Some(build_bvh(&scene)?),
@@ -695,6 +692,7 @@ fn load_scene(path: &Path) -> Result<Scene, Box<dyn std::error::Error>> {
     for w in &warnings {
         eprintln!("warning: {w}");
     }
+    println!("{}", scene.load_report());
     Ok(scene)
 }
 

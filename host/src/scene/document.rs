@@ -19,6 +19,8 @@ pub(super) const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_mesh_quantization",
+    "KHR_texture_basisu",
+    "MSFT_texture_dds",
 ];
 
 /// Largest accessor the loader reads, in bytes as stored: bounds what an accessor without a buffer

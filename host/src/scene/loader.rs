@@ -11,28 +11,40 @@ use gltf::json::{
     texture::WrappingMode,
     validation::Checked,
 };
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 use std::path::Path;
+use std::time::Instant;
 
 use super::animation::{Hierarchy, SceneAnimation, Visit};
 use super::document::{Ctx, Document, label};
 use super::geometry::{self, CleanPrimitive, RawPrimitive};
+use super::texture_files;
 use super::{
-    Aabb, Camera, Instance, LUMENS_PER_WATT, Light, LightKind, Material, Mesh, Scene, Texture,
-    Warning, Wrap,
+    Aabb, Camera, Instance, LUMENS_PER_WATT, Light, LightKind, LoadStage, Material, Mesh, Scene,
+    Texture, Warning, Wrap,
 };
 use crate::Result;
 
 /// Deepest node hierarchy followed: deeper is taken for garbage (and would exhaust the stack).
 const MAX_NODE_DEPTH: usize = 1024;
 
+/// Texture extensions whose image a texture prefers to its `source`, in order of preference.
+const TEXTURE_EXTENSIONS: [&str; 2] = ["KHR_texture_basisu", "MSFT_texture_dds"];
+
 pub(super) fn load(path: &Path) -> Result<(Scene, Vec<Warning>)> {
+    let start = Instant::now();
     let mut ctx = Ctx::new(path);
     let bytes =
         std::fs::read(path).map_err(|e| ctx.error("file", format!("cannot read it: {e}")))?;
     let doc = Document::parse(&mut ctx, &bytes)?;
     let builder = Builder {
+        stages: vec![LoadStage {
+            name: "parse",
+            seconds: start.elapsed().as_secs_f64(),
+        }],
         ctx,
         doc: &doc,
         materials: Vec::new(),
@@ -50,13 +62,16 @@ pub(super) fn load(path: &Path) -> Result<(Scene, Vec<Warning>)> {
 }
 
 struct Builder<'d> {
+    stages: Vec<LoadStage>,
     ctx: Ctx,
     doc: &'d Document,
+    /// Materials; their texture indices point into `textures` until the textures are decoded.
     materials: Vec<Material>,
     /// Index of the default material, once a primitive without one needs it.
     default_material: Option<u32>,
-    textures: Vec<Texture>,
-    /// glTF texture index -> index into `textures`, `None` if it could not be loaded.
+    /// Textures to decode, in order of first use.
+    textures: Vec<PendingTexture>,
+    /// glTF texture index -> index into `textures`, `None` if it cannot be used.
     texture_slots: HashMap<usize, Option<u32>>,
     meshes: Vec<Mesh>,
     /// glTF mesh index -> index into `meshes`, `None` if it has no triangles.
@@ -68,8 +83,27 @@ struct Builder<'d> {
     hierarchy: Hierarchy,
 }
 
+/// A texture the materials use, to be decoded once the document has been walked.
+struct PendingTexture {
+    /// glTF texture index.
+    index: usize,
+    /// The first material slot that uses it, for warnings.
+    user: String,
+}
+
+/// What decoding a texture gave: the texture, or `None` when none of its images could be used,
+/// and why each image that failed did.
+struct DecodedTexture {
+    texture: Option<Texture>,
+    /// (warning kind, element, why) of each image that could not be used.
+    failures: Vec<(String, String, String)>,
+    /// The image used and what its decoder reported.
+    note: Option<(String, &'static str)>,
+}
+
 impl Builder<'_> {
     fn build(mut self) -> Result<(Scene, Vec<Warning>)> {
+        let start = Instant::now();
         let root = &self.doc.root;
         if !root.skins.is_empty() {
             self.ctx.warn(
@@ -87,20 +121,14 @@ impl Builder<'_> {
         for node in roots {
             self.visit(node, None, &mut Vec::new())?;
         }
+        self.stage("geometry", start);
 
-        let mut scene = Scene {
-            source: self.ctx.file.clone(),
-            meshes: self.meshes,
-            instances: self.instances,
-            materials: self.materials,
-            textures: self.textures,
-            lights: self.lights,
-            cameras: self.cameras,
-            emissive_triangles: Vec::new(),
-            bounds: Aabb::EMPTY,
-            animation: None,
-        };
-        if scene.triangle_count() == 0 {
+        let triangles: usize = self
+            .instances
+            .iter()
+            .map(|i| self.meshes[i.mesh as usize].triangles.len())
+            .sum();
+        if triangles == 0 {
             let skipped: Vec<String> = self
                 .ctx
                 .warnings()
@@ -116,6 +144,24 @@ impl Builder<'_> {
             };
             return Err(self.ctx.error(scene_element, why));
         }
+        let start = Instant::now();
+        let textures = self.decode_textures();
+        self.stage("textures", start);
+
+        let start = Instant::now();
+        let mut scene = Scene {
+            source: self.ctx.file.clone(),
+            meshes: self.meshes,
+            instances: self.instances,
+            materials: self.materials,
+            textures,
+            lights: self.lights,
+            cameras: self.cameras,
+            emissive_triangles: Vec::new(),
+            bounds: Aabb::EMPTY,
+            load_stages: self.stages,
+            animation: None,
+        };
         scene.update_derived();
         if !self.doc.root.animations.is_empty() {
             scene.animation = SceneAnimation::new(
@@ -126,7 +172,68 @@ impl Builder<'_> {
                 &scene.instances,
             );
         }
+        scene.load_stages.push(LoadStage {
+            name: "derived",
+            seconds: start.elapsed().as_secs_f64(),
+        });
         Ok((scene, self.ctx.into_warnings()))
+    }
+
+    fn stage(&mut self, name: &'static str, start: Instant) {
+        self.stages.push(LoadStage {
+            name,
+            seconds: start.elapsed().as_secs_f64(),
+        });
+    }
+
+    /// Decodes the pending textures and makes their mips, in parallel with a progress bar on
+    /// stderr (hidden when stderr is no terminal); then warns, in texture order, about those that
+    /// failed, drops them and points the materials at the rest.
+    fn decode_textures(&mut self) -> Vec<Texture> {
+        let bar = ProgressBar::with_draw_target(
+            Some(self.textures.len() as u64),
+            ProgressDrawTarget::stderr(),
+        )
+        .with_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} textures")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        let (ctx, doc) = (&self.ctx, self.doc);
+        let decoded: Vec<DecodedTexture> = self
+            .textures
+            .par_iter()
+            .map(|pending| {
+                let decoded = decode_texture(ctx, doc, pending.index);
+                bar.inc(1);
+                decoded
+            })
+            .collect();
+        bar.finish_and_clear();
+        let mut textures = Vec::new();
+        let mut new_index = Vec::with_capacity(decoded.len());
+        for (pending, decoded) in self.textures.iter().zip(decoded) {
+            let fallback = match &decoded.texture {
+                Some(t) => format!("{} is used instead", t.name),
+                None => format!("{} is dropped and the factor used alone", pending.user),
+            };
+            for (kind, element, why) in decoded.failures {
+                self.ctx
+                    .warn(&kind, element, format!("{why}; {fallback}"), 1);
+            }
+            if let Some((element, note)) = decoded.note {
+                self.ctx.warn(note, element, note, 1);
+            }
+            new_index.push(decoded.texture.map(|t| {
+                textures.push(t);
+                textures.len() as u32 - 1
+            }));
+        }
+        let remap = |slot: Option<u32>| slot.and_then(|p| new_index[p as usize]);
+        for m in &mut self.materials {
+            m.base_color_texture = remap(m.base_color_texture);
+            m.emissive_texture = remap(m.emissive_texture);
+        }
+        textures
     }
 
     /// The element that names the scene, and its root nodes: the default scene's, the first
@@ -640,59 +747,12 @@ impl Builder<'_> {
         slot
     }
 
+    /// Queues glTF texture `index` for decoding; `None` if it does not exist.
     fn load_texture(&mut self, index: usize, user: &str) -> Option<u32> {
-        let doc = self.doc;
-        let texture = doc.root.textures.get(index)?;
-        let image_index = texture.source.value();
-        let image = doc.root.images.get(image_index)?;
-        let file_uri = image.uri.as_deref().filter(|uri| !uri.starts_with("data:"));
-        let element = match file_uri {
-            Some(uri) => format!("images[{image_index}] (uri {uri:?})"),
-            None => label("images", image_index, image.name.as_deref()),
-        };
-        let bytes = match (&image.uri, image.buffer_view) {
-            (Some(uri), _) => self.ctx.read_uri(uri),
-            (None, Some(view)) => doc
-                .view(&self.ctx, view.value())
-                .map(<[u8]>::to_vec)
-                .map_err(|e| e.to_string()),
-            (None, None) => Err("has neither a uri nor a bufferView".to_owned()),
-        };
-        let decoded = bytes.and_then(|bytes| {
-            image::load_from_memory(&bytes).map_err(|e| format!("cannot decode it: {e}"))
-        });
-        let rgba = match decoded {
-            Ok(decoded) => decoded.into_rgba8(),
-            Err(why) => {
-                self.ctx.warn(
-                    &format!("image {image_index}"),
-                    element,
-                    format!("{why}; {user} is dropped and the factor used alone"),
-                    1,
-                );
-                return None;
-            }
-        };
-        let wrap = |mode: Checked<WrappingMode>| match mode {
-            Checked::Valid(WrappingMode::ClampToEdge) => Wrap::ClampToEdge,
-            Checked::Valid(WrappingMode::MirroredRepeat) => Wrap::MirroredRepeat,
-            _ => Wrap::Repeat,
-        };
-        let sampler = texture
-            .sampler
-            .and_then(|s| doc.root.samplers.get(s.value()));
-        self.textures.push(Texture {
-            name: image
-                .name
-                .as_deref()
-                .or(file_uri)
-                .map_or_else(|| format!("images[{image_index}]"), str::to_owned),
-            width: rgba.width(),
-            height: rgba.height(),
-            wrap: sampler.map_or([Wrap::Repeat; 2], |s| [wrap(s.wrap_s), wrap(s.wrap_t)]),
-            levels: vec![rgba.into_raw()],
-            // Base colour and emissive, the only textures loaded, are sRGB-encoded in glTF.
-            srgb: true,
+        self.doc.root.textures.get(index)?;
+        self.textures.push(PendingTexture {
+            index,
+            user: user.to_owned(),
         });
         Some(self.textures.len() as u32 - 1)
     }
@@ -847,6 +907,99 @@ impl Builder<'_> {
     }
 }
 
+/// Decodes glTF texture `index` (which exists): the image of its first supported extension that
+/// decodes, else its `source`.
+fn decode_texture(ctx: &Ctx, doc: &Document, index: usize) -> DecodedTexture {
+    let texture = &doc.root.textures[index];
+    let element = label("textures", index, texture.name.as_deref());
+    let extensions = texture.extensions.as_ref().map(|e| &e.others);
+    let mut candidates: Vec<(String, Option<u64>)> = TEXTURE_EXTENSIONS
+        .iter()
+        .filter_map(|&ext| {
+            let source = extensions?.get(ext)?.get("source");
+            Some((
+                format!("{element}.extensions.{ext}.source"),
+                source.and_then(|s| s.as_u64()),
+            ))
+        })
+        .collect();
+    // A texture that only has an extension's image has no `source` (`u32::MAX` in gltf-json).
+    let source = texture.source.value();
+    if source != u32::MAX as usize {
+        candidates.push((format!("{element}.source"), Some(source as u64)));
+    }
+    let mut failures = Vec::new();
+    if candidates.is_empty() {
+        failures.push((
+            format!("texture {index} without image"),
+            element,
+            "has no image (no source, and no supported extension's)".to_owned(),
+        ));
+    }
+    for (reference, image_index) in candidates {
+        let Some(image) = image_index.and_then(|i| doc.root.images.get(usize::try_from(i).ok()?))
+        else {
+            failures.push((
+                format!("bad image reference {reference}"),
+                reference,
+                "is not the index of an image".to_owned(),
+            ));
+            continue;
+        };
+        let image_index = image_index.unwrap_or_default() as usize;
+        let file_uri = image.uri.as_deref().filter(|uri| !uri.starts_with("data:"));
+        let image_element = match file_uri {
+            Some(uri) => format!("images[{image_index}] (uri {uri:?})"),
+            None => label("images", image_index, image.name.as_deref()),
+        };
+        let bytes = match (&image.uri, image.buffer_view) {
+            (Some(uri), _) => ctx.read_uri(uri),
+            (None, Some(view)) => doc
+                .view(ctx, view.value())
+                .map(<[u8]>::to_vec)
+                .map_err(|e| e.to_string()),
+            (None, None) => Err("has neither a uri nor a bufferView".to_owned()),
+        };
+        // Base colour and emissive, the only textures loaded, are sRGB-encoded in glTF.
+        let srgb = true;
+        match bytes.and_then(|bytes| texture_files::decode(&bytes, srgb)) {
+            Ok(decoded) => {
+                let wrap = |mode: Checked<WrappingMode>| match mode {
+                    Checked::Valid(WrappingMode::ClampToEdge) => Wrap::ClampToEdge,
+                    Checked::Valid(WrappingMode::MirroredRepeat) => Wrap::MirroredRepeat,
+                    _ => Wrap::Repeat,
+                };
+                let sampler = texture
+                    .sampler
+                    .and_then(|s| doc.root.samplers.get(s.value()));
+                let texture = Texture {
+                    name: image
+                        .name
+                        .as_deref()
+                        .or(file_uri)
+                        .map_or_else(|| format!("images[{image_index}]"), str::to_owned),
+                    width: decoded.width,
+                    height: decoded.height,
+                    levels: decoded.levels,
+                    srgb,
+                    wrap: sampler.map_or([Wrap::Repeat; 2], |s| [wrap(s.wrap_s), wrap(s.wrap_t)]),
+                };
+                return DecodedTexture {
+                    texture: Some(texture),
+                    failures,
+                    note: decoded.note.map(|note| (image_element, note)),
+                };
+            }
+            Err(why) => failures.push((format!("image {image_index}"), image_element, why)),
+        }
+    }
+    DecodedTexture {
+        texture: None,
+        failures,
+        note: None,
+    }
+}
+
 /// A node's local transform: its matrix, or translation × rotation × scale with the rotation
 /// normalised (exporters write quaternions a rounding off unit length). `None` for a zero or
 /// non-finite quaternion.
@@ -863,4 +1016,159 @@ fn local_transform(node: &json::Node) -> Option<Mat4> {
         rotation.normalize(),
         Vec3::from(node.translation.unwrap_or_default()),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::texture_files::tests::{bc1_block, dds_file, ktx2_file};
+    use super::*;
+    use base64::Engine;
+
+    /// A folder of its own under the system's temporary folder.
+    fn temp_dir(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("gi-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn ktx2_and_dds_textures_load_through_their_extensions() {
+        let dir = temp_dir("texture-extensions");
+        // BC1: red (RGB565 0xF800) everywhere.
+        let red = bc1_block(0xF800, 0x001F, |_, _| 0);
+        let ktx2 = ktx2_file(
+            Some(ktx2::Format::BC1_RGB_SRGB_BLOCK),
+            4,
+            4,
+            &[red.to_vec()],
+            None,
+        );
+        std::fs::write(dir.join("red.ktx2"), ktx2).unwrap();
+        let green: Vec<u8> = [0, 255, 0, 255].repeat(4);
+        let dds = dds_file(ddsfile::DxgiFormat::R8G8B8A8_UNorm_sRGB, 2, 2, 1, &green);
+        std::fs::write(dir.join("green.dds"), &dds).unwrap();
+        std::fs::write(dir.join("broken.dds"), &dds[..dds.len() - 3]).unwrap();
+        let basis = ktx2_file(
+            None,
+            4,
+            4,
+            &[vec![0; 16]],
+            Some(ktx2::SupercompressionScheme::BasisLZ),
+        );
+        std::fs::write(dir.join("blue.ktx2"), basis).unwrap();
+        image::save_buffer(
+            dir.join("blue.png"),
+            &[0, 0, 255, 255],
+            1,
+            1,
+            image::ColorType::Rgba8,
+        )
+        .unwrap();
+
+        let floats: Vec<f32> = vec![0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 1.];
+        let buffer =
+            base64::engine::general_purpose::STANDARD.encode(bytemuck::cast_slice(&floats));
+        let primitive = |m: usize| {
+            format!(r#"{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "material": {m}}}"#)
+        };
+        let material = |t: usize| {
+            format!(r#"{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": {t}}}}}}}"#)
+        };
+        let gltf = format!(
+            r#"{{
+  "asset": {{"version": "2.0"}},
+  "extensionsUsed": ["KHR_texture_basisu", "MSFT_texture_dds"],
+  "extensionsRequired": ["KHR_texture_basisu", "MSFT_texture_dds"],
+  "buffers": [{{"byteLength": 60, "uri": "data:application/octet-stream;base64,{buffer}"}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": 36}}, {{"buffer": 0, "byteOffset": 36, "byteLength": 24}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}}
+  ],
+  "images": [
+    {{"uri": "broken.dds", "mimeType": "image/vnd-ms.dds"}},
+    {{"uri": "red.ktx2", "mimeType": "image/ktx2"}},
+    {{"uri": "green.dds"}},
+    {{"uri": "blue.ktx2"}},
+    {{"uri": "blue.png"}}
+  ],
+  "textures": [
+    {{"extensions": {{"MSFT_texture_dds": {{"source": 0}}}}}},
+    {{"extensions": {{"KHR_texture_basisu": {{"source": 1}}}}}},
+    {{"extensions": {{"MSFT_texture_dds": {{"source": 2}}}}}},
+    {{"source": 4, "extensions": {{"KHR_texture_basisu": {{"source": 3}}}}}}
+  ],
+  "materials": [{}, {}, {}, {}],
+  "meshes": [{{"primitives": [{}, {}, {}, {}]}}],
+  "nodes": [{{"mesh": 0}}],
+  "scenes": [{{"nodes": [0]}}]
+}}"#,
+            material(0),
+            material(1),
+            material(2),
+            material(3),
+            primitive(0),
+            primitive(1),
+            primitive(2),
+            primitive(3)
+        );
+        let path = dir.join("textured.gltf");
+        std::fs::write(&path, gltf).unwrap();
+        let (scene, warnings) = Scene::load(&path).unwrap();
+
+        let names: Vec<&str> = scene.textures.iter().map(|t| t.name.as_str()).collect();
+        assert_eq!(names, ["red.ktx2", "green.dds", "blue.png"]);
+        let slots: Vec<Option<u32>> = scene
+            .materials
+            .iter()
+            .map(|m| m.base_color_texture)
+            .collect();
+        assert_eq!(slots, [None, Some(0), Some(1), Some(2)]);
+        let [red, green, blue] = &scene.textures[..] else {
+            unreachable!()
+        };
+        assert_eq!((red.width, red.height, red.levels.len()), (4, 4, 3));
+        assert!(
+            red.levels
+                .iter()
+                .all(|l| l.chunks(4).all(|t| t == [255, 0, 0, 255]))
+        );
+        assert_eq!(green.levels, [green_texels(4), green_texels(1)]);
+        assert_eq!(blue.levels, [vec![0, 0, 255, 255]]);
+
+        assert_eq!(warnings.len(), 2, "{warnings:#?}");
+        let broken = warnings
+            .iter()
+            .find(|w| w.element.contains("broken.dds"))
+            .unwrap();
+        assert!(broken.message.contains("truncated"), "{broken}");
+        assert!(
+            broken
+                .message
+                .contains("materials[0].baseColorTexture is dropped"),
+            "{broken}"
+        );
+        let basis = warnings
+            .iter()
+            .find(|w| w.element.contains("blue.ktx2"))
+            .unwrap();
+        assert!(basis.message.contains("BasisLZ"), "{basis}");
+        assert!(
+            basis.message.contains("blue.png is used instead"),
+            "{basis}"
+        );
+
+        let stages: Vec<&str> = scene.load_stages.iter().map(|s| s.name).collect();
+        assert_eq!(stages, ["parse", "geometry", "textures", "derived"]);
+        let report = scene.load_report();
+        assert!(
+            report.contains("textures") && report.contains("3 textures"),
+            "{report}"
+        );
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    fn green_texels(count: usize) -> Vec<u8> {
+        [0, 255, 0, 255].repeat(count)
+    }
 }

@@ -183,6 +183,7 @@ pub fn scene(meshes: Vec<Mesh>, instances: &[(u32, Mat4)]) -> Option<Scene> {
         emissive_triangles: Vec::new(),
         bounds: Aabb::EMPTY,
         animation: None,
+        load_stages: Vec::new(),
     };
     scene.update_derived();
     Some(scene)
