@@ -32,10 +32,10 @@ The Mitsuba scene follows what our renderer does:
   `gi bench` and `gi sweep`; `gi render` gets `--environment`): Mitsuba's `envmap` looks up
   u = atan2(x, -z) / 2pi, ours 1/2 + atan2(x, -z) / 2pi (gi_shared::environment), so its
   `to_world` is a 180 degree turn about +Y; both take the image at scale 1. Ours reads the nearest
-  texel, Mitsuba's interpolates bilinearly, so Mitsuba gets the image with each texel repeated
-  ENVIRONMENT_REPEAT times in both directions: it then blends neighbours only within a quarter
-  texel of their edge. (Mitsuba's rows are centred at v = i / (h - 1), ours at (i + 1/2) / h:
-  half a texel apart at most);
+  texel, Mitsuba's interpolates bilinearly, so Mitsuba gets the image resampled (nearest)
+  ENVIRONMENT_REPEAT times finer in both directions: it then blends neighbours only within a
+  quarter texel of their edge (its rows are centred at v = i / (h - 1), not (i + 1/2) / h, so each row
+  gets our texel at its own v);
 * alpha (`--alpha`): `mask` (the default) gives glTF `alphaMode: MASK` materials a Mitsuba `mask`
   BSDF whose opacity is 1 where alpha = baseColorFactor.a x the base colour texture's alpha
   (linear), sampled bilinearly with the sampler's wrap mode, is >= alphaCutoff (0.5 by default),
@@ -393,7 +393,12 @@ def environment_map(mi, path: Path) -> dict:
     """Mitsuba's `envmap` of the image at `path`, lighting the scene as `gi render --environment`
     does (see the docstring: the turn about +Y, the repeated texels)."""
     image = np.array(mi.Bitmap(str(path)), dtype=np.float32)[..., :3]
-    image = np.repeat(np.repeat(image, ENVIRONMENT_REPEAT, axis=0), ENVIRONMENT_REPEAT, axis=1)
+    h, w = image.shape[:2]
+    # Mitsuba centres column j of a w'-wide image at u = (j + 1/2) / w', as ours does, but row i of
+    # an h'-high one at v = i / (h' - 1): each row gets our texel at its own v.
+    rows = h * ENVIRONMENT_REPEAT
+    ours = np.minimum((np.arange(rows) / (rows - 1) * h).astype(np.int64), h - 1)
+    image = np.repeat(image[ours], ENVIRONMENT_REPEAT, axis=1)
     return {
         "type": "envmap",
         "bitmap": mi.Bitmap(np.ascontiguousarray(image)),
