@@ -302,7 +302,10 @@ def render_ours(
         else:
             start = time.monotonic()
             subprocess.run(
-                ["nice", "-n", "10", *command, "--out", str(out)], cwd=REPO, check=True, stdout=subprocess.DEVNULL
+                ["nice", "-n", "10", *command, "--out", str(out)],
+                cwd=REPO,
+                check=True,
+                stdout=subprocess.DEVNULL,
             )
             record.write_text(json.dumps({"command": command, "seconds": time.monotonic() - start}))
             seconds += time.monotonic() - start
@@ -665,8 +668,9 @@ def markdown(rows: list[Row], notes: list[str], args, mi, seconds: float) -> str
     head = git("rev-parse", "--short", "HEAD").strip()
     edited = git("status", "--porcelain", "--", "shared", "kernels", "host").count("\n")
     bsdf_name = {"diffuse": "`twosided` `diffuse`", "folded": "our folded cosine lobe (Python BSDF)"}
+    built = f"`{args.gi}` (tree" if args.gi else "`gi render` (built"
     settings = [
-        f"`gi render` at {head} + {edited} edited files in shared/ kernels/ host/, {args.spp} spp "
+        f"{built} at {head} + {edited} edited files in shared/ kernels/ host/), {args.spp} spp "
         f"({OUR_RUNS} seeds)",
         f"Mitsuba {mi.__version__} `{mi.variant()}` `path` with {bsdf_name[args.mitsuba_bsdf]}, "
         f"{args.mitsuba_spp} spp",

@@ -4,7 +4,8 @@
 into DIR an asymmetric environment `env.exr` (red growing with u, green toward the top, a warm
 "sun" at u = 0.3, v = 0.3 and a blue spot at u = 0.8, v = 0.2) and two scenes:
 * `lit.gltf`: a floor and two walls lit only by it, whose shadows show where both spots are;
-* `sky.gltf`: a camera looking at the sky (toward +X and +Z, 35 degrees up, the blue spot in view) past one tiny far triangle.
+* `sky.gltf`: a camera looking at the sky (toward +X and +Z, 35 degrees up, the blue spot in
+  view) past one tiny far triangle.
 Then `bash scripts/crosscheck/run.sh DIR/lit.gltf+DIR/env.exr DIR/sky.gltf+DIR/env.exr` must
 agree pixel by pixel (relMSE at the noise level): a wrong turn of Mitsuba's `envmap` moves the
 spots, the shadows and the sky's gradients.
