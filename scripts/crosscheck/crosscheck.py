@@ -55,7 +55,7 @@ that would render them again (binary, scene, settings), so that a slow scene's M
 be rerun in other modes (`--alpha`, `--mitsuba-bsdf`) without rendering ours again.
 
 `--png-textures` gives both renderers every JPEG texture as a lossless PNG of Mitsuba's decoding
-(ours reads a copy of the .glb file in a temporary directory), so that the two JPEG decoders
+(ours reads a copy of the .glb file written to `<out>`), so that the two JPEG decoders
 (libjpeg in Mitsuba, zune-jpeg in ours), which differ by up to 0.5% in a channel's mean on some
 images, do not take part.
 
@@ -250,7 +250,7 @@ def crosscheck(
         flat_dir.mkdir()
         path = gltf_scene.write_flat_copy(scene, flat_dir)
     if args.png_textures:
-        path = tmp / f"{gi_stem}.glb"
+        path = args.out / f"{gi_stem}.glb"  # kept, so that --reuse-gi finds the same command
         gltf_scene.write_glb_with_png_images(scene.document, jpegs_as_pngs(mi, scene.document), path)
         scene = gltf_scene.load(path)
     camera = scene.camera()
