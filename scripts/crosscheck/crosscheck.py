@@ -250,7 +250,7 @@ def crosscheck(
         flat_dir.mkdir()
         path = gltf_scene.write_flat_copy(scene, flat_dir)
     if args.png_textures:
-        path = args.out / f"{gi_stem}.glb"  # kept, so that --reuse-gi finds the same command
+        path = (args.out / f"{gi_stem}.glb").resolve()  # kept: --reuse-gi finds the same command
         gltf_scene.write_glb_with_png_images(scene.document, jpegs_as_pngs(mi, scene.document), path)
         scene = gltf_scene.load(path)
     camera = scene.camera()
