@@ -13,6 +13,7 @@ the project's loader (host/src/scene/loader.rs):
 * the camera of `gbuffer::scene_camera`: the first perspective camera in node order, else one
   looking at the centre of the scene's bounds from slightly above +Z at a 45 degree vertical FOV.
 
+`write_glb_with_png_images` rewrites a .glb file with some images replaced by PNGs.
 `write_flat_copy` writes the scene, baked to world space, as a new glTF without NORMAL attributes
 and without shared vertices, so that the project's loader (which computes area-weighted smooth
 normals for primitives without normals) ends up with flat normals.
@@ -292,6 +293,34 @@ def _local_matrix(node: dict) -> np.ndarray:
 
 def _normalize(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
+
+
+def write_glb_with_png_images(document: Document, pngs: dict[int, bytes], path: Path) -> None:
+    """Writes `document` (a .glb file with one buffer) to `path` with the images named in `pngs`
+    replaced by those PNG bytes (appended to its binary chunk, the old bytes left unused)."""
+    j = json.loads(json.dumps(document.json))
+    if document.path.suffix.lower() != ".glb" or len(document.buffers) != 1:
+        raise NotImplementedError(f"{document.path}: only .glb files with one buffer are rewritten")
+    blob = bytearray(document.buffers[0])
+    for index, png in pngs.items():
+        blob.extend(b"\0" * (-len(blob) % 4))
+        j["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(png)})
+        blob.extend(png)
+        image = j["images"][index]
+        image.pop("uri", None)
+        image.update({"bufferView": len(j["bufferViews"]) - 1, "mimeType": "image/png"})
+    blob.extend(b"\0" * (-len(blob) % 4))
+    j["buffers"][0]["byteLength"] = len(blob)
+    text = json.dumps(j).encode()
+    text += b" " * (-len(text) % 4)
+    size = 12 + 8 + len(text) + 8 + len(blob)
+    path.write_bytes(
+        struct.pack("<4sII", b"glTF", 2, size)
+        + struct.pack("<I4s", len(text), b"JSON")
+        + text
+        + struct.pack("<I4s", len(blob), b"BIN\x00")
+        + bytes(blob)
+    )
 
 
 def write_flat_copy(scene: Scene, directory: Path) -> Path:
