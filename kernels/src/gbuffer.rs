@@ -9,9 +9,7 @@
 
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::{GBufferTexel, gbuffer_texel, in_image};
-use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
-};
+use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::{Image, spirv};
 
@@ -64,10 +62,6 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 5)] emissive: &HalfImage,
         #[spirv(descriptor_set = 0, binding = 6)] motion: &FloatImage,
         #[spirv(descriptor_set = 0, binding = 7)] ids: &IdImage,
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] instances: &[GpuInstance],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] meshes: &[GpuMesh],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] vertices: &[GpuVertex],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] texels: &[u32],
@@ -79,7 +73,7 @@ traced_kernel! {
         let ray = primary_ray(camera, pixel, camera.jitter());
         let hit = scene.closest_hit(&ray);
         let texel = gbuffer_texel(
-            camera, &ray, &hit, instances, meshes, vertices, triangles, materials, textures, texels,
+            camera, &ray, &hit, scene.instances, scene.meshes, scene.vertices, scene.triangles, materials, textures, texels,
         );
         write_texel!(
             pixel,

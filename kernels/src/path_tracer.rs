@@ -13,9 +13,7 @@ use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
 use gi_shared::lights::GpuLight;
 use gi_shared::path_tracer::{MAX_BOUNCES, PathTracerParams, begin_path, finite_radiance, shade};
-use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
-};
+use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::spirv;
 
@@ -44,10 +42,6 @@ traced_kernel! {
         #[spirv(push_constant)] params: &PathTracerParams,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] camera: &CameraParams,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] accumulation: &mut [[f32; 4]],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] instances: &[GpuInstance],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] meshes: &[GpuMesh],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] vertices: &[GpuVertex],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] texels: &[u32],
@@ -68,10 +62,10 @@ traced_kernel! {
                 &mut path,
                 &hit,
                 params,
-                instances,
-                meshes,
-                vertices,
-                triangles,
+                scene.instances,
+                scene.meshes,
+                scene.vertices,
+                scene.triangles,
                 materials,
                 textures,
                 texels,

@@ -22,9 +22,7 @@ use gi_shared::gbuffer::in_image;
 use gi_shared::lights::GpuLight;
 use gi_shared::primary_lighting::{PrimaryLighting, sky_lighting, surface_lighting};
 use gi_shared::ray::Ray;
-use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
-};
+use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use gi_shared::screen_probes::{GiFrameParams, PASS_DIRECT};
 use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
@@ -48,10 +46,6 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 5)] emissive: &HalfImage,
         #[spirv(descriptor_set = 0, binding = 6)] ids: &IdImage,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lighting: &mut [PrimaryLighting],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] _instances: &[GpuInstance],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] _meshes: &[GpuMesh],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] _vertices: &[GpuVertex],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] _triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] _textures: &[GpuTexture],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 6)] _texels: &[u32],

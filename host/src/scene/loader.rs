@@ -102,6 +102,7 @@ impl Builder<'_> {
             cameras: self.cameras,
             emissive_triangles: Vec::new(),
             bounds: Aabb::EMPTY,
+            blases: Vec::new(),
         };
         if scene.triangle_count() == 0 {
             let skipped: Vec<String> = self

@@ -182,6 +182,7 @@ pub fn scene(meshes: Vec<Mesh>, instances: &[(u32, Mat4)]) -> Option<Scene> {
         cameras: Vec::new(),
         emissive_triangles: Vec::new(),
         bounds: Aabb::EMPTY,
+        blases: Vec::new(),
     };
     scene.update_derived();
     Some(scene)
