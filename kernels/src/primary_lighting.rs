@@ -76,13 +76,14 @@ traced_kernel! {
         let ids_texel: UVec4 = ids.read(pixel);
         let emission = primary_emission(materials, ids_texel, e, frame.emissive_multiplier);
         let mut rng = pass_random(frame.seed, index, PASS_DIRECT, frame.frame_index);
+        let tracer = scene.tracer();
         lighting[index as usize] = surface_lighting(
             frame,
             &surface,
             emission,
             lights,
             &mut rng,
-            move |ray: &Ray| scene.any_hit(ray),
+            move |ray: &Ray| tracer.any_hit(ray),
         );
     }
 }

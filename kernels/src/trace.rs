@@ -47,7 +47,8 @@ macro_rules! traced_kernel {
         #[cfg(feature = "ray-query")]
         $(#[$attr])*
         pub fn $name(
-            #[spirv(descriptor_set = 1, binding = 0)] tlas: &$crate::trace::AccelerationStructure,
+            #[spirv(descriptor_set = 1, binding = 0)]
+            tlas: &[$crate::trace::AccelerationStructure; 1],
             #[spirv(storage_buffer, descriptor_set = 2, binding = 0)]
             instances: &[$crate::trace::GpuInstance],
             #[spirv(storage_buffer, descriptor_set = 2, binding = 1)]
@@ -99,8 +100,10 @@ macro_rules! traced_kernel {
 #[cfg(feature = "ray-query")]
 #[derive(Clone, Copy)]
 pub struct Scene<'a> {
-    /// The top-level acceleration structure.
-    pub tlas: &'a AccelerationStructure,
+    /// The top-level acceleration structure, bound as an array of one: a reference to the
+    /// structure itself, kept in this composite, could not be loaded through (SPIR-V's logical
+    /// addressing loads only from a variable or an access chain; indexing the array makes one).
+    pub tlas: &'a [AccelerationStructure; 1],
     /// Set 2 binding 0: the instances.
     pub instances: &'a [GpuInstance],
     /// Set 2 binding 1: the meshes.
@@ -128,39 +131,90 @@ pub struct Scene<'a> {
 }
 
 #[cfg(not(feature = "ray-query"))]
-impl<'a> Scene<'a> {
-    /// What the shared traversal reads.
-    fn bvh(self) -> gi_shared::bvh::BvhScene<'a, BvhNode> {
-        gi_shared::bvh::BvhScene {
-            nodes: self.nodes,
-            instances: self.instances,
-            meshes: self.meshes,
-            vertices: self.vertices,
-            triangles: self.triangles,
-        }
-    }
-
+impl Tracer<'_> {
     /// The closest hit of `ray`, or [`HitRecord::miss`].
+    #[inline(always)]
     pub fn closest_hit(self, ray: &Ray) -> HitRecord {
-        gi_shared::bvh::closest_hit(self.bvh(), ray)
+        gi_shared::bvh::closest_hit(self.bvh, ray)
     }
 
     /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+    #[inline(always)]
     pub fn any_hit(self, ray: &Ray) -> bool {
-        gi_shared::bvh::any_hit(self.bvh(), ray)
+        gi_shared::bvh::any_hit(self.bvh, ray)
+    }
+}
+
+/// What traces, without the rest of the [`Scene`]: small enough for a closure to capture. With
+/// ray queries it must be: a `Scene` captured whole would carry the acceleration structure's
+/// handle inside a composite value, which SPIR-V's logical addressing cannot load through.
+#[cfg(feature = "ray-query")]
+#[derive(Clone, Copy)]
+pub struct Tracer<'a> {
+    tlas: &'a [AccelerationStructure; 1],
+}
+
+/// What traces, without the rest of the [`Scene`]: small enough for a closure to capture.
+#[cfg(not(feature = "ray-query"))]
+#[derive(Clone, Copy)]
+pub struct Tracer<'a> {
+    bvh: gi_shared::bvh::BvhScene<'a, BvhNode>,
+}
+
+#[cfg(feature = "ray-query")]
+impl<'a> Scene<'a> {
+    /// What traces, for a closure to capture.
+    #[inline(always)]
+    pub fn tracer(&self) -> Tracer<'a> {
+        Tracer { tlas: self.tlas }
+    }
+}
+
+#[cfg(not(feature = "ray-query"))]
+impl<'a> Scene<'a> {
+    /// What traces, for a closure to capture.
+    #[inline(always)]
+    pub fn tracer(&self) -> Tracer<'a> {
+        Tracer {
+            bvh: gi_shared::bvh::BvhScene {
+                nodes: self.nodes,
+                instances: self.instances,
+                meshes: self.meshes,
+                vertices: self.vertices,
+                triangles: self.triangles,
+            },
+        }
+    }
+}
+
+// By reference: a copy of the whole `Scene` would carry the acceleration structure's handle
+// inside a composite value, which SPIR-V's logical addressing cannot load through.
+impl Scene<'_> {
+    /// The closest hit of `ray`, or [`HitRecord::miss`].
+    #[inline(always)]
+    pub fn closest_hit(&self, ray: &Ray) -> HitRecord {
+        self.tracer().closest_hit(ray)
+    }
+
+    /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+    #[inline(always)]
+    pub fn any_hit(&self, ray: &Ray) -> bool {
+        self.tracer().any_hit(ray)
     }
 }
 
 #[cfg(feature = "ray-query")]
-impl Scene<'_> {
+impl Tracer<'_> {
     /// The closest hit of `ray`, or [`HitRecord::miss`].
+    #[inline(always)]
     pub fn closest_hit(self, ray: &Ray) -> HitRecord {
-        closest_hit(self.tlas, ray)
+        closest_hit(&self.tlas[0], ray)
     }
 
     /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+    #[inline(always)]
     pub fn any_hit(self, ray: &Ray) -> bool {
-        any_hit(self.tlas, ray)
+        any_hit(&self.tlas[0], ray)
     }
 }
 
