@@ -326,7 +326,11 @@ fn main() -> std::result::Result<(), Box<dyn std::error::Error>> {
         big.triangle_count(),
         big.meshes.len(),
         rayon::current_num_threads(),
-        big.blases.iter().map(|b| b.stats.max_depth).max().unwrap_or(0),
+        big.blases
+            .iter()
+            .map(|b| b.stats.max_depth)
+            .max()
+            .unwrap_or(0),
         bvh.nodes.len()
     );
     Ok(())

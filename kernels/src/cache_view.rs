@@ -82,15 +82,17 @@ traced_kernel! {
         let ray = cache_ray(&surface, rng.next_vec2());
         let hit = scene.closest_hit(&ray);
         let shaded = shade_cache_hit(
-            &view, &ray, &surface, &hit, index, scene.instances, scene.meshes, scene.vertices, scene.triangles, materials,
-            textures, texels, lights, light_table, environment, environment_cdf,
+            &view, &ray, &surface, &hit, index, scene.instances, scene.meshes, scene.vertices,
+            scene.triangles, materials, textures, texels, lights, light_table, environment,
+            environment_cdf,
         );
         let emission = primary_emission(materials, ids_texel, e, view.emissive_multiplier);
         out.emissive = if emission.max_element() > 0.0 { 1 } else { 0 };
         let mut base = emission;
         let direct = primary_direct_light(
-            &view, &surface, a.truncate(), scene.instances, scene.meshes, scene.vertices, scene.triangles, materials,
-            textures, texels, lights, environment, environment_cdf, &mut rng,
+            &view, &surface, a.truncate(), scene.instances, scene.meshes, scene.vertices,
+            scene.triangles, materials, textures, texels, lights, environment, environment_cdf,
+            &mut rng,
         );
         if direct.radiance.max_element() > 0.0 && !scene.any_hit(&direct.ray) {
             base += direct.radiance;

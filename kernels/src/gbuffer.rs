@@ -73,7 +73,8 @@ traced_kernel! {
         let ray = primary_ray(camera, pixel, camera.jitter());
         let hit = scene.closest_hit(&ray);
         let texel = gbuffer_texel(
-            camera, &ray, &hit, scene.instances, scene.meshes, scene.vertices, scene.triangles, materials, textures, texels,
+            camera, &ray, &hit, scene.instances, scene.meshes, scene.vertices, scene.triangles,
+            materials, textures, texels,
         );
         write_texel!(
             pixel,

@@ -222,6 +222,8 @@ fn ray_queries_hit_the_expected_triangles() {
     }
     drop(kernel);
     drop(geometry);
+    drop(shading);
+    drop(placeholder);
     drop(ray_buf);
     drop(hit_buf);
     drop(tlas);

@@ -13,10 +13,10 @@ use gi_host::image_io::HdrImage;
 use gi_host::path_tracer::{
     MAX_SAMPLES_PER_SUBMIT, PathTracerPass, PathTracerSettings, Render, Strategy, render_on_cpu,
 };
+use gi_host::scene::bvh::Bvh;
 use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::{Environment, LightSet};
 use gi_host::scene::procedural::transformed;
-use gi_host::scene::bvh::Bvh;
 use gi_host::scene::upload::GpuScene;
 use gi_host::scene::{Aabb, Instance, Light, LightKind, Material, Mesh, Scene};
 use gi_shared::camera::{CameraParams, primary_ray};

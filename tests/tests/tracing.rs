@@ -12,19 +12,20 @@
 //! floor): such ties are counted and accepted when both distances agree; they must stay under 1%
 //! of the rays. Both triangle tests are watertight, but they see different coordinates (each
 //! implementation rounds the ray's move into object space its own way), so a ray grazing the
-//! silhouette of an open surface may still hit in one and miss in the other: such edge misses are counted and must stay below
-//! 1 in 10 000 rays. On closed meshes no ray may slip through the software traversal: 10⁶ rays
-//! aimed exactly at shared vertices and edges all hit, on the CPU and in the software kernel
-//! (lavapipe's ray queries let about 1% of them through; counted, not asserted).
+//! silhouette of an open surface may still hit in one and miss in the other: such edge misses are
+//! counted and must stay below 1 in 10 000 rays. On closed meshes no ray may slip through the
+//! software traversal: 10⁶ rays aimed exactly at shared vertices and edges all hit, on the CPU and
+//! in the software kernel (lavapipe's ray queries let about 1% of them through; counted, not
+//! asserted).
 
 use gi_host::KernelVariant;
 use gi_host::scene::Scene;
 use gi_host::scene::bvh::Bvh;
+use gi_host::scene::gpu_data::ShadingData;
+use gi_host::scene::lights::LightSet;
 use gi_host::scene::procedural::{
     self, clear_of_the_axes, cube, icosphere, ray_at_shared_feature, transformed,
 };
-use gi_host::scene::gpu_data::ShadingData;
-use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_host::trace_rays::TraceRays;
 use gi_shared::random::Random;
@@ -57,7 +58,12 @@ fn random_rays(scene: &Scene, seed: u32) -> Vec<Ray> {
 }
 
 /// `scene` on the device, with its BVH and shading data (lights: its own, no environment).
-fn upload(ctx: &gi_host::vulkan::Context, scene: &Scene, bvh: &Bvh, shading: &ShadingData) -> GpuScene {
+fn upload(
+    ctx: &gi_host::vulkan::Context,
+    scene: &Scene,
+    bvh: &Bvh,
+    shading: &ShadingData,
+) -> GpuScene {
     let lights = LightSet::new(scene, None, false);
     GpuScene::upload(ctx, scene, Some(bvh), shading, &lights).unwrap()
 }
@@ -251,7 +257,10 @@ fn instanced_mesh() {
         .iter()
         .filter(|h| h.is_hit() && scene.instances[h.instance as usize].is_mirrored())
         .count();
-    assert!(mirrored > RAYS / 20, "{mirrored} hits on mirrored instances");
+    assert!(
+        mirrored > RAYS / 20,
+        "{mirrored} hits on mirrored instances"
+    );
 }
 
 /// Rays aimed exactly at shared vertices and edges of closed meshes (see

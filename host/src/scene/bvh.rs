@@ -134,7 +134,12 @@ impl Blas {
 pub fn build_tlas(bounds: &[Bounds]) -> (Vec<BvhNode>, BvhStats) {
     let items: Vec<Item> = bounds
         .iter()
-        .map(|b| Item::of(Aabb { min: b[0], max: b[1] }))
+        .map(|b| {
+            Item::of(Aabb {
+                min: b[0],
+                max: b[1],
+            })
+        })
         .collect();
     let mut tree = build_tree(&items, 1, BVH_TLAS_MAX_DEPTH);
     for node in &mut tree.nodes {
@@ -189,7 +194,10 @@ pub fn instance_bounds(scene: &Scene) -> Vec<Bounds> {
 }
 
 fn world_bounds(m: &DMat4, b: Bounds) -> Bounds {
-    let (lo, hi) = (DVec3::from(b[0].map(f64::from)), DVec3::from(b[1].map(f64::from)));
+    let (lo, hi) = (
+        DVec3::from(b[0].map(f64::from)),
+        DVec3::from(b[1].map(f64::from)),
+    );
     if !(lo.cmple(hi).all()) {
         return [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]];
     }
@@ -940,9 +948,16 @@ mod tests {
             let scene = one_instance(&input);
             assert_well_formed(&scene.blases[0], &scene.meshes[0], BVH_BLAS_MAX_DEPTH);
             // The mesh holds the same triangles, reordered.
-            let mut a: Vec<_> = input.iter().map(|t| t.map(|v| v.map(f32::to_bits))).collect();
+            let mut a: Vec<_> = input
+                .iter()
+                .map(|t| t.map(|v| v.map(f32::to_bits)))
+                .collect();
             let mut b: Vec<_> = (0..n)
-                .map(|i| scene.meshes[0].triangle(i).map(|v| v.to_array().map(f32::to_bits)))
+                .map(|i| {
+                    scene.meshes[0]
+                        .triangle(i)
+                        .map(|v| v.to_array().map(f32::to_bits))
+                })
                 .collect();
             a.sort_unstable();
             b.sort_unstable();
@@ -969,7 +984,10 @@ mod tests {
                     _ => Vec3::splat(s),
                 };
                 let at = Vec3::from(rng.vec(-9.0, 9.0));
-                (0, Mat4::from_scale_rotation_translation(scale, rotation, at))
+                (
+                    0,
+                    Mat4::from_scale_rotation_translation(scale, rotation, at),
+                )
             })
             .collect();
         let scene = procedural::scene(vec![mesh], &placements).unwrap();

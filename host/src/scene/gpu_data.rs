@@ -115,7 +115,12 @@ impl ShadingData {
             .iter()
             .map(|inst| {
                 let n = inst.normal_matrix().transpose().to_cols_array_2d();
-                let inverse = inst.transform.as_dmat4().inverse().transpose().to_cols_array_2d();
+                let inverse = inst
+                    .transform
+                    .as_dmat4()
+                    .inverse()
+                    .transpose()
+                    .to_cols_array_2d();
                 let row = |r: [f64; 4]| r.map(|x| x as f32);
                 GpuInstance {
                     object_to_world: inst.transform_3x4(),

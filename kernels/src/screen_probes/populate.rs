@@ -83,8 +83,9 @@ traced_kernel! {
             };
             let hit = scene.closest_hit(&ray);
             let shaded = shade_cache_hit(
-                &params.view, &ray, &surface, &hit, index, scene.instances, scene.meshes, scene.vertices, scene.triangles,
-                materials, textures, texels, lights, light_table, environment, environment_cdf,
+                &params.view, &ray, &surface, &hit, index, scene.instances, scene.meshes,
+                scene.vertices, scene.triangles, materials, textures, texels, lights, light_table,
+                environment, environment_cdf,
             );
             if hit.is_hit() {
                 record.hit_distance = hit.t * direction.length();

@@ -3,8 +3,8 @@
 //! `f64` ray/triangle oracle agrees with it wherever its answer is not ambiguous.
 
 use super::*;
-use crate::scene::procedural::{self, clear_of_the_axes, cube, icosphere, ray_at_shared_feature};
 use crate::scene::gpu_data::ShadingData;
+use crate::scene::procedural::{self, clear_of_the_axes, cube, icosphere, ray_at_shared_feature};
 use gi_shared::random::Random;
 use glam::{Mat4, Quat, Vec3};
 
