@@ -27,10 +27,6 @@ use spirv_std::spirv;
 traced_kernel! {
     /// TraceCacheRays: the cosine ray of pixel `id` and its primary hit's next-event estimate.
     #[spirv(compute(threads(8, 8)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn trace_cache_rays(
         scene;
         #[spirv(global_invocation_id)] id: UVec3,

@@ -47,10 +47,6 @@ macro_rules! write_texel {
 traced_kernel! {
     /// Writes the G-buffer pixel of invocation `id`.
     #[spirv(compute(threads(8, 8)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn gbuffer(
         scene;
         #[spirv(global_invocation_id)] id: UVec3,

@@ -32,10 +32,6 @@ macro_rules! accumulate {
 traced_kernel! {
     /// Adds one path of pixel `id` to the accumulation buffer.
     #[spirv(compute(threads(8, 8)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn path_tracer(
         scene;
         #[spirv(global_invocation_id)] id: UVec3,

@@ -31,10 +31,6 @@ traced_kernel! {
     /// DirectLight: the emission (or sky) and the punctual lights' direct irradiance of pixel
     /// `id`.
     #[spirv(compute(threads(8, 8)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn direct_light(
         scene;
         #[spirv(global_invocation_id)] id: UVec3,

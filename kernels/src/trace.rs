@@ -46,6 +46,10 @@ macro_rules! traced_kernel {
     ) => {
         #[cfg(feature = "ray-query")]
         $(#[$attr])*
+        #[allow(
+            clippy::too_many_arguments,
+            reason = "an entry point takes one argument per binding"
+        )]
         pub fn $name(
             #[spirv(descriptor_set = 1, binding = 0)]
             tlas: &[$crate::trace::AccelerationStructure; 1],
@@ -71,6 +75,10 @@ macro_rules! traced_kernel {
 
         #[cfg(not(feature = "ray-query"))]
         $(#[$attr])*
+        #[allow(
+            clippy::too_many_arguments,
+            reason = "an entry point takes one argument per binding"
+        )]
         pub fn $name(
             #[spirv(storage_buffer, descriptor_set = 1, binding = 0)]
             bvh_nodes: &[$crate::trace::BvhNode],

@@ -330,7 +330,8 @@ fn transform(m: &[[f32; 4]; 3], p: Vec3, w: f32) -> Vec3 {
 fn object_ray(ray: &Ray, inst: &GpuInstance) -> Ray {
     let m = &inst.world_to_object;
     let o = &inst.object_to_world;
-    let offset = Vec3::from_array(ray.origin) - Vec3::new(o[0][3], o[1][3], o[2][3]);
+    let translation = Vec3::new(o[0][3], o[1][3], o[2][3]);
+    let offset = Vec3::from_array(ray.origin) - translation;
     Ray {
         origin: transform(m, offset, 0.0).to_array(),
         direction: transform(m, Vec3::from_array(ray.direction), 0.0).to_array(),
@@ -502,8 +503,8 @@ fn triangle_vertices(
     mesh: &GpuMesh,
     primitive: u32,
 ) -> [Vec3; 3] {
-    let tri = triangles[mesh.first_triangle as usize + primitive as usize];
-    let [a, b, c] = tri.indices;
+    // By reference: only the indices are loaded, not the material.
+    let [a, b, c] = triangles[mesh.first_triangle as usize + primitive as usize].indices;
     [
         position(vertices, mesh, a),
         position(vertices, mesh, b),
@@ -668,11 +669,12 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement>(
                 tri_end = index + count;
             } else {
                 // A top-level leaf (`child_entry` checked the instance): its mesh's bottom level.
-                let inst = scene.instances[index as usize];
+                // By reference: only the fields used are loaded, not the whole 160 bytes.
+                let inst = &scene.instances[index as usize];
                 let m = inst.mesh as usize;
                 if m < scene.meshes.len() && (scene.meshes[m].bvh_root as usize) < scene.nodes.len()
                 {
-                    let local = object_ray(world_ray, &inst);
+                    let local = object_ray(world_ray, inst);
                     if local.is_traceable() {
                         mesh = scene.meshes[m];
                         instance = index;

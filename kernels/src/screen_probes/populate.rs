@@ -28,10 +28,6 @@ use spirv_std::spirv;
 traced_kernel! {
     /// Traces ray `lane` of spawn slot `group`.
     #[spirv(compute(threads(64)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn populate_screen_probes(
         scene;
         #[spirv(workgroup_id)] group: UVec3,
