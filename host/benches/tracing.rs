@@ -1,4 +1,6 @@
-//! Tracing speed: BVH build time, and rays per second of the CPU traversal (all cores), the
+//! Tracing speed: BVH build time, the bytes per triangle of the geometry the software traversal
+//! reads (BVH nodes and the shading data's instances, meshes, vertices and triangles), and rays
+//! per second of the CPU traversal (all cores), the
 //! software-traversal kernel and the ray-query kernel, with the software ÷ ray-query ratio, on
 //! the default Vulkan device (lavapipe here). Scenes: every `scenes/*.gltf`, the third-party
 //! scenes of `../shared/scenes/third-party/` (skipped with a message where that folder is
@@ -15,9 +17,11 @@
 use gi_host::KernelVariant;
 use gi_host::gbuffer::scene_camera;
 use gi_host::scene::Scene;
-use gi_host::scene::bvh::{Bvh, TriangleId};
-use gi_host::scene::procedural::{icosphere, scene};
-use gi_host::scene::upload::{SceneGeometry, build_bvh};
+use gi_host::scene::bvh::{Blas, Bvh};
+use gi_host::scene::gpu_data::ShadingData;
+use gi_host::scene::lights::LightSet;
+use gi_host::scene::procedural::{icosphere, scene, transformed};
+use gi_host::scene::upload::GpuScene;
 use gi_host::trace_rays::TraceRays;
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{Error, Result, TraceMode};
@@ -94,11 +98,11 @@ fn mrays(rays: usize, ms: f64) -> f64 {
 }
 
 /// Mrays/s of the CPU (all cores) on `rays`, and the fraction that hit.
-fn cpu_speed(bvh: &Bvh, rays: &[Ray]) -> (f64, f64) {
+fn cpu_speed(bvh: &Bvh, shading: &ShadingData, rays: &[Ray]) -> (f64, f64) {
     let start = Instant::now();
     let hits = rays
         .par_iter()
-        .filter(|r| bvh.closest_hit(r).is_hit())
+        .filter(|r| bvh.closest_hit(shading, r).is_hit())
         .count();
     let ms = start.elapsed().as_secs_f64() * 1e3;
     (mrays(rays.len(), ms), hits as f64 / rays.len() as f64)
@@ -114,13 +118,15 @@ fn gpu_speeds(
     contexts: &[Context],
     scene: &Scene,
     bvh: &Bvh,
+    shading: &ShadingData,
     sets: [&[Ray]; 2],
 ) -> Result<Vec<[f64; 2]>> {
+    let lights = LightSet::new(scene, None, false);
     let passes = contexts
         .iter()
         .map(|ctx| {
             Ok((
-                SceneGeometry::new(ctx, scene, Some(bvh))?,
+                GpuScene::upload(ctx, scene, Some(bvh), shading, &lights)?,
                 TraceRays::new(ctx)?,
             ))
         })
@@ -144,20 +150,55 @@ fn gpu_speeds(
     Ok(speeds)
 }
 
-fn bench(contexts: &[Context], name: &str, scene: &Scene) -> Result<()> {
+/// Milliseconds to build every mesh's bottom level (what `Scene::update_derived` does at load),
+/// and then the top level with the node buffer ([`Bvh::new`]).
+fn build_ms(scene: &Scene) -> Result<(f64, f64, Bvh)> {
     let start = Instant::now();
-    let bvh = build_bvh(scene)?;
-    let build_ms = start.elapsed().as_secs_f64() * 1e3;
+    let blases: Vec<_> = scene
+        .meshes
+        .par_iter()
+        .map(|m| Blas::build(&m.positions, &m.triangles))
+        .collect();
+    let blas_ms = start.elapsed().as_secs_f64() * 1e3;
+    drop(blases);
+    let start = Instant::now();
+    let bvh = Bvh::new(scene)?;
+    Ok((blas_ms, start.elapsed().as_secs_f64() * 1e3, bvh))
+}
+
+/// Bytes per world-space triangle of what the software traversal reads.
+fn bytes_per_triangle(scene: &Scene, bvh: &Bvh, shading: &ShadingData) -> f64 {
+    let bytes = std::mem::size_of_val(&bvh.nodes[..])
+        + std::mem::size_of_val(&shading.instances[..])
+        + std::mem::size_of_val(&shading.meshes[..])
+        + std::mem::size_of_val(&shading.vertices[..])
+        + std::mem::size_of_val(&shading.triangles[..]);
+    bytes as f64 / scene.triangle_count() as f64
+}
+
+fn bench(contexts: &[Context], name: &str, scene: &Scene) -> Result<()> {
+    let (blas_ms, tlas_ms, bvh) = build_ms(scene)?;
+    let shading = ShadingData::new(scene)?;
+    let bytes = bytes_per_triangle(scene, &bvh, &shading);
     let coherent = coherent_rays(scene);
     let incoherent = incoherent_rays(scene);
-    let cpu = [cpu_speed(&bvh, &coherent), cpu_speed(&bvh, &incoherent)];
+    let cpu = [
+        cpu_speed(&bvh, &shading, &coherent),
+        cpu_speed(&bvh, &shading, &incoherent),
+    ];
     // [variant][coherent, incoherent]
     let mut gpu = [[f64::NAN; 2]; 2];
-    let speeds = gpu_speeds(contexts, scene, &bvh, [&coherent, &incoherent])?;
+    let speeds = gpu_speeds(contexts, scene, &bvh, &shading, [&coherent, &incoherent])?;
     for (ctx, speed) in contexts.iter().zip(speeds) {
         gpu[usize::from(ctx.variant() == KernelVariant::RayQuery)] = speed;
     }
-    let mut line = format!("{name:<26} {:>9} {:>9.1}", scene.triangle_count(), build_ms);
+    let mut line = format!(
+        "{name:<26} {:>9} {:>9.1} {:>6.1} {:>5.1}",
+        scene.triangle_count(),
+        blas_ms,
+        tlas_ms,
+        bytes
+    );
     for k in 0..2 {
         line += &format!(
             " | {:>7.2} {:>7.2} {:>7.2} {:>5.2} {:>4.0}%",
@@ -194,14 +235,16 @@ fn main() -> std::result::Result<(), Box<dyn std::error::Error>> {
         rayon::current_num_threads()
     );
     println!(
-        "{:<26} {:>9} {:>9} | {:^36} | {:^36}",
-        "", "", "", "coherent (camera)", "incoherent (random)"
+        "{:<26} {:>9} {:>9} {:>6} {:>5} | {:^36} | {:^36}",
+        "", "", "", "", "", "coherent (camera)", "incoherent (random)"
     );
     println!(
-        "{:<26} {:>9} {:>9} | {:>7} {:>7} {:>7} {:>5} {:>5} | {:>7} {:>7} {:>7} {:>5} {:>5}",
+        "{:<26} {:>9} {:>9} {:>6} {:>5} | {:>7} {:>7} {:>7} {:>5} {:>5} | {:>7} {:>7} {:>7} {:>5} {:>5}",
         "scene",
         "triangles",
-        "build ms",
+        "blas ms",
+        "tlas ms",
+        "B/tri",
         "cpu",
         "sw",
         "rq",
@@ -259,34 +302,36 @@ fn main() -> std::result::Result<(), Box<dyn std::error::Error>> {
         return Ok(());
     }
 
-    let big = icospheres(BUILD_INSTANCES, 3)?;
-    let start = Instant::now();
-    let bvh = build_bvh(&big)?;
-    let total_ms = start.elapsed().as_secs_f64() * 1e3;
-    // The builder alone, on the flattened triangles.
-    let (tris, ids): (Vec<[[f32; 3]; 3]>, Vec<TriangleId>) = bvh
-        .triangles
+    // Distinct meshes, so that the bottom levels are a million triangles' worth: the placed
+    // icospheres baked into their own meshes.
+    let placed = icospheres(BUILD_INSTANCES, 3)?;
+    let meshes = placed
+        .instances
         .iter()
-        .map(|t| {
-            let id = TriangleId {
-                instance: t.instance,
-                primitive: t.primitive,
-                mirrored: t.flags != 0,
-            };
-            ([t.v0, t.v1, t.v2], id)
-        })
-        .unzip();
-    let start = Instant::now();
-    let rebuilt = Bvh::build(&tris, &ids)?;
-    let build_ms = start.elapsed().as_secs_f64() * 1e3;
+        .map(|i| transformed(&placed.meshes[0], i.transform))
+        .collect();
+    let identity: Vec<(u32, Mat4)> = (0..BUILD_INSTANCES as u32)
+        .map(|i| (i, Mat4::IDENTITY))
+        .collect();
+    let big = scene(meshes, &identity).ok_or(Error::InvalidArgument {
+        name: "meshes",
+        why: "no scene from the baked icospheres".into(),
+    })?;
+    let (blas_ms, tlas_ms, bvh) = build_ms(&big)?;
+    let nodes: usize = big.blases.iter().map(|b| b.nodes.len()).sum();
     println!(
-        "BVH build of {} triangles on {} threads: {build_ms:.0} ms ({} nodes, depth {}, SAH cost \
-         {:.1}); {total_ms:.0} ms with the flattening of the instances",
+        "BVH build of {} triangles in {} meshes on {} threads: {blas_ms:.0} ms for the bottom \
+         levels ({nodes} nodes, depth <= {}), {tlas_ms:.1} ms for the top level and the node buffer \
+         ({} nodes)",
         big.triangle_count(),
+        big.meshes.len(),
         rayon::current_num_threads(),
-        rebuilt.stats.nodes,
-        rebuilt.stats.max_depth,
-        rebuilt.stats.sah_cost
+        big.blases
+            .iter()
+            .map(|b| b.stats.max_depth)
+            .max()
+            .unwrap_or(0),
+        bvh.nodes.len()
     );
     Ok(())
 }

@@ -246,7 +246,7 @@ pub fn render_on_cpu(shading: &ShadingData, bvh: &Bvh, camera: &CameraParams) ->
         .flat_map(|y| (0..width).map(move |x| UVec2::new(x, y)))
         .map(|pixel| {
             let ray = primary_ray(camera, pixel, camera.jitter());
-            let hit = bvh.closest_hit(&ray);
+            let hit = bvh.closest_hit(shading, &ray);
             gbuffer_texel(
                 camera,
                 &ray,
@@ -429,7 +429,7 @@ mod tests {
     fn debug_pngs_of_a_cpu_g_buffer() {
         let s = test_scene("textured.gltf");
         let shading = ShadingData::new(&s).unwrap();
-        let bvh = crate::scene::upload::build_bvh(&s).unwrap();
+        let bvh = crate::scene::bvh::Bvh::new(&s).unwrap();
         let data = render_on_cpu(&shading, &bvh, &scene_camera(&s, 16, 12));
         assert_eq!(data.texels.len(), 16 * 12);
         assert!(data.texels.iter().any(|t| t.is_surface()));

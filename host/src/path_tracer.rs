@@ -255,7 +255,7 @@ pub fn render_pixel_on_cpu(
         let mut path = begin_path(camera, &params, pixel);
         let mut steps = 0;
         while path.active && steps <= MAX_BOUNCES {
-            let hit = bvh.closest_hit(&path.ray);
+            let hit = bvh.closest_hit(shading, &path.ray);
             shade(
                 &mut path,
                 &hit,
@@ -272,7 +272,7 @@ pub fn render_pixel_on_cpu(
                 texels,
                 cdf,
             );
-            if path.shadow_pending && !bvh.any_hit(&path.shadow_ray) {
+            if path.shadow_pending && !bvh.any_hit(shading, &path.shadow_ray) {
                 path.radiance += path.shadow_radiance;
             }
             steps += 1;

@@ -3,7 +3,7 @@
 //! their speed.
 
 use crate::error::Result;
-use crate::scene::upload::SceneGeometry;
+use crate::scene::upload::GpuScene;
 use crate::vulkan::{BindingKind, Buffer, Context, Kernel, KernelModule, Resource, submit_timed};
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::ray::{HitRecord, Ray};
@@ -30,20 +30,16 @@ impl TraceRays {
         Ok(Self { kernel })
     }
 
-    /// Traces `rays` against `geometry`.
-    pub fn run(
-        &self,
-        ctx: &Context,
-        geometry: &SceneGeometry,
-        rays: &[Ray],
-    ) -> Result<TraceResult> {
+    /// Traces `rays` against `scene` (its geometry and, for the software traversal's triangles,
+    /// its shading data).
+    pub fn run(&self, ctx: &Context, scene: &GpuScene, rays: &[Ray]) -> Result<TraceResult> {
         let ray_buf = Buffer::device_local(ctx, "rays", rays, Default::default())?;
         let hit_buf = Buffer::device_zeroed::<HitRecord>(ctx, "hits", rays.len())?;
         let resources = [Resource::Buffer(&ray_buf), Resource::Buffer(&hit_buf)];
         let groups = (rays.len() as u32).div_ceil(WORKGROUP_SIZE);
         let gpu_ms = submit_timed(ctx, "trace_rays", |cmd| {
             self.kernel
-                .dispatch_traced(ctx, cmd, geometry.sets(), &resources, &[], [groups, 1, 1])
+                .dispatch_traced(ctx, cmd, scene.sets(), &resources, &[], [groups, 1, 1])
         })?;
         let hits = hit_buf.read_back::<HitRecord>(ctx)?;
         Ok(TraceResult { hits, gpu_ms })

@@ -21,19 +21,13 @@ use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
 use gi_shared::light_grid::report_hit_bounds;
 use gi_shared::lights::GpuLight;
-use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
-};
+use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
 
 traced_kernel! {
     /// TraceCacheRays: the cosine ray of pixel `id` and its primary hit's next-event estimate.
     #[spirv(compute(threads(8, 8)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn trace_cache_rays(
         scene;
         #[spirv(global_invocation_id)] id: UVec3,
@@ -49,10 +43,6 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] queries: &mut [CacheQuery],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] counters: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] bounds: &mut [u32],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] instances: &[GpuInstance],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] meshes: &[GpuMesh],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] vertices: &[GpuVertex],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
         #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
@@ -89,15 +79,17 @@ traced_kernel! {
         let ray = cache_ray(&surface, rng.next_vec2());
         let hit = scene.closest_hit(&ray);
         let shaded = shade_cache_hit(
-            &view, &ray, &surface, &hit, index, instances, meshes, vertices, triangles, materials,
-            textures, &Bindless(texture_images), lights, light_table, environment, environment_cdf,
+            &view, &ray, &surface, &hit, index, scene.instances, scene.meshes, scene.vertices,
+            scene.triangles, materials, textures, &Bindless(texture_images), lights, light_table, environment,
+            environment_cdf,
         );
         let emission = primary_emission(materials, ids_texel, e, view.emissive_multiplier);
         out.emissive = if emission.max_element() > 0.0 { 1 } else { 0 };
         let mut base = emission;
         let direct = primary_direct_light(
-            &view, &surface, a.truncate(), instances, meshes, vertices, triangles, materials,
-            textures, &Bindless(texture_images), lights, environment, environment_cdf, &mut rng,
+            &view, &surface, a.truncate(), scene.instances, scene.meshes, scene.vertices,
+            scene.triangles, materials, textures, &Bindless(texture_images), lights, environment, environment_cdf,
+            &mut rng,
         );
         if direct.radiance.max_element() > 0.0 && !scene.any_hit(&direct.ray) {
             base += direct.radiance;

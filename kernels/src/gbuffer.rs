@@ -10,9 +10,7 @@
 use crate::texture_images::{Bindless, SceneTextures};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::{GBufferTexel, gbuffer_texel, in_image};
-use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
-};
+use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::{Image, spirv};
 
@@ -50,10 +48,6 @@ macro_rules! write_texel {
 traced_kernel! {
     /// Writes the G-buffer pixel of invocation `id`.
     #[spirv(compute(threads(8, 8)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn gbuffer(
         scene;
         #[spirv(global_invocation_id)] id: UVec3,
@@ -65,10 +59,6 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 5)] emissive: &HalfImage,
         #[spirv(descriptor_set = 0, binding = 6)] motion: &FloatImage,
         #[spirv(descriptor_set = 0, binding = 7)] ids: &IdImage,
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] instances: &[GpuInstance],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] meshes: &[GpuMesh],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] vertices: &[GpuVertex],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
         #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
@@ -80,7 +70,8 @@ traced_kernel! {
         let ray = primary_ray(camera, pixel, camera.jitter());
         let hit = scene.closest_hit(&ray);
         let texel = gbuffer_texel(
-            camera, &ray, &hit, instances, meshes, vertices, triangles, materials, textures, &Bindless(texture_images),
+            camera, &ray, &hit, scene.instances, scene.meshes, scene.vertices, scene.triangles,
+            materials, textures, &Bindless(texture_images),
         );
         write_texel!(
             pixel,

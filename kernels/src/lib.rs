@@ -8,9 +8,10 @@
 //! from the first module in both variants.
 //!
 //! Descriptor sets (the host side is `host/src/vulkan/pipeline.rs`): set 0 holds the kernel's own
-//! resources, from binding 0; a kernel that traces also has the scene's geometry as set 1 (bound
-//! by [`traced_kernel!`]) and may read the scene's shading data and lights as set 2. The numbers
-//! are the same in both variants.
+//! resources, from binding 0; a kernel that traces also has the scene's geometry as set 1 and the
+//! shading data's instances, meshes, vertices and triangles as set 2 bindings 0 to 3 (both bound
+//! by [`traced_kernel!`], which hands them to the body in its `Scene`), and may read the rest of
+//! set 2 (materials, textures, lights) itself. The numbers are the same in both variants.
 #![cfg_attr(target_arch = "spirv", no_std)]
 #![cfg_attr(
     all(target_arch = "spirv", feature = "ray-query"),

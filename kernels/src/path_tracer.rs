@@ -14,9 +14,7 @@ use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
 use gi_shared::lights::GpuLight;
 use gi_shared::path_tracer::{MAX_BOUNCES, PathTracerParams, begin_path, finite_radiance, shade};
-use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
-};
+use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::spirv;
 
@@ -35,20 +33,12 @@ macro_rules! accumulate {
 traced_kernel! {
     /// Adds one path of pixel `id` to the accumulation buffer.
     #[spirv(compute(threads(8, 8)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn path_tracer(
         scene;
         #[spirv(global_invocation_id)] id: UVec3,
         #[spirv(push_constant)] params: &PathTracerParams,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] camera: &CameraParams,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] accumulation: &mut [[f32; 4]],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] instances: &[GpuInstance],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] meshes: &[GpuMesh],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] vertices: &[GpuVertex],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
         #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
@@ -69,10 +59,10 @@ traced_kernel! {
                 &mut path,
                 &hit,
                 params,
-                instances,
-                meshes,
-                vertices,
-                triangles,
+                scene.instances,
+                scene.meshes,
+                scene.vertices,
+                scene.triangles,
                 materials,
                 textures,
                 &Bindless(texture_images),

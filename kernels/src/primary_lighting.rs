@@ -23,9 +23,7 @@ use gi_shared::gbuffer::in_image;
 use gi_shared::lights::GpuLight;
 use gi_shared::primary_lighting::{PrimaryLighting, sky_lighting, surface_lighting};
 use gi_shared::ray::Ray;
-use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
-};
+use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use gi_shared::screen_probes::{GiFrameParams, PASS_DIRECT};
 use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
@@ -34,10 +32,6 @@ traced_kernel! {
     /// DirectLight: the emission (or sky) and the punctual lights' direct irradiance of pixel
     /// `id`.
     #[spirv(compute(threads(8, 8)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn direct_light(
         scene;
         #[spirv(global_invocation_id)] id: UVec3,
@@ -49,10 +43,6 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 5)] emissive: &HalfImage,
         #[spirv(descriptor_set = 0, binding = 6)] ids: &IdImage,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lighting: &mut [PrimaryLighting],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] _instances: &[GpuInstance],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] _meshes: &[GpuMesh],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] _vertices: &[GpuVertex],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] _triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] _textures: &[GpuTexture],
         #[spirv(descriptor_set = 2, binding = 6)] _texture_images: &SceneTextures,
@@ -83,13 +73,14 @@ traced_kernel! {
         let ids_texel: UVec4 = ids.read(pixel);
         let emission = primary_emission(materials, ids_texel, e, frame.emissive_multiplier);
         let mut rng = pass_random(frame.seed, index, PASS_DIRECT, frame.frame_index);
+        let tracer = scene.tracer();
         lighting[index as usize] = surface_lighting(
             frame,
             &surface,
             emission,
             lights,
             &mut rng,
-            move |ray: &Ray| scene.any_hit(ray),
+            move |ray: &Ray| tracer.any_hit(ray),
         );
     }
 }

@@ -4,20 +4,23 @@
 //!
 //! A kernel that traces is written once, with [`traced_kernel!`]: the macro emits its entry point
 //! for the variant being built, binding the scene's geometry as set 1 (the top-level acceleration
-//! structure at binding 0 with ray queries; the BVH nodes at binding 0 and triangles at binding 1
-//! in software) and handing the body a [`Scene`] to trace against.
+//! structure at binding 0 with ray queries; the two-level BVH's nodes at binding 0 in software)
+//! and the shading data's geometry, set 2 bindings 0 to 3 (instances, meshes, vertices,
+//! triangles: the software traversal reads its triangles there), and handing the body a
+//! [`Scene`] that traces and holds those four buffers.
 
 use gi_shared::ray::{HitRecord, Ray};
+pub use gi_shared::scene_data::{GpuInstance, GpuMesh, GpuTriangle, GpuVertex};
 
-/// The BVH buffers as the kernels bind them: rows of 16 bytes, one vector load each.
+/// The BVH nodes as the kernels bind them: rows of 16 bytes, one vector load each.
 #[cfg(not(feature = "ray-query"))]
-pub use gi_shared::bvh::{BvhNodeRows as BvhNode, BvhTriangleRows as BvhTriangle};
+pub use gi_shared::bvh::BvhNodeRows as BvhNode;
 #[cfg(feature = "ray-query")]
 pub use spirv_std::ray_tracing::AccelerationStructure;
 
 /// Defines a kernel that traces, once for both variants. It takes the entry point's attributes,
-/// the name the body calls the [`Scene`] by, then the kernel's own parameters (sets 0 and 2) and
-/// its body:
+/// the name the body calls the [`Scene`] by, then the kernel's own parameters (set 0, and set 2
+/// from binding 4 on) and its body:
 ///
 /// ```ignore
 /// traced_kernel! {
@@ -25,12 +28,13 @@ pub use spirv_std::ray_tracing::AccelerationStructure;
 ///     #[spirv(compute(threads(64)))]
 ///     pub fn name(scene; #[spirv(global_invocation_id)] id: UVec3, ...) {
 ///         let hit = scene.closest_hit(&ray);
+///         let mesh = scene.meshes[0];
 ///     }
 /// }
 /// ```
 ///
-/// The variant being built gets one entry point of that name with the geometry's bindings (set 1)
-/// added in front of the kernel's parameters.
+/// The variant being built gets one entry point of that name with the geometry's bindings (set 1,
+/// and set 2 bindings 0 to 3) added in front of the kernel's parameters.
 #[macro_export]
 macro_rules! traced_kernel {
     (
@@ -42,26 +46,58 @@ macro_rules! traced_kernel {
     ) => {
         #[cfg(feature = "ray-query")]
         $(#[$attr])*
+        #[allow(
+            clippy::too_many_arguments,
+            reason = "an entry point takes one argument per binding"
+        )]
         pub fn $name(
-            #[spirv(descriptor_set = 1, binding = 0)] tlas: &$crate::trace::AccelerationStructure,
+            #[spirv(descriptor_set = 1, binding = 0)]
+            tlas: &[$crate::trace::AccelerationStructure; 1],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 0)]
+            instances: &[$crate::trace::GpuInstance],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 1)]
+            meshes: &[$crate::trace::GpuMesh],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 2)]
+            vertices: &[$crate::trace::GpuVertex],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 3)]
+            triangles: &[$crate::trace::GpuTriangle],
             $($(#[$param_attr])* $param: $ty),*
         ) {
-            let $scene = $crate::trace::Scene { tlas };
+            let $scene = $crate::trace::Scene {
+                tlas,
+                instances,
+                meshes,
+                vertices,
+                triangles,
+            };
             $body
         }
 
         #[cfg(not(feature = "ray-query"))]
         $(#[$attr])*
+        #[allow(
+            clippy::too_many_arguments,
+            reason = "an entry point takes one argument per binding"
+        )]
         pub fn $name(
             #[spirv(storage_buffer, descriptor_set = 1, binding = 0)]
             bvh_nodes: &[$crate::trace::BvhNode],
-            #[spirv(storage_buffer, descriptor_set = 1, binding = 1)]
-            bvh_triangles: &[$crate::trace::BvhTriangle],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 0)]
+            instances: &[$crate::trace::GpuInstance],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 1)]
+            meshes: &[$crate::trace::GpuMesh],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 2)]
+            vertices: &[$crate::trace::GpuVertex],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 3)]
+            triangles: &[$crate::trace::GpuTriangle],
             $($(#[$param_attr])* $param: $ty),*
         ) {
             let $scene = $crate::trace::Scene {
                 nodes: bvh_nodes,
-                triangles: bvh_triangles,
+                instances,
+                meshes,
+                vertices,
+                triangles,
             };
             $body
         }
@@ -72,43 +108,121 @@ macro_rules! traced_kernel {
 #[cfg(feature = "ray-query")]
 #[derive(Clone, Copy)]
 pub struct Scene<'a> {
-    /// The top-level acceleration structure.
-    pub tlas: &'a AccelerationStructure,
+    /// The top-level acceleration structure, bound as an array of one: a reference to the
+    /// structure itself, kept in this composite, could not be loaded through (SPIR-V's logical
+    /// addressing loads only from a variable or an access chain; indexing the array makes one).
+    pub tlas: &'a [AccelerationStructure; 1],
+    /// Set 2 binding 0: the instances.
+    pub instances: &'a [GpuInstance],
+    /// Set 2 binding 1: the meshes.
+    pub meshes: &'a [GpuMesh],
+    /// Set 2 binding 2: every mesh's vertices.
+    pub vertices: &'a [GpuVertex],
+    /// Set 2 binding 3: every mesh's triangles.
+    pub triangles: &'a [GpuTriangle],
 }
 
 /// The scene's geometry as a tracing kernel sees it (built by [`traced_kernel!`]).
 #[cfg(not(feature = "ray-query"))]
 #[derive(Clone, Copy)]
 pub struct Scene<'a> {
-    /// The flattened BVH's nodes.
+    /// The two-level BVH's nodes.
     pub nodes: &'a [BvhNode],
-    /// Its triangles, in leaf order.
-    pub triangles: &'a [BvhTriangle],
+    /// Set 2 binding 0: the instances.
+    pub instances: &'a [GpuInstance],
+    /// Set 2 binding 1: the meshes.
+    pub meshes: &'a [GpuMesh],
+    /// Set 2 binding 2: every mesh's vertices.
+    pub vertices: &'a [GpuVertex],
+    /// Set 2 binding 3: every mesh's triangles, each mesh's in its leaf order.
+    pub triangles: &'a [GpuTriangle],
 }
 
 #[cfg(not(feature = "ray-query"))]
-impl Scene<'_> {
+impl Tracer<'_> {
     /// The closest hit of `ray`, or [`HitRecord::miss`].
+    #[inline(always)]
     pub fn closest_hit(self, ray: &Ray) -> HitRecord {
-        gi_shared::bvh::closest_hit(self.nodes, self.triangles, ray)
+        gi_shared::bvh::closest_hit(self.bvh, ray)
     }
 
     /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+    #[inline(always)]
     pub fn any_hit(self, ray: &Ray) -> bool {
-        gi_shared::bvh::any_hit(self.nodes, self.triangles, ray)
+        gi_shared::bvh::any_hit(self.bvh, ray)
+    }
+}
+
+/// What traces, without the rest of the [`Scene`]: small enough for a closure to capture. With
+/// ray queries it must be: a `Scene` captured whole would carry the acceleration structure's
+/// handle inside a composite value, which SPIR-V's logical addressing cannot load through.
+#[cfg(feature = "ray-query")]
+#[derive(Clone, Copy)]
+pub struct Tracer<'a> {
+    tlas: &'a [AccelerationStructure; 1],
+}
+
+/// What traces, without the rest of the [`Scene`]: small enough for a closure to capture.
+#[cfg(not(feature = "ray-query"))]
+#[derive(Clone, Copy)]
+pub struct Tracer<'a> {
+    bvh: gi_shared::bvh::BvhScene<'a, BvhNode>,
+}
+
+#[cfg(feature = "ray-query")]
+impl<'a> Scene<'a> {
+    /// What traces, for a closure to capture.
+    #[inline(always)]
+    pub fn tracer(&self) -> Tracer<'a> {
+        Tracer { tlas: self.tlas }
+    }
+}
+
+#[cfg(not(feature = "ray-query"))]
+impl<'a> Scene<'a> {
+    /// What traces, for a closure to capture.
+    #[inline(always)]
+    pub fn tracer(&self) -> Tracer<'a> {
+        Tracer {
+            bvh: gi_shared::bvh::BvhScene {
+                nodes: self.nodes,
+                instances: self.instances,
+                meshes: self.meshes,
+                vertices: self.vertices,
+                triangles: self.triangles,
+            },
+        }
+    }
+}
+
+// By reference: a copy of the whole `Scene` would carry the acceleration structure's handle
+// inside a composite value, which SPIR-V's logical addressing cannot load through.
+impl Scene<'_> {
+    /// The closest hit of `ray`, or [`HitRecord::miss`].
+    #[inline(always)]
+    pub fn closest_hit(&self, ray: &Ray) -> HitRecord {
+        self.tracer().closest_hit(ray)
+    }
+
+    /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+    #[inline(always)]
+    pub fn any_hit(&self, ray: &Ray) -> bool {
+        self.tracer().any_hit(ray)
     }
 }
 
 #[cfg(feature = "ray-query")]
-impl Scene<'_> {
+impl Tracer<'_> {
     /// The closest hit of `ray`, or [`HitRecord::miss`].
+    #[inline(always)]
     pub fn closest_hit(self, ray: &Ray) -> HitRecord {
-        closest_hit(self.tlas, ray)
+        closest_hit(&self.tlas[0], ray)
     }
 
     /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+    #[inline(always)]
     pub fn any_hit(self, ray: &Ray) -> bool {
-        any_hit(self.tlas, ray)
+        any_hit(&self.tlas[0], ray)
     }
 }
 

@@ -1,27 +1,34 @@
-//! A flat binary BVH over world-space triangles, and its traversal: the same code walks it on the
-//! CPU and in the software-traversal kernels.
+//! A two-level BVH over the scene's instances and meshes, and its traversal: the same code walks
+//! it on the CPU and in the software-traversal kernels.
 //!
 //! # Layout
 //!
-//! Two buffers, both `#[repr(C)]` + [`Pod`], only `f32`/`u32`, explicit padding:
+//! One buffer of [`BvhNode`]s (64 bytes each, `#[repr(C)]` + [`Pod`], only `f32`/`u32`): an
+//! interior node holding both of its children, each a [`BvhChild`] (box and reference), so that
+//! one node load decides where to go next. It holds two levels:
 //!
-//! * [`BvhNode`] (64 bytes): an interior node holding both of its children, each a [`BvhChild`]
-//!   (box and reference), so that one node load decides where to go next. Node 0 is the root. A
-//!   child with `count > 0` is a leaf of triangles `index .. index + count` (at most
-//!   [`BVH_MAX_LEAF_TRIANGLES`]); a child with `count == 0` is the interior node `index`, which
-//!   must come after its parent (`index > ` the parent's index). A child slot that holds nothing
-//!   (the second child of a root over a single leaf) has the box [`BvhChild::EMPTY`], which no
-//!   ray enters.
-//! * [`BvhTriangle`] (48 bytes): the three world-space vertices as stored in the mesh (the
-//!   watertight test needs the exact vertex values that neighbouring triangles share), the ids
-//!   that go into the [`HitRecord`], and [`BVH_TRIANGLE_MIRRORED`].
+//! * the top level, rooted at node 0, over the instances in world space: a leaf child
+//!   (`count == 1`) is instance `index` ([`GpuInstance`]), its box the world bounds of the
+//!   instance's mesh;
+//! * one bottom level per mesh ([`GpuMesh`]), rooted at [`GpuMesh::bvh_root`], in the mesh's
+//!   object space, shared by every instance of the mesh: a leaf child is the mesh's triangles
+//!   `index .. index + count` (at most [`BVH_MAX_LEAF_TRIANGLES`]), indices relative to
+//!   [`GpuMesh::first_triangle`], so that the leaf order is the mesh's triangle order and the
+//!   index of a triangle is the primitive index a hit reports.
 //!
-//! An empty node buffer is an empty scene: every ray misses.
+//! In both levels a child with `count == 0` is the interior node `index`, which must come after
+//! its parent (`index > ` the parent's index). A child slot that holds nothing (the second child
+//! of a root over a single leaf) has the box [`BvhChild::EMPTY`], which no ray enters. An empty
+//! node buffer is an empty scene: every ray misses.
 //!
-//! The kernels bind the same bytes as [`BvhNodeRows`] and [`BvhTriangleRows`], arrays of 16-byte
-//! vectors, and the traversal reads either through [`BvhElement`]: a node is then four vector
-//! loads rather than one load per field, which on lavapipe (where every load of a SIMD group is
-//! a loop over its invocations) roughly doubled the rays per second.
+//! Triangles are read from the shading data itself ([`GpuTriangle`] indices into the mesh's
+//! [`GpuVertex`]es): no copy of the geometry is made for tracing. Neighbouring triangles fetch
+//! the exact same vertex values, which the watertight test needs.
+//!
+//! The kernels bind the nodes as [`BvhNodeRows`], arrays of 16-byte vectors, and the traversal
+//! reads either through [`BvhElement`]: a node is then four vector loads rather than one load per
+//! field, which on lavapipe (where every load of a SIMD group is a loop over its invocations)
+//! roughly doubled the rays per second.
 //!
 //! # Traversal
 //!
@@ -31,35 +38,44 @@
 //! skips an entry beyond the closest hit so far without touching its node. [`any_hit`] does not
 //! order children.
 //!
+//! At a top-level leaf the ray moves into the instance's object space
+//! ([`GpuInstance::world_to_object`]) and the walk continues at the mesh's root, on the same
+//! stack; when the stack is back to the depth it had there, the bottom level is exhausted and the
+//! walk goes on with the world-space ray. The object-space direction is not normalised, so `t`
+//! keeps the world ray's parametrisation and one `t_max` serves both levels.
+//!
 //! No recursion and no allocation. The stack holds [`BVH_SHORT_STACK_SIZE`] entries. When it is
 //! full, the traversal drops the entry, finishes, and then walks the tree again from the root
-//! with a stack of [`BVH_STACK_SIZE`] entries and the closest hit found so far as `t_max`; the
-//! builder keeps every leaf at depth `<=` [`BVH_MAX_DEPTH`] (root node = depth 0), so that
-//! second walk cannot overflow on a well-formed tree (an interior node at depth `d` sees at most
-//! `d` deferred children on the stack and adds one). The second walk only costs time for the rays
-//! that need a deeper stack: 1 in 2·10⁶ on the largest benchmark scene (`bathroom.glb`), none on
-//! the others.
+//! with a stack of [`BVH_STACK_SIZE`] entries and the closest hit found so far as `t_max`. The
+//! builders keep every top-level leaf at depth `<=` [`BVH_TLAS_MAX_DEPTH`] and every
+//! bottom-level leaf at depth `<=` [`BVH_BLAS_MAX_DEPTH`] below its root (root node = depth 0),
+//! whose sum is [`BVH_MAX_DEPTH`]: an interior node at depth `d` sees at most `d` deferred
+//! children on the stack and adds one, so that second walk cannot overflow on a well-formed
+//! tree. It only costs time for the rays that need a deeper stack.
 //!
-//! Nothing on this path panics: an out-of-range node or triangle index, a child that does not
-//! come after its parent, a leaf of more than [`BVH_MAX_LEAF_TRIANGLES`] triangles, or an
-//! overflow of the long stack drops that child (it is treated as a miss), so a malformed BVH
+//! Nothing on this path panics: an out-of-range node, instance, mesh, triangle or vertex index, a
+//! child that does not come after its parent, a top-level leaf of more than one instance, a
+//! bottom-level leaf of more than [`BVH_MAX_LEAF_TRIANGLES`] triangles, a mesh root past the end
+//! of the nodes, a transform that makes the object-space ray non-finite, or an overflow of the
+//! long stack drops that part (it is treated as a miss). Each bottom level is entered once per
+//! top-level leaf, and within each level children come after their parents, so a malformed BVH
 //! gives wrong hits, never a fault or an endless loop.
 //!
 //! # Ray/triangle test
 //!
-//! Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection", JCGT 2(1), 2013: the vertices
-//! are translated to the ray's origin and sheared so that the ray runs along +z, and three 2D
-//! edge functions decide. Each edge function of an edge shared by two triangles is computed from
-//! the same vertex values with the operands swapped, so it comes out exactly negated: a ray
-//! cannot pass between two triangles that share an edge, nor through a vertex shared by a fan.
-//! The paper recomputes an edge function that is exactly 0 in double precision; kernels have no
-//! `f64`, so here 0 counts as inside for both triangles of the edge instead, which keeps the test
-//! watertight (both may report the hit, and the tie rule below picks one). On the device this
-//! relies on the compiler evaluating both products of an edge function alike; one that fused
-//! only one of them into an FMA could break the exact negation (lavapipe lets none through:
-//! `tests/tests/tracing.rs`).
+//! Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection", JCGT 2(1), 2013, in the
+//! mesh's object space: the vertices are translated to the ray's origin and sheared so that the
+//! ray runs along +z, and three 2D edge functions decide. Each edge function of an edge shared by
+//! two triangles of a mesh is computed from the same vertex values with the operands swapped, so
+//! it comes out exactly negated: a ray cannot pass between two triangles that share an edge, nor
+//! through a vertex shared by a fan. The paper recomputes an edge function that is exactly 0 in
+//! double precision; kernels have no `f64`, so here 0 counts as inside for both triangles of the
+//! edge instead, which keeps the test watertight (both may report the hit, and the tie rule below
+//! picks one). On the device this relies on the compiler evaluating both products of an edge
+//! function alike; one that fused only one of them into an FMA could break the exact negation
+//! (lavapipe lets none through: `tests/tests/tracing.rs`).
 //!
-//! Hits obey `t_min <= t <= t_max`, with `t` in units of the direction's length, like
+//! Hits obey `t_min <= t <= t_max`, with `t` in units of the world direction's length, like
 //! `VK_KHR_ray_query`; `t` is compared against the bounds scaled by the determinant before the
 //! division, then checked again after it. Ties: the closest `t` wins; among hits at exactly the
 //! same `t` the first one tested wins, and the test order follows the traversal (near child
@@ -67,43 +83,47 @@
 //! found), which a hardware or lavapipe ray query need not share. Ties only happen on shared
 //! edges and vertices and on coplanar overlaps.
 //!
-//! Front faces are counter-clockwise seen from the ray's origin in world space, flipped for
-//! triangles flagged [`BVH_TRIANGLE_MIRRORED`]: ray queries decide in object space, and a
-//! mirroring instance transform reverses the winding. Barycentrics stay in the mesh's vertex
-//! order.
+//! Front faces are counter-clockwise seen from the ray's origin in the mesh's object space, as
+//! ray queries decide them: a mirroring instance transform then shows the clockwise side of its
+//! triangles in world space as the front. Barycentrics stay in the mesh's vertex order.
 
 use bytemuck::{Pod, Zeroable};
-use glam::{UVec4, Vec3};
+use glam::{UVec4, Vec3, Vec4};
 use num_traits::Float;
 
 use crate::ray::{HitRecord, Ray};
+use crate::scene_data::{GpuInstance, GpuMesh, GpuTriangle, GpuVertex};
 
-/// Entries of the long traversal stack: enough for any tree whose leaves are at depth `<=`
-/// [`BVH_MAX_DEPTH`].
+/// Entries of the long traversal stack: enough for any tree whose leaves are within the depth
+/// limits of both levels.
 pub const BVH_STACK_SIZE: usize = 64;
 
 /// Entries of the short stack of the first walk; see the module documentation.
 pub const BVH_SHORT_STACK_SIZE: usize = 16;
 
-/// Deepest leaf the traversal supports, root node at depth 0. Builders must respect (and
-/// assert) it.
+/// Deepest leaf of the two levels together: a top-level leaf's depth plus a bottom-level leaf's
+/// depth below its root.
 pub const BVH_MAX_DEPTH: u32 = BVH_STACK_SIZE as u32;
 
-/// Most triangles in one leaf: the stack packs a leaf's count into [`STACK_COUNT_BITS`] bits.
+/// Deepest leaf of the top level (over instances), root node at depth 0: room for `2^24`
+/// instances even when every split is at the median.
+pub const BVH_TLAS_MAX_DEPTH: u32 = 24;
+
+/// Deepest leaf of a mesh's bottom level, its root node at depth 0.
+pub const BVH_BLAS_MAX_DEPTH: u32 = BVH_MAX_DEPTH - BVH_TLAS_MAX_DEPTH;
+
+/// Most triangles in one bottom-level leaf: the stack packs a leaf's count into
+/// [`STACK_COUNT_BITS`] bits.
 pub const BVH_MAX_LEAF_TRIANGLES: u32 = (1 << STACK_COUNT_BITS) - 1;
 
-/// Node and triangle indices must stay below this: the stack packs an index with a count into
-/// one `u32` (far above what a 128 MiB buffer holds).
+/// Node, instance and triangle indices must stay below this: the stack packs an index with a
+/// count into one `u32`.
 pub const BVH_MAX_INDEX: u32 = 1 << (31 - STACK_COUNT_BITS);
 
-/// [`BvhTriangle::flags`] bit: the triangle belongs to an instance whose transform mirrors
-/// (negative determinant), so its front face is the clockwise one in world space.
-pub const BVH_TRIANGLE_MIRRORED: u32 = 1;
-
-/// Bits of a stack entry that hold a leaf's triangle count (0 for an interior node).
+/// Bits of a stack entry that hold a leaf's count (0 for an interior node).
 const STACK_COUNT_BITS: u32 = 4;
 
-/// A stack entry or child reference that is not there.
+/// A stack entry, child reference or instance that is not there.
 const NO_CHILD: u32 = u32::MAX;
 
 /// Direction components smaller than this in magnitude count as zero in the box test: their
@@ -115,7 +135,7 @@ const MIN_DIRECTION: f32 = 1e-30;
 const BOX_FAR_SCALE: f32 =
     1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// One child of a [`BvhNode`] (32 bytes): its bounds, and either a node or a run of triangles.
+/// One child of a [`BvhNode`] (32 bytes): its bounds, and either a node or a leaf.
 ///
 /// | offset | field   |
 /// |--------|---------|
@@ -128,11 +148,12 @@ const BOX_FAR_SCALE: f32 =
 pub struct BvhChild {
     /// Lower corner of the child's bounds.
     pub min: [f32; 3],
-    /// Interior child: its node index. Leaf: index of its first triangle.
+    /// Interior child: its node index. Top-level leaf: the instance. Bottom-level leaf: its
+    /// first triangle within the mesh.
     pub index: u32,
     /// Upper corner of the child's bounds.
     pub max: [f32; 3],
-    /// Number of triangles of a leaf; 0 for an interior node.
+    /// Number of instances (1) or triangles of a leaf; 0 for an interior node.
     pub count: u32,
 }
 
@@ -167,48 +188,6 @@ pub struct BvhNode {
     pub right: BvhChild,
 }
 
-/// A triangle as the traversal reads it (48 bytes, three 16-byte rows).
-///
-/// | offset | field       |
-/// |--------|-------------|
-/// | 0      | `v0`        |
-/// | 12     | `instance`  |
-/// | 16     | `v1`        |
-/// | 28     | `primitive` |
-/// | 32     | `v2`        |
-/// | 44     | `flags`     |
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct BvhTriangle {
-    /// First vertex, world space.
-    pub v0: [f32; 3],
-    /// Instance index reported in [`HitRecord::instance`].
-    pub instance: u32,
-    /// Second vertex, world space.
-    pub v1: [f32; 3],
-    /// Triangle index within the instance's mesh, reported in [`HitRecord::primitive`].
-    pub primitive: u32,
-    /// Third vertex, world space.
-    pub v2: [f32; 3],
-    /// [`BVH_TRIANGLE_MIRRORED`] or 0.
-    pub flags: u32,
-}
-
-impl BvhTriangle {
-    /// The record of the world-space triangle `v` (in the mesh's vertex order) with its ids and
-    /// flags.
-    pub fn new(v: [[f32; 3]; 3], instance: u32, primitive: u32, flags: u32) -> Self {
-        Self {
-            v0: v[0],
-            instance,
-            v1: v[1],
-            primitive,
-            v2: v[2],
-            flags,
-        }
-    }
-}
-
 /// A [`BvhNode`] as the software-traversal kernels bind it: the same 64 bytes as four 16-byte
 /// vectors, so that a node is four vector loads on the device rather than one load per field.
 #[repr(C)]
@@ -218,31 +197,16 @@ pub struct BvhNodeRows {
     pub rows: [UVec4; 4],
 }
 
-/// A [`BvhTriangle`] as the software-traversal kernels bind it: three 16-byte vectors.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct BvhTriangleRows {
-    /// The triangle's bytes, 16 at a time.
-    pub rows: [UVec4; 3],
+/// An element of a node buffer that the traversal can read a [`BvhNode`] from: the node itself on
+/// the CPU, its rows on the device.
+pub trait BvhElement {
+    /// The node this element holds.
+    fn get(&self) -> BvhNode;
 }
 
-/// An element of a node or triangle buffer that the traversal can read `T` from: the record
-/// itself on the CPU, its rows on the device.
-pub trait BvhElement<T> {
-    /// The record this element holds.
-    fn get(&self) -> T;
-}
-
-impl BvhElement<BvhNode> for BvhNode {
+impl BvhElement for BvhNode {
     #[inline]
     fn get(&self) -> BvhNode {
-        *self
-    }
-}
-
-impl BvhElement<BvhTriangle> for BvhTriangle {
-    #[inline]
-    fn get(&self) -> BvhTriangle {
         *self
     }
 }
@@ -272,7 +236,7 @@ fn child_of_rows(lo: UVec4, hi: UVec4) -> BvhChild {
     }
 }
 
-impl BvhElement<BvhNode> for BvhNodeRows {
+impl BvhElement for BvhNodeRows {
     #[inline]
     fn get(&self) -> BvhNode {
         BvhNode {
@@ -282,24 +246,30 @@ impl BvhElement<BvhNode> for BvhNodeRows {
     }
 }
 
-impl BvhElement<BvhTriangle> for BvhTriangleRows {
-    #[inline]
-    fn get(&self) -> BvhTriangle {
-        let (v0, instance) = split_row(self.rows[0]);
-        let (v1, primitive) = split_row(self.rows[1]);
-        let (v2, flags) = split_row(self.rows[2]);
-        BvhTriangle {
-            v0,
-            instance,
-            v1,
-            primitive,
-            v2,
-            flags,
-        }
+/// What the traversal reads: the two-level node buffer and the shading data's geometry (the
+/// buffers of `crate::scene_data`).
+pub struct BvhScene<'a, N> {
+    /// Top level at node 0, then the meshes' bottom levels.
+    pub nodes: &'a [N],
+    /// The instances; a hit's instance indexes them.
+    pub instances: &'a [GpuInstance],
+    /// The meshes, with their bottom-level roots.
+    pub meshes: &'a [GpuMesh],
+    /// Every mesh's vertices.
+    pub vertices: &'a [GpuVertex],
+    /// Every mesh's triangles, each mesh's in its bottom level's leaf order.
+    pub triangles: &'a [GpuTriangle],
+}
+
+impl<N> Clone for BvhScene<'_, N> {
+    fn clone(&self) -> Self {
+        *self
     }
 }
 
-/// A ray/triangle intersection before it becomes a [`HitRecord`]; `t` is `+∞` on a miss. No
+impl<N> Copy for BvhScene<'_, N> {}
+
+/// A ray/triangle intersection before it goes into a [`HitRecord`]; `t` is `+∞` on a miss. No
 /// `bool` fields: rust-gpu would need the `Int8` capability to keep them in memory.
 #[derive(Clone, Copy)]
 struct TriangleHit {
@@ -307,24 +277,6 @@ struct TriangleHit {
     u: f32,
     v: f32,
     front_face: u32,
-}
-
-impl TriangleHit {
-    /// Makes this hit of `tri` the closest in `best` when it is strictly closer (the first hit
-    /// tested keeps an exact tie); returns whether it did.
-    #[inline]
-    fn record(&self, tri: &BvhTriangle, best: &mut HitRecord) -> bool {
-        if self.t < best.t {
-            best.t = self.t;
-            best.instance = tri.instance;
-            best.primitive = tri.primitive;
-            best.front_face = self.front_face;
-            best.barycentrics = [self.u, self.v];
-            true
-        } else {
-            false
-        }
-    }
 }
 
 /// A ray prepared once for the box and triangle tests of a traversal.
@@ -354,6 +306,36 @@ fn component(v: Vec3, k: u32) -> f32 {
         v.y
     } else {
         v.z
+    }
+}
+
+/// `m` (three rows of four) applied to `p` extended with `w`.
+#[inline]
+fn transform(m: &[[f32; 4]; 3], p: Vec3, w: f32) -> Vec3 {
+    let h = p.extend(w);
+    Vec3::new(
+        Vec4::from_array(m[0]).dot(h),
+        Vec4::from_array(m[1]).dot(h),
+        Vec4::from_array(m[2]).dot(h),
+    )
+}
+
+/// `ray` in the object space of `inst`: the same `t` reaches the same point, since the direction
+/// is transformed as it is (not normalised). Not traceable when the transform is malformed.
+///
+/// The origin is moved by the instance's translation before the linear part applies: near an
+/// instance far from the world's origin that difference is exact, so the object-space origin
+/// keeps the precision of the object's own coordinates.
+#[inline]
+fn object_ray(ray: &Ray, inst: &GpuInstance) -> Ray {
+    let m = &inst.world_to_object;
+    let o = &inst.object_to_world;
+    let translation = Vec3::new(o[0][3], o[1][3], o[2][3]);
+    let offset = Vec3::from_array(ray.origin) - translation;
+    Ray {
+        origin: transform(m, offset, 0.0).to_array(),
+        direction: transform(m, Vec3::from_array(ray.direction), 0.0).to_array(),
+        ..*ray
     }
 }
 
@@ -419,15 +401,16 @@ impl TraceRay {
         }
     }
 
-    /// The watertight test: the hit of the ray with `tri` for `t` in `[t_min, t_max]`.
+    /// The watertight test: the hit of the ray with the triangle `v` for `t` in
+    /// `[t_min, t_max]`.
     ///
     /// `u`, `v` weigh the second and third vertex. Every comparison is written so that NaN
     /// fails it, so NaN triangles miss.
     #[inline]
-    fn intersect(&self, tri: &BvhTriangle, t_max: f32) -> TriangleHit {
-        let a = Vec3::from_array(tri.v0) - self.origin;
-        let b = Vec3::from_array(tri.v1) - self.origin;
-        let c = Vec3::from_array(tri.v2) - self.origin;
+    fn intersect(&self, v: [Vec3; 3], t_max: f32) -> TriangleHit {
+        let a = v[0] - self.origin;
+        let b = v[1] - self.origin;
+        let c = v[2] - self.origin;
         let (a_z, b_z, c_z) = (
             component(a, self.kz),
             component(b, self.kz),
@@ -476,8 +459,7 @@ impl TraceRay {
         out.t = t;
         out.u = v * inv_det;
         out.v = w * inv_det;
-        let counter_clockwise = if det > 0.0 { 1 } else { 0 };
-        out.front_face = counter_clockwise ^ (tri.flags & BVH_TRIANGLE_MIRRORED);
+        out.front_face = if det > 0.0 { 1 } else { 0 };
         out
     }
 }
@@ -512,18 +494,56 @@ fn safe_inverse(d: f32) -> f32 {
     }
 }
 
-/// The stack entry of `child` of node `parent`, or [`NO_CHILD`] when it is malformed: an interior
-/// child that does not come after its parent or lies past the end, or a leaf too long or past
-/// the end of the triangles.
+/// The object-space vertices of triangle `primitive` of `mesh` (which the caller checked is in
+/// range); NaN, which misses, for a vertex index out of range.
 #[inline]
-fn child_entry(child: &BvhChild, parent: u32, nodes: usize, tris: usize) -> u32 {
+fn triangle_vertices(
+    vertices: &[GpuVertex],
+    triangles: &[GpuTriangle],
+    mesh: &GpuMesh,
+    primitive: u32,
+) -> [Vec3; 3] {
+    // By reference: only the indices are loaded, not the material.
+    let [a, b, c] = triangles[mesh.first_triangle as usize + primitive as usize].indices;
+    [
+        position(vertices, mesh, a),
+        position(vertices, mesh, b),
+        position(vertices, mesh, c),
+    ]
+}
+
+/// The position of vertex `index` of `mesh`; NaN when out of range.
+#[inline]
+fn position(vertices: &[GpuVertex], mesh: &GpuMesh, index: u32) -> Vec3 {
+    let i = mesh.first_vertex as usize + index as usize;
+    if index < mesh.vertex_count && i < vertices.len() {
+        Vec3::from_array(vertices[i].position)
+    } else {
+        Vec3::NAN
+    }
+}
+
+/// Triangles of `mesh` that exist in `triangles`: its count, clipped to the buffer.
+#[inline]
+fn triangle_limit(mesh: &GpuMesh, triangles: usize) -> usize {
+    let first = mesh.first_triangle as usize;
+    if first < triangles {
+        (mesh.triangle_count as usize).min(triangles - first)
+    } else {
+        0
+    }
+}
+
+/// The stack entry of `child` of node `parent`, or [`NO_CHILD`] when it is malformed: an interior
+/// child that does not come after its parent or lies past the end, or a leaf longer than
+/// `max_count` or past `items` (instances or the mesh's triangles).
+#[inline]
+fn child_entry(child: &BvhChild, parent: u32, nodes: usize, items: usize, max_count: u32) -> u32 {
     let (index, count) = (child.index, child.count);
     let valid = if count == 0 {
         index > parent && (index as usize) < nodes
     } else {
-        count <= BVH_MAX_LEAF_TRIANGLES
-            && (index as usize) <= tris
-            && count as usize <= tris - index as usize
+        count <= max_count && (index as usize) <= items && count as usize <= items - index as usize
     };
     if valid && index < BVH_MAX_INDEX {
         (index << STACK_COUNT_BITS) | count
@@ -532,15 +552,15 @@ fn child_entry(child: &BvhChild, parent: u32, nodes: usize, tris: usize) -> u32 
     }
 }
 
-/// One walk of the tree from the root with a stack of `STACK` entries, starting from the hit in
-/// `best` (which must lie in `[ray.t_min, t_max]` when it is one). Returns whether an entry was
-/// dropped because the stack was full. With `ANY`, stops at the first hit and does not order
+/// One walk of both levels from the root with a stack of `STACK` entries, starting from the hit
+/// in `best` (which must lie in `[ray.t_min, t_max]` when it is one). Returns whether an entry
+/// was dropped because the stack was full. With `ANY`, stops at the first hit and does not order
 /// children.
 #[inline]
-fn walk<const STACK: usize, const ANY: bool, N: BvhElement<BvhNode>, T: BvhElement<BvhTriangle>>(
-    nodes: &[N],
-    tris: &[T],
-    ray: &TraceRay,
+fn walk<const STACK: usize, const ANY: bool, N: BvhElement>(
+    scene: BvhScene<'_, N>,
+    world_ray: &Ray,
+    world: &TraceRay,
     mut t_max: f32,
     best: &mut HitRecord,
 ) -> bool {
@@ -550,15 +570,31 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement<BvhNode>, T: BvhEleme
     let mut overflow = false;
     // The interior node to visit next (`NO_CHILD`: none), and the triangles still to test.
     let mut node = 0u32;
-    let mut tri = 0usize;
-    let mut tri_end = 0usize;
+    let mut tri = 0u32;
+    let mut tri_end = 0u32;
+    // The instance whose bottom level is being walked (`NO_CHILD`: the top level), its mesh, the
+    // number of its mesh's triangles that exist, and the stack depth when it was entered.
+    let mut instance = NO_CHILD;
+    let mut mesh = GpuMesh::EMPTY;
+    let mut items = scene.instances.len();
+    let mut base = 0usize;
+    let mut ray = *world;
     loop {
         // Where to go next, as a stack entry; `NO_CHILD` keeps going with the triangles or pops.
         let mut next = NO_CHILD;
         if tri < tri_end {
-            let t = tris[tri].get();
-            let h = ray.intersect(&t, t_max);
-            if h.record(&t, best) {
+            let v = triangle_vertices(scene.vertices, scene.triangles, &mesh, tri);
+            let h = ray.intersect(v, t_max);
+            // Strictly closer: the first hit tested keeps an exact tie.
+            if h.t < best.t {
+                *best = HitRecord {
+                    t: h.t,
+                    instance,
+                    primitive: tri,
+                    front_face: h.front_face,
+                    barycentrics: [h.u, h.v],
+                    _pad: [0; 2],
+                };
                 t_max = h.t;
                 if ANY {
                     return overflow;
@@ -566,9 +602,15 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement<BvhNode>, T: BvhEleme
             }
             tri += 1;
         } else if node != NO_CHILD {
-            let n = nodes[node as usize].get();
-            let left = child_entry(&n.left, node, nodes.len(), tris.len());
-            let right = child_entry(&n.right, node, nodes.len(), tris.len());
+            let n = scene.nodes[node as usize].get();
+            let nodes = scene.nodes.len();
+            let max_count = if instance == NO_CHILD {
+                1
+            } else {
+                BVH_MAX_LEAF_TRIANGLES
+            };
+            let left = child_entry(&n.left, node, nodes, items, max_count);
+            let right = child_entry(&n.right, node, nodes, items, max_count);
             let t_left = if left != NO_CHILD {
                 ray.enter(&n.left, t_max)
             } else {
@@ -600,6 +642,12 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement<BvhNode>, T: BvhEleme
             }
         }
         if next == NO_CHILD && tri >= tri_end && node == NO_CHILD {
+            if instance != NO_CHILD && sp <= base {
+                // The bottom level is exhausted: back to the world ray and the top level.
+                instance = NO_CHILD;
+                items = scene.instances.len();
+                ray = *world;
+            }
             if sp == 0 {
                 return overflow;
             }
@@ -616,9 +664,26 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement<BvhNode>, T: BvhEleme
             let index = next >> STACK_COUNT_BITS;
             if count == 0 {
                 node = index;
+            } else if instance != NO_CHILD {
+                tri = index;
+                tri_end = index + count;
             } else {
-                tri = index as usize;
-                tri_end = tri + count as usize;
+                // A top-level leaf (`child_entry` checked the instance): its mesh's bottom level.
+                // By reference: only the fields used are loaded, not the whole 160 bytes.
+                let inst = &scene.instances[index as usize];
+                let m = inst.mesh as usize;
+                if m < scene.meshes.len() && (scene.meshes[m].bvh_root as usize) < scene.nodes.len()
+                {
+                    let local = object_ray(world_ray, inst);
+                    if local.is_traceable() {
+                        mesh = scene.meshes[m];
+                        instance = index;
+                        items = triangle_limit(&mesh, scene.triangles.len());
+                        base = sp;
+                        ray = TraceRay::new(&local);
+                        node = mesh.bvh_root;
+                    }
+                }
             }
         }
     }
@@ -627,59 +692,65 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement<BvhNode>, T: BvhEleme
 /// Both walks of the module documentation: the short stack, then the long one if the short one
 /// dropped an entry.
 #[inline]
-fn traverse<const ANY: bool, N: BvhElement<BvhNode>, T: BvhElement<BvhTriangle>>(
-    nodes: &[N],
-    tris: &[T],
-    ray: &Ray,
-) -> HitRecord {
+fn traverse<const ANY: bool, N: BvhElement>(scene: BvhScene<'_, N>, ray: &Ray) -> HitRecord {
     let mut best = HitRecord::miss();
-    if nodes.is_empty() || !ray.is_traceable() {
+    if scene.nodes.is_empty() || !ray.is_traceable() {
         return best;
     }
-    let prepared = TraceRay::new(ray);
-    if walk::<BVH_SHORT_STACK_SIZE, ANY, N, T>(nodes, tris, &prepared, ray.t_max, &mut best)
+    let world = TraceRay::new(ray);
+    if walk::<BVH_SHORT_STACK_SIZE, ANY, N>(scene, ray, &world, ray.t_max, &mut best)
         && !(ANY && best.is_hit())
     {
         let t_max = if best.is_hit() { best.t } else { ray.t_max };
-        walk::<BVH_STACK_SIZE, ANY, N, T>(nodes, tris, &prepared, t_max, &mut best);
+        walk::<BVH_STACK_SIZE, ANY, N>(scene, ray, &world, t_max, &mut best);
     }
     best
 }
 
-/// The closest hit of `ray` among `tris` through the BVH `nodes`, or [`HitRecord::miss`].
+/// The closest hit of `ray` in `scene`, or [`HitRecord::miss`].
 ///
 /// A ray that is not [`Ray::is_traceable`] misses (as it must with ray queries too),
 /// as does every ray on an empty BVH. See the module documentation for ties.
-pub fn closest_hit<N: BvhElement<BvhNode>, T: BvhElement<BvhTriangle>>(
-    nodes: &[N],
-    tris: &[T],
-    ray: &Ray,
-) -> HitRecord {
-    traverse::<false, N, T>(nodes, tris, ray)
+pub fn closest_hit<N: BvhElement>(scene: BvhScene<'_, N>, ray: &Ray) -> HitRecord {
+    traverse::<false, N>(scene, ray)
 }
 
 /// Whether `ray` hits any triangle with `t_min <= t <= t_max` (shadow rays): stops at the first.
-pub fn any_hit<N: BvhElement<BvhNode>, T: BvhElement<BvhTriangle>>(
-    nodes: &[N],
-    tris: &[T],
-    ray: &Ray,
-) -> bool {
-    traverse::<true, N, T>(nodes, tris, ray).is_hit()
+pub fn any_hit<N: BvhElement>(scene: BvhScene<'_, N>, ray: &Ray) -> bool {
+    traverse::<true, N>(scene, ray).is_hit()
 }
 
-/// The closest hit by testing every triangle in order: the reference for the BVH traversal, with
-/// the same triangle test, validity rules and tie-break (the first triangle in `tris` wins).
-pub fn closest_hit_brute_force(tris: &[BvhTriangle], ray: &Ray) -> HitRecord {
+/// The closest hit by testing every triangle of every instance in order, without the nodes: the
+/// reference for the traversal, with the same transform, triangle test, validity rules and
+/// tie-break (the first instance, then the first triangle, wins).
+pub fn closest_hit_brute_force<N>(scene: BvhScene<'_, N>, ray: &Ray) -> HitRecord {
     let mut best = HitRecord::miss();
     if !ray.is_traceable() {
         return best;
     }
-    let prepared = TraceRay::new(ray);
-    let mut i = 0;
-    while i < tris.len() {
-        let tri = &tris[i];
-        prepared.intersect(tri, ray.t_max).record(tri, &mut best);
-        i += 1;
+    for (instance, inst) in scene.instances.iter().enumerate() {
+        let Some(mesh) = scene.meshes.get(inst.mesh as usize) else {
+            continue;
+        };
+        let local = object_ray(ray, inst);
+        if !local.is_traceable() {
+            continue;
+        }
+        let local = TraceRay::new(&local);
+        for primitive in 0..triangle_limit(mesh, scene.triangles.len()) as u32 {
+            let v = triangle_vertices(scene.vertices, scene.triangles, mesh, primitive);
+            let h = local.intersect(v, best.t.min(ray.t_max));
+            if h.t < best.t {
+                best = HitRecord {
+                    t: h.t,
+                    instance: instance as u32,
+                    primitive,
+                    front_face: h.front_face,
+                    barycentrics: [h.u, h.v],
+                    _pad: [0; 2],
+                };
+            }
+        }
     }
     best
 }
@@ -711,93 +782,225 @@ mod tests {
         }
     }
 
-    fn tri(v: [[f32; 3]; 3], instance: u32, primitive: u32) -> BvhTriangle {
-        BvhTriangle::new(v, instance, primitive, 0)
-    }
+    type Tri = [[f32; 3]; 3];
 
-    /// Bounds of `tris` as a child (index and count left 0); `f32::min`/`max` skip NaN, unlike
+    /// Bounds of points as a child (index and count left 0); `f32::min`/`max` skip NaN, unlike
     /// glam's.
-    fn bounds(tris: &[BvhTriangle]) -> BvhChild {
+    fn bounds(points: impl IntoIterator<Item = [f32; 3]>) -> BvhChild {
         let mut b = BvhChild {
             min: [f32::INFINITY; 3],
             max: [f32::NEG_INFINITY; 3],
             ..BvhChild::default()
         };
-        for t in tris {
-            for v in [t.v0, t.v1, t.v2] {
-                for (a, x) in v.into_iter().enumerate() {
-                    b.min[a] = b.min[a].min(x);
-                    b.max[a] = b.max[a].max(x);
-                }
+        for v in points {
+            for (a, x) in v.into_iter().enumerate() {
+                b.min[a] = b.min[a].min(x);
+                b.max[a] = b.max[a].max(x);
             }
         }
         b
     }
 
     /// A test-only object-median builder with the production layout (children after their
-    /// parent, leaves of up to 2 triangles). The SAH builder lives in the host.
-    fn median_bvh(input: &[BvhTriangle]) -> (Vec<BvhNode>, Vec<BvhTriangle>) {
-        fn centroid(t: &BvhTriangle, axis: usize) -> f32 {
-            t.v0[axis] + t.v1[axis] + t.v2[axis]
+    /// parent, node indices from `first_node`, leaves of up to `leaf` items, the leaf index being
+    /// the position in `order`). Returns the nodes and `order` (input item at each position).
+    /// The SAH builder lives in the host.
+    fn median_tree(items: &[BvhChild], leaf: usize, first_node: u32) -> (Vec<BvhNode>, Vec<u32>) {
+        fn centroid(b: &BvhChild, axis: usize) -> f32 {
+            b.min[axis] + b.max[axis]
         }
-        fn build(tris: &mut [BvhTriangle], first: usize, nodes: &mut Vec<BvhNode>) -> BvhChild {
-            let mut child = bounds(tris);
-            if tris.len() <= 2 {
+        fn build(
+            items: &[BvhChild],
+            order: &mut [u32],
+            first: usize,
+            leaf: usize,
+            first_node: u32,
+            nodes: &mut Vec<BvhNode>,
+        ) -> BvhChild {
+            let all = order.iter().map(|&i| &items[i as usize]);
+            let mut child = bounds(all.flat_map(|b| [b.min, b.max]));
+            if order.len() <= leaf {
                 child.index = first as u32;
-                child.count = tris.len() as u32;
+                child.count = order.len() as u32;
                 return child;
             }
             let extent = Vec3::from(child.max) - Vec3::from(child.min);
             let axis = extent.max_position();
-            let mid = tris.len() / 2;
-            tris.select_nth_unstable_by(mid, |a, b| {
-                centroid(a, axis).total_cmp(&centroid(b, axis))
+            let mid = order.len() / 2;
+            order.select_nth_unstable_by(mid, |&a, &b| {
+                centroid(&items[a as usize], axis).total_cmp(&centroid(&items[b as usize], axis))
             });
             let me = nodes.len();
             nodes.push(BvhNode::default());
-            let (l, r) = tris.split_at_mut(mid);
-            let left = build(l, first, nodes);
-            let right = build(r, first + mid, nodes);
+            let (l, r) = order.split_at_mut(mid);
+            let left = build(items, l, first, leaf, first_node, nodes);
+            let right = build(items, r, first + mid, leaf, first_node, nodes);
             nodes[me] = BvhNode { left, right };
-            child.index = me as u32;
+            child.index = first_node + me as u32;
             child
         }
-        let mut tris = input.to_vec();
-        if tris.is_empty() {
-            return (Vec::new(), tris);
-        }
+        let mut order: Vec<u32> = (0..items.len() as u32).collect();
         let mut nodes = Vec::new();
-        let root = build(&mut tris, 0, &mut nodes);
+        if items.is_empty() {
+            return (nodes, order);
+        }
+        let root = build(items, &mut order, 0, leaf, first_node, &mut nodes);
         if root.is_leaf() {
             nodes.push(BvhNode {
                 left: root,
                 right: BvhChild::EMPTY,
             });
         }
-        (nodes, tris)
+        (nodes, order)
     }
 
-    fn random_soup(rng: &mut Rng, n: usize, extent: f32, size: f32) -> Vec<BvhTriangle> {
+    /// A scene in the layout the traversal reads.
+    #[derive(Clone, Default)]
+    struct TestScene {
+        nodes: Vec<BvhNode>,
+        instances: Vec<GpuInstance>,
+        meshes: Vec<GpuMesh>,
+        vertices: Vec<GpuVertex>,
+        triangles: Vec<GpuTriangle>,
+    }
+
+    impl TestScene {
+        fn view(&self) -> BvhScene<'_, BvhNode> {
+            BvhScene {
+                nodes: &self.nodes,
+                instances: &self.instances,
+                meshes: &self.meshes,
+                vertices: &self.vertices,
+                triangles: &self.triangles,
+            }
+        }
+
+        /// The object-space vertices of triangle `primitive` of instance `instance`'s mesh.
+        fn triangle(&self, instance: u32, primitive: u32) -> [Vec3; 3] {
+            let mesh = &self.meshes[self.instances[instance as usize].mesh as usize];
+            triangle_vertices(&self.vertices, &self.triangles, mesh, primitive)
+        }
+
+        /// The input index of triangle `primitive` (the builder reorders them), kept in its
+        /// material.
+        fn input_index(&self, primitive: u32) -> u32 {
+            self.triangles[primitive as usize].material
+        }
+    }
+
+    /// The instance of the 3×4 `object_to_world`, its inverse computed in `f64`.
+    fn instance(mesh: u32, m: [[f32; 4]; 3]) -> GpuInstance {
+        let a = glam::DMat4::from_cols_array_2d(&[
+            m[0].map(f64::from),
+            m[1].map(f64::from),
+            m[2].map(f64::from),
+            [0.0, 0.0, 0.0, 1.0],
+        ])
+        .transpose();
+        let inv = a.inverse().transpose().to_cols_array_2d();
+        let rows = |r: [f64; 4]| r.map(|x| x as f32);
+        GpuInstance {
+            object_to_world: m,
+            world_to_object: [rows(inv[0]), rows(inv[1]), rows(inv[2])],
+            mesh,
+            winding: if a.determinant() < 0.0 { -1.0 } else { 1.0 },
+            ..GpuInstance::ZERO
+        }
+    }
+
+    const IDENTITY: [[f32; 4]; 3] = [
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+    ];
+
+    /// One mesh of the triangles `soup` (each with its own three vertices; material = input
+    /// index) placed by `placements`, with median bottom and top levels.
+    fn scene(soup: &[Tri], placements: &[[[f32; 4]; 3]]) -> TestScene {
+        let items: Vec<BvhChild> = soup.iter().map(|t| bounds(*t)).collect();
+        let tlas_nodes = placements.len().saturating_sub(1).max(1) as u32;
+        let (blas, order) = median_tree(&items, 2, tlas_nodes);
+        let mut s = TestScene::default();
+        for (k, &i) in order.iter().enumerate() {
+            for v in soup[i as usize] {
+                s.vertices.push(GpuVertex {
+                    position: v,
+                    ..GpuVertex::ZERO
+                });
+            }
+            let k = 3 * k as u32;
+            s.triangles.push(GpuTriangle {
+                indices: [k, k + 1, k + 2],
+                material: i,
+            });
+        }
+        s.meshes.push(GpuMesh {
+            first_triangle: 0,
+            triangle_count: soup.len() as u32,
+            first_vertex: 0,
+            vertex_count: s.vertices.len() as u32,
+            has_uvs: 0,
+            bvh_root: tlas_nodes,
+            _pad: [0; 2],
+        });
+        s.instances = placements.iter().map(|&m| instance(0, m)).collect();
+        // World bounds of the mesh bounds' corners, widened: the traversal must not cull an
+        // instance's box that its transformed triangles touch.
+        let b = bounds(soup.iter().flatten().copied());
+        let world: Vec<BvhChild> = s
+            .instances
+            .iter()
+            .map(|inst| {
+                let corners = (0..8).map(|c| {
+                    let p = Vec3::new(
+                        if c & 1 == 0 { b.min[0] } else { b.max[0] },
+                        if c & 2 == 0 { b.min[1] } else { b.max[1] },
+                        if c & 4 == 0 { b.min[2] } else { b.max[2] },
+                    );
+                    transform(&inst.object_to_world, p, 1.0).to_array()
+                });
+                let mut w = bounds(corners);
+                for a in 0..3 {
+                    let pad = 1e-4 * (1.0 + w.max[a].abs().max(w.min[a].abs()));
+                    w.min[a] -= pad;
+                    w.max[a] += pad;
+                }
+                w
+            })
+            .collect();
+        let (mut tlas, order) = median_tree(&world, 1, 0);
+        for n in &mut tlas {
+            for c in [&mut n.left, &mut n.right] {
+                if c.is_leaf() {
+                    c.index = order[c.index as usize];
+                }
+            }
+        }
+        if soup.is_empty() || placements.is_empty() {
+            return TestScene::default();
+        }
+        assert_eq!(tlas.len() as u32, tlas_nodes);
+        s.nodes = tlas;
+        s.nodes.extend(blas);
+        s
+    }
+
+    fn random_soup(rng: &mut Rng, n: usize, extent: f32, size: f32) -> Vec<Tri> {
         (0..n)
-            .map(|i| {
+            .map(|_| {
                 let c = Vec3::from(rng.vec(-extent, extent));
-                let v = [
-                    (c + Vec3::from(rng.vec(-size, size))).to_array(),
-                    (c + Vec3::from(rng.vec(-size, size))).to_array(),
-                    (c + Vec3::from(rng.vec(-size, size))).to_array(),
-                ];
-                tri(v, (i % 7) as u32, i as u32)
+                [0; 3].map(|_| (c + Vec3::from(rng.vec(-size, size))).to_array())
             })
             .collect()
     }
 
     /// Asserts that the BVH and brute force agree on `ray`: the same record, or an exact tie in
     /// `t` (then the order of testing may pick another triangle).
-    fn assert_agree(nodes: &[BvhNode], tris: &[BvhTriangle], ray: &Ray) {
-        let bvh = closest_hit(nodes, tris, ray);
-        let brute = closest_hit_brute_force(tris, ray);
-        assert_eq!(any_hit(nodes, tris, ray), brute.is_hit(), "{ray:?}");
-        if bvh.primitive != brute.primitive && bvh.t == brute.t {
+    fn assert_agree(s: &TestScene, ray: &Ray) {
+        let bvh = closest_hit(s.view(), ray);
+        let brute = closest_hit_brute_force(s.view(), ray);
+        assert_eq!(any_hit(s.view(), ray), brute.is_hit(), "{ray:?}");
+        if (bvh.instance, bvh.primitive) != (brute.instance, brute.primitive) && bvh.t == brute.t {
             return;
         }
         assert_eq!(bvh, brute, "{ray:?}");
@@ -813,77 +1016,44 @@ mod tests {
         assert_eq!(size_of::<BvhNode>(), 64);
         assert_eq!(offset_of!(BvhNode, left), 0);
         assert_eq!(offset_of!(BvhNode, right), 32);
-        assert_eq!(size_of::<BvhTriangle>(), 48);
-        assert_eq!(offset_of!(BvhTriangle, v0), 0);
-        assert_eq!(offset_of!(BvhTriangle, instance), 12);
-        assert_eq!(offset_of!(BvhTriangle, v1), 16);
-        assert_eq!(offset_of!(BvhTriangle, primitive), 28);
-        assert_eq!(offset_of!(BvhTriangle, v2), 32);
-        assert_eq!(offset_of!(BvhTriangle, flags), 44);
+        assert_eq!(size_of::<BvhNodeRows>(), size_of::<BvhNode>());
         // Packed stack entries never collide with the "no child" marker.
         const {
             assert!((BVH_MAX_INDEX - 1) << STACK_COUNT_BITS | BVH_MAX_LEAF_TRIANGLES < NO_CHILD);
             assert!(BVH_SHORT_STACK_SIZE < BVH_STACK_SIZE);
+            assert!(BVH_TLAS_MAX_DEPTH + BVH_BLAS_MAX_DEPTH <= BVH_STACK_SIZE as u32);
         }
     }
 
-    /// The rows the kernels bind hold the same records as the buffers the host uploads.
+    /// The rows the kernels bind hold the same nodes as the buffer the host uploads, and the
+    /// traversal reads either alike.
     #[test]
     fn rows_hold_the_records() {
         let mut rng = Rng::new(4);
-        let soup = random_soup(&mut rng, 300, 2.0, 0.5);
-        let (nodes, mut tris) = median_bvh(&soup);
-        tris[7].flags = BVH_TRIANGLE_MIRRORED;
-        tris[8].v1[2] = f32::NAN;
-        let rows = |words: &[u32]| -> Vec<UVec4> {
-            words
-                .as_chunks::<4>()
-                .0
-                .iter()
-                .map(|&c| UVec4::from(c))
-                .collect()
-        };
-        for node in &nodes {
-            let r = rows(bytemuck::cast_slice(core::slice::from_ref(node)));
-            let from_rows = BvhNodeRows {
-                rows: [r[0], r[1], r[2], r[3]],
-            }
-            .get();
-            assert_eq!(
-                bytemuck::bytes_of(&from_rows),
-                bytemuck::bytes_of(node),
-                "{node:?}"
-            );
-        }
-        for tri in &tris {
-            let r = rows(bytemuck::cast_slice(core::slice::from_ref(tri)));
-            let from_rows = BvhTriangleRows {
-                rows: [r[0], r[1], r[2]],
-            }
-            .get();
-            assert_eq!(bytemuck::bytes_of(&from_rows), bytemuck::bytes_of(tri));
-        }
-        assert_eq!(size_of::<BvhNodeRows>(), size_of::<BvhNode>());
-        assert_eq!(size_of::<BvhTriangleRows>(), size_of::<BvhTriangle>());
-        // The same traversal reads either.
-        let node_rows: Vec<BvhNodeRows> = nodes
+        let s = scene(&random_soup(&mut rng, 300, 2.0, 0.5), &[IDENTITY]);
+        let node_rows: Vec<BvhNodeRows> = s
+            .nodes
             .iter()
             .map(|n| {
-                let r = rows(bytemuck::cast_slice(core::slice::from_ref(n)));
+                let w: &[u32] = bytemuck::cast_slice(core::slice::from_ref(n));
+                let r = |k: usize| UVec4::from_slice(&w[4 * k..]);
                 BvhNodeRows {
-                    rows: [r[0], r[1], r[2], r[3]],
+                    rows: [r(0), r(1), r(2), r(3)],
                 }
             })
             .collect();
-        let tri_rows: Vec<BvhTriangleRows> = tris
-            .iter()
-            .map(|t| {
-                let r = rows(bytemuck::cast_slice(core::slice::from_ref(t)));
-                BvhTriangleRows {
-                    rows: [r[0], r[1], r[2]],
-                }
-            })
-            .collect();
+        for (node, rows) in s.nodes.iter().zip(&node_rows) {
+            assert_eq!(bytemuck::bytes_of(&rows.get()), bytemuck::bytes_of(node));
+        }
+        let v = s.view();
+        let rows_scene = BvhScene {
+            nodes: &node_rows[..],
+            instances: v.instances,
+            meshes: v.meshes,
+            vertices: v.vertices,
+            triangles: v.triangles,
+        };
+        let mut hits = 0;
         for _ in 0..2000 {
             let ray = Ray {
                 origin: rng.vec(-4.0, 4.0),
@@ -891,9 +1061,29 @@ mod tests {
                 direction: rng.vec(-1.0, 1.0),
                 t_max: f32::INFINITY,
             };
-            let want = closest_hit(&nodes, &tris, &ray);
-            assert_eq!(closest_hit(&node_rows, &tri_rows, &ray), want);
-            assert_eq!(any_hit(&node_rows, &tri_rows, &ray), want.is_hit());
+            let want = closest_hit(s.view(), &ray);
+            assert_eq!(closest_hit(rows_scene, &ray), want);
+            assert_eq!(any_hit(rows_scene, &ray), want.is_hit());
+            hits += usize::from(want.is_hit());
+        }
+        assert!(hits > 200, "{hits}");
+    }
+
+    fn random_ray(rng: &mut Rng) -> Ray {
+        let origin = rng.vec(-6.0, 6.0);
+        let target = Vec3::from(rng.vec(-3.0, 3.0));
+        // Not normalised: the length scales t.
+        let direction = ((target - Vec3::from(origin)) * rng.range(0.1, 3.0)).to_array();
+        let t_max = if rng.range(0.0, 1.0) < 0.5 {
+            f32::INFINITY
+        } else {
+            rng.range(0.0, 2.0)
+        };
+        Ray {
+            origin,
+            t_min: rng.range(0.0, 0.2),
+            direction,
+            t_max,
         }
     }
 
@@ -909,50 +1099,89 @@ mod tests {
             (1000, 0.2),
             (1000, 3.0),
         ] {
-            let soup = random_soup(&mut rng, n, 2.0, size);
-            let (nodes, tris) = median_bvh(&soup);
+            let s = scene(&random_soup(&mut rng, n, 2.0, size), &[IDENTITY]);
             for _ in 0..4000 {
-                let origin = rng.vec(-4.0, 4.0);
-                let target = Vec3::from(rng.vec(-2.0, 2.0));
-                // Not normalised: the length scales t.
-                let direction = ((target - Vec3::from(origin)) * rng.range(0.1, 3.0)).to_array();
-                let t_max = if rng.range(0.0, 1.0) < 0.5 {
-                    f32::INFINITY
-                } else {
-                    rng.range(0.0, 2.0)
-                };
-                let ray = Ray {
-                    origin,
-                    t_min: rng.range(0.0, 0.2),
-                    direction,
-                    t_max,
-                };
-                assert_agree(&nodes, &tris, &ray);
-                hits += usize::from(closest_hit(&nodes, &tris, &ray).is_hit());
+                let ray = random_ray(&mut rng);
+                assert_agree(&s, &ray);
+                hits += usize::from(closest_hit(s.view(), &ray).is_hit());
             }
         }
         // The rays must actually exercise hits, not just misses.
         assert!(hits > 4000, "{hits}");
     }
 
+    /// Many placements of one mesh, mirrored, scaled, rotated and sheared ones among them: the
+    /// two levels agree with brute force, and the front face is decided in object space.
+    #[test]
+    fn instanced_meshes_agree_with_brute_force() {
+        let mut rng = Rng::new(5);
+        let soup = random_soup(&mut rng, 200, 1.0, 0.3);
+        let mut placements = Vec::new();
+        for i in 0..40 {
+            let mut m = [[0.0; 4]; 3];
+            for (r, row) in m.iter_mut().enumerate() {
+                for (c, x) in row.iter_mut().take(3).enumerate() {
+                    *x = if r == c { 1.0 } else { 0.0 } + rng.range(-0.3, 0.3);
+                }
+                row[3] = rng.range(-3.0, 3.0);
+            }
+            match i % 4 {
+                // Mirrored in x.
+                0 => m.iter_mut().for_each(|row| row[0] = -row[0]),
+                // Scaled up and down.
+                1 => m.iter_mut().flatten().take(3).for_each(|x| *x *= 2.5),
+                2 => m
+                    .iter_mut()
+                    .for_each(|row| row[..3].iter_mut().for_each(|x| *x *= 0.1)),
+                _ => {}
+            }
+            placements.push(m);
+        }
+        let s = scene(&soup, &placements);
+        let mut hits = 0;
+        let mut mirrored_front = 0;
+        for _ in 0..6000 {
+            let ray = random_ray(&mut rng);
+            assert_agree(&s, &ray);
+            let h = closest_hit(s.view(), &ray);
+            if h.is_hit() {
+                hits += 1;
+                // Front face = counter-clockwise in object space = the world-space cross product
+                // flipped by a mirroring transform.
+                let inst = &s.instances[h.instance as usize];
+                let [a, b, c] = s
+                    .triangle(h.instance, h.primitive)
+                    .map(|p| transform(&inst.object_to_world, p, 1.0));
+                let n = (b - a).cross(c - a) * inst.winding;
+                let facing = n.dot(Vec3::from(ray.direction)) < 0.0;
+                assert_eq!(h.front_face, u32::from(facing), "{ray:?}");
+                mirrored_front += usize::from(inst.winding < 0.0 && facing);
+                // The reported t reaches the triangle in world space.
+                let p = Vec3::from(ray.origin) + h.t * Vec3::from(ray.direction);
+                let q = a + h.barycentrics[0] * (b - a) + h.barycentrics[1] * (c - a);
+                assert!((p - q).length() < 1e-3 * (1.0 + p.length()), "{p} {q}");
+            }
+        }
+        assert!(
+            hits > 1500 && mirrored_front > 50,
+            "{hits} {mirrored_front}"
+        );
+        // One bottom level for all 40 placements, and a top level of 39 nodes.
+        assert_eq!(
+            s.nodes.len(),
+            39 + median_tree(&[BvhChild::default(); 200], 2, 0).0.len()
+        );
+    }
+
     /// A 16 × 16 grid of quads in the plane z = 0: node bounds have zero thickness and share
     /// planes with the rays below.
-    fn grid() -> Vec<BvhTriangle> {
+    fn grid() -> Vec<Tri> {
         let mut tris = Vec::new();
         for y in 0..16 {
             for x in 0..16 {
                 let (x, y) = (x as f32, y as f32);
-                let prim = tris.len() as u32;
-                tris.push(tri(
-                    [[x, y, 0.0], [x + 1.0, y, 0.0], [x + 1.0, y + 1.0, 0.0]],
-                    0,
-                    prim,
-                ));
-                tris.push(tri(
-                    [[x, y, 0.0], [x + 1.0, y + 1.0, 0.0], [x, y + 1.0, 0.0]],
-                    0,
-                    prim + 1,
-                ));
+                tris.push([[x, y, 0.0], [x + 1.0, y, 0.0], [x + 1.0, y + 1.0, 0.0]]);
+                tris.push([[x, y, 0.0], [x + 1.0, y + 1.0, 0.0], [x, y + 1.0, 0.0]]);
             }
         }
         tris
@@ -960,7 +1189,7 @@ mod tests {
 
     #[test]
     fn axis_aligned_rays_with_zero_components() {
-        let (nodes, tris) = median_bvh(&grid());
+        let s = scene(&grid(), &[IDENTITY]);
         let mut rng = Rng::new(2);
         for i in 0..2000 {
             // Half the origins sit exactly on grid lines, i.e. on node bounds.
@@ -975,8 +1204,8 @@ mod tests {
                     direction,
                     t_max: f32::INFINITY,
                 };
-                assert_agree(&nodes, &tris, &ray);
-                let hit = closest_hit(&nodes, &tris, &ray);
+                assert_agree(&s, &ray);
+                let hit = closest_hit(s.view(), &ray);
                 let inside = (0.0..=16.0).contains(&xy[0]) && (0.0..=16.0).contains(&xy[1]);
                 if direction[2] > 0.0 || !inside {
                     assert!(!hit.is_hit(), "{ray:?}");
@@ -1005,27 +1234,26 @@ mod tests {
                 direction,
                 t_max: f32::INFINITY,
             };
-            assert!(!closest_hit(&nodes, &tris, &ray).is_hit(), "{ray:?}");
-            assert!(!any_hit(&nodes, &tris, &ray), "{ray:?}");
+            assert!(!closest_hit(s.view(), &ray).is_hit(), "{ray:?}");
+            assert!(!any_hit(s.view(), &ray), "{ray:?}");
         }
     }
 
     #[test]
     fn back_face_and_barycentrics() {
-        let (nodes, tris) = median_bvh(&grid());
+        let s = scene(&grid(), &[IDENTITY]);
         let ray = Ray {
             origin: [2.25, 3.75, -2.0],
             t_min: 0.0,
             direction: [0.0, 0.0, 4.0],
             t_max: f32::INFINITY,
         };
-        let hit = closest_hit(&nodes, &tris, &ray);
+        let hit = closest_hit(s.view(), &ray);
         assert!(hit.is_hit());
         assert_eq!(hit.front_face, 0);
         assert_eq!(hit.t, 0.5);
-        let t = tris.iter().find(|t| t.primitive == hit.primitive).unwrap();
+        let [v0, v1, v2] = s.triangle(0, hit.primitive);
         let [u, v] = hit.barycentrics;
-        let (v0, v1, v2) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
         let p = v0 + u * (v1 - v0) + v * (v2 - v0);
         let expected = Vec3::from(ray.origin) + hit.t * Vec3::from(ray.direction);
         assert!((p - expected).length() < 1e-6, "{p} {expected}");
@@ -1033,22 +1261,32 @@ mod tests {
         assert!(n.dot(Vec3::from(ray.direction)) > 0.0);
     }
 
-    /// A mirrored triangle reports the other face, and the same distance and barycentrics.
+    /// The front face is decided in object space: a mirroring instance's triangle, clockwise
+    /// seen from above in world space, still shows its front face upwards, with the same
+    /// distance and barycentrics.
     #[test]
-    fn mirrored_triangles_flip_the_front_face_only() {
+    fn mirrored_instances_keep_the_object_space_front_face() {
         let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-        for (flags, front) in [(0, 1), (BVH_TRIANGLE_MIRRORED, 0)] {
-            let (nodes, tris) = median_bvh(&[BvhTriangle::new(v, 2, 9, flags)]);
-            for (z, dz, face) in [(1.0, -1.0, front), (-1.0, 2.0, 1 - front)] {
+        // Mirrored in x, moved by 1 in x: the triangle covers x in [0, 1] again.
+        let mirror = [
+            [-1.0, 0.0, 0.0, 1.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ];
+        for (m, x, winding) in [(IDENTITY, 0.25, 1.0), (mirror, 0.75, -1.0)] {
+            let s = scene(&[v], &[m, m]);
+            let [a, b, c] = s.triangle(0, 0).map(|p| transform(&m, p, 1.0));
+            assert_eq!((b - a).cross(c - a).z, winding);
+            for (z, dz, face) in [(1.0, -1.0, 1), (-1.0, 2.0, 0)] {
                 let ray = Ray {
-                    origin: [0.25, 0.5, z],
+                    origin: [x, 0.5, z],
                     t_min: 0.0,
                     direction: [0.0, 0.0, dz],
                     t_max: f32::INFINITY,
                 };
-                let hit = closest_hit(&nodes, &tris, &ray);
-                assert_eq!((hit.instance, hit.primitive), (2, 9));
-                assert_eq!(hit.front_face, face, "{flags} {ray:?}");
+                let hit = closest_hit(s.view(), &ray);
+                assert_eq!(hit.primitive, 0);
+                assert_eq!(hit.front_face, face, "{m:?} {ray:?}");
                 assert_eq!(hit.barycentrics, [0.25, 0.5]);
                 assert_eq!(hit.t, 1.0 / dz.abs());
             }
@@ -1058,12 +1296,13 @@ mod tests {
     #[test]
     fn t_min_and_t_max_clip_inclusively() {
         // Ten parallel quads at z = 1..=10; the direction has length 2, so quad k is at t = k/2.
-        let mut layers = Vec::new();
-        for k in 1..=10 {
-            let z = k as f32;
-            layers.push(tri([[-1.0, -1.0, z], [1.0, -1.0, z], [0.0, 1.0, z]], 3, k));
-        }
-        let (nodes, tris) = median_bvh(&layers);
+        let layers: Vec<Tri> = (1..=10)
+            .map(|k| {
+                let z = k as f32;
+                [[-1.0, -1.0, z], [1.0, -1.0, z], [0.0, 1.0, z]]
+            })
+            .collect();
+        let s = scene(&layers, &[IDENTITY]);
         let trace = |t_min: f32, t_max: f32| {
             let ray = Ray {
                 origin: [0.0, 0.0, 0.0],
@@ -1071,33 +1310,36 @@ mod tests {
                 direction: [0.0, 0.0, 2.0],
                 t_max,
             };
-            assert_agree(&nodes, &tris, &ray);
-            closest_hit(&nodes, &tris, &ray)
+            assert_agree(&s, &ray);
+            let h = closest_hit(s.view(), &ray);
+            // The layer's number, or 0 on a miss.
+            let layer = if h.is_hit() {
+                s.input_index(h.primitive) + 1
+            } else {
+                0
+            };
+            (layer, h.t)
         };
-        let h = trace(0.0, f32::INFINITY);
-        assert_eq!((h.primitive, h.instance, h.t), (1, 3, 0.5));
-        let h = trace(1.6, f32::INFINITY);
-        assert_eq!((h.primitive, h.t), (4, 2.0));
-        assert!(!trace(1.6, 1.9).is_hit());
-        let h = trace(2.0, 2.0);
-        assert_eq!((h.primitive, h.t), (4, 2.0));
-        let h = trace(0.0, 0.5);
-        assert_eq!((h.primitive, h.t), (1, 0.5));
-        assert!(!trace(5.01, f32::INFINITY).is_hit());
-        assert!(!trace(2.0, 1.0).is_hit());
-        assert!(!trace(0.0, -1.0).is_hit());
+        assert_eq!(trace(0.0, f32::INFINITY), (1, 0.5));
+        assert_eq!(trace(1.6, f32::INFINITY), (4, 2.0));
+        assert_eq!(trace(1.6, 1.9).0, 0);
+        assert_eq!(trace(2.0, 2.0), (4, 2.0));
+        assert_eq!(trace(0.0, 0.5), (1, 0.5));
+        assert_eq!(trace(5.01, f32::INFINITY).0, 0);
+        assert_eq!(trace(2.0, 1.0).0, 0);
+        assert_eq!(trace(0.0, -1.0).0, 0);
     }
 
     #[test]
     fn nan_and_infinite_rays_miss() {
-        let (nodes, tris) = median_bvh(&grid());
+        let s = scene(&grid(), &[IDENTITY]);
         let good = Ray {
             origin: [0.5, 0.25, 1.0],
             t_min: 0.0,
             direction: [0.0, 0.0, -1.0],
             t_max: f32::INFINITY,
         };
-        assert!(closest_hit(&nodes, &tris, &good).is_hit());
+        assert!(closest_hit(s.view(), &good).is_hit());
         let nan = f32::NAN;
         for ray in [
             Ray {
@@ -1123,24 +1365,24 @@ mod tests {
             Ray { t_min: nan, ..good },
             Ray { t_max: nan, ..good },
         ] {
-            assert_eq!(
-                closest_hit(&nodes, &tris, &ray),
-                HitRecord::miss(),
-                "{ray:?}"
-            );
-            assert_eq!(closest_hit_brute_force(&tris, &ray), HitRecord::miss());
-            assert!(!any_hit(&nodes, &tris, &ray), "{ray:?}");
+            assert_eq!(closest_hit(s.view(), &ray), HitRecord::miss(), "{ray:?}");
+            assert_eq!(closest_hit_brute_force(s.view(), &ray), HitRecord::miss());
+            assert!(!any_hit(s.view(), &ray), "{ray:?}");
         }
     }
 
     #[test]
-    fn nan_triangles_miss_and_do_not_hide_others() {
+    fn nan_triangles_and_bad_indices_miss_and_do_not_hide_others() {
         let mut soup = grid();
-        soup[5].v0[1] = f32::NAN;
-        soup[9].v2 = [f32::NAN; 3];
-        soup[12].v1[0] = f32::INFINITY;
-        let (nodes, tris) = median_bvh(&soup);
+        soup[5][0][1] = f32::NAN;
+        soup[9][2] = [f32::NAN; 3];
+        soup[12][1][0] = f32::INFINITY;
+        let mut s = scene(&soup, &[IDENTITY]);
+        // Triangle of input 20 gets a vertex index past the mesh's vertices.
+        let bad = s.triangles.iter().position(|t| t.material == 20).unwrap();
+        s.triangles[bad].indices[1] = 1 << 30;
         let mut rng = Rng::new(3);
+        let mut hits = 0;
         for _ in 0..2000 {
             let ray = Ray {
                 origin: [rng.range(-1.0, 17.0), rng.range(-1.0, 17.0), 1.0],
@@ -1148,10 +1390,14 @@ mod tests {
                 direction: [rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), -1.0],
                 t_max: f32::INFINITY,
             };
-            assert_agree(&nodes, &tris, &ray);
-            let hit = closest_hit(&nodes, &tris, &ray);
-            assert!(![5, 9, 12].contains(&hit.primitive));
+            assert_agree(&s, &ray);
+            let hit = closest_hit(s.view(), &ray);
+            if hit.is_hit() {
+                hits += 1;
+                assert!(![5, 9, 12, 20].contains(&s.input_index(hit.primitive)));
+            }
         }
+        assert!(hits > 1000, "{hits}");
     }
 
     /// Everything contains the ray's path.
@@ -1162,32 +1408,47 @@ mod tests {
         count: 0,
     };
 
-    /// A chain of `depth` nodes: node `k`'s left child is node `k + 1` (the last one's a leaf of
-    /// triangle `end`), its right child a leaf of triangle `side(k)`. Every box contains the
-    /// ray, so with equal entry distances the left child comes first and each level pushes
-    /// its right leaf: the chain needs a stack as deep as itself.
+    /// A top-level root (node 0) over instance 0, then a chain of `depth` nodes from node 1 (the
+    /// mesh's root): node `k`'s left child is node `k + 1` (the last one's a leaf of triangle
+    /// `end`), its right child a leaf of triangle `side(k)`. Every box contains the ray, so with
+    /// equal entry distances the left child comes first and each level pushes its right leaf:
+    /// the chain needs a stack as deep as itself.
     fn chain(depth: usize, end: u32, side: impl Fn(usize) -> u32) -> Vec<BvhNode> {
-        (0..depth)
-            .map(|k| BvhNode {
-                left: if k + 1 == depth {
-                    BvhChild {
-                        index: end,
-                        count: 1,
-                        ..EVERYWHERE
-                    }
-                } else {
-                    BvhChild {
-                        index: k as u32 + 1,
-                        ..EVERYWHERE
-                    }
-                },
-                right: BvhChild {
-                    index: side(k),
-                    count: 1,
+        let root = BvhNode {
+            left: BvhChild {
+                index: 0,
+                count: 1,
+                ..EVERYWHERE
+            },
+            right: BvhChild::EMPTY,
+        };
+        let leaf = |index| BvhChild {
+            index,
+            count: 1,
+            ..EVERYWHERE
+        };
+        let mut nodes = vec![root];
+        nodes.extend((0..depth).map(|k| BvhNode {
+            left: if k + 1 == depth {
+                leaf(end)
+            } else {
+                BvhChild {
+                    index: k as u32 + 2,
                     ..EVERYWHERE
-                },
-            })
-            .collect()
+                }
+            },
+            right: leaf(side(k)),
+        }));
+        nodes
+    }
+
+    /// `tris` as one mesh of one identity instance whose bottom level starts at node 1; the nodes
+    /// are left to the test.
+    fn bare(tris: &[Tri]) -> TestScene {
+        let mut s = scene(tris, &[IDENTITY]);
+        s.meshes[0].bvh_root = 1;
+        s.nodes.clear();
+        s
     }
 
     #[test]
@@ -1198,11 +1459,13 @@ mod tests {
             direction: [0.0, 0.0, -1.0],
             t_max: f32::INFINITY,
         };
-        let mut tris = grid();
-        let no_nodes: &[BvhNode] = &[];
-        let no_tris: &[BvhTriangle] = &[];
-        assert!(!closest_hit(no_nodes, &tris, &ray).is_hit());
-        assert!(!any_hit(no_nodes, no_tris, &ray));
+        let mut s = bare(&grid());
+        // The triangle the ray hits, wherever the builder put it.
+        let target = s.triangles.iter().position(|t| t.material == 0).unwrap() as u32;
+        let miss =
+            |s: &TestScene| !closest_hit(s.view(), &ray).is_hit() && !any_hit(s.view(), &ray);
+        assert!(miss(&s));
+        assert!(miss(&TestScene::default()));
         let node = |left: BvhChild, right: BvhChild| BvhNode { left, right };
         let leaf = |index: u32, count: u32| BvhChild {
             index,
@@ -1213,33 +1476,79 @@ mod tests {
             index,
             ..EVERYWHERE
         };
-        // A root that is its own child, a child before its parent, children past the end, a
-        // leaf past the end of the triangles, an overflowing leaf and one longer than the
-        // stack can encode: all terminate and miss. Triangle 0 is the one the ray hits.
+        let top = node(leaf(0, 1), BvhChild::EMPTY);
+        // Bottom levels whose root is its own child, a child before its parent, children past
+        // the end, a leaf past the end of the triangles, an overflowing leaf and one longer than
+        // the stack can encode; a top level that is its own child, whose leaf names an instance
+        // past the end or several instances: all terminate and miss.
+        let first = target.saturating_sub(5);
         for nodes in [
-            vec![node(interior(0), interior(0))],
+            vec![top, node(interior(1), interior(1))],
             vec![
-                node(interior(1), BvhChild::EMPTY),
-                node(interior(0), interior(1)),
+                top,
+                node(interior(2), BvhChild::EMPTY),
+                node(interior(1), interior(2)),
             ],
-            vec![node(interior(5), interior(1))],
-            vec![node(leaf(600, 1), leaf(511, 2))],
-            vec![node(leaf(1, u32::MAX), BvhChild::EMPTY)],
-            vec![node(leaf(0, BVH_MAX_LEAF_TRIANGLES + 1), BvhChild::EMPTY)],
+            vec![top, node(interior(7), interior(2))],
+            vec![top, node(leaf(600, 1), leaf(511, 2))],
+            vec![top, node(leaf(1, u32::MAX), BvhChild::EMPTY)],
+            vec![
+                top,
+                node(leaf(first, BVH_MAX_LEAF_TRIANGLES + 1), BvhChild::EMPTY),
+            ],
+            vec![
+                node(interior(0), leaf(1, 1)),
+                node(leaf(target, 1), BvhChild::EMPTY),
+            ],
+            vec![
+                node(leaf(0, 2), BvhChild::EMPTY),
+                node(leaf(target, 1), BvhChild::EMPTY),
+            ],
         ] {
-            assert!(!closest_hit(&nodes, &tris, &ray).is_hit(), "{nodes:?}");
-            assert!(!any_hit(&nodes, &tris, &ray));
+            s.nodes = nodes;
+            assert!(miss(&s), "{:?}", s.nodes);
         }
         // The well-formed counterpart hits.
-        let nodes = [node(leaf(0, BVH_MAX_LEAF_TRIANGLES), BvhChild::EMPTY)];
-        assert_eq!(closest_hit(&nodes, &tris, &ray).primitive, 0);
+        s.nodes = vec![
+            top,
+            node(leaf(first, BVH_MAX_LEAF_TRIANGLES), BvhChild::EMPTY),
+        ];
+        assert_eq!(closest_hit(s.view(), &ray).primitive, target);
+        // A mesh root, a mesh or a vertex past the end, a singular or NaN transform: misses.
+        let good = s.clone();
+        let mut broken = Vec::new();
+        let mut b = good.clone();
+        b.meshes[0].bvh_root = 2;
+        broken.push(b);
+        let mut b = good.clone();
+        b.instances[0].mesh = 1;
+        broken.push(b);
+        let mut b = good.clone();
+        b.meshes[0].first_vertex = 1 << 31;
+        broken.push(b);
+        let mut b = good.clone();
+        b.meshes[0].first_triangle = 1 << 31;
+        broken.push(b);
+        let mut b = good.clone();
+        b.instances[0].world_to_object = [[0.0; 4]; 3];
+        broken.push(b);
+        let mut b = good.clone();
+        b.instances[0].world_to_object[1][1] = f32::NAN;
+        broken.push(b);
+        for (i, b) in broken.iter().enumerate() {
+            assert!(miss(b));
+            // Brute force does not use the mesh's root.
+            assert_eq!(closest_hit_brute_force(b.view(), &ray).is_hit(), i == 0);
+        }
         // A chain deeper than both stacks, whose side leaves miss: both walks drop entries
         // without a panic, and the hit at the chain's end is still found.
-        tris[511].v0 = [50.0; 3];
-        let nodes = chain(3 * BVH_STACK_SIZE, 0, |_| 511);
-        let h = closest_hit(&nodes, &tris, &ray);
-        assert_eq!((h.primitive, h.t), (0, 1.0));
-        assert!(any_hit(&nodes, &tris, &ray));
+        let far = s.triangles.iter().position(|t| t.material == 511).unwrap();
+        let k = s.triangles[far].indices[0] as usize;
+        s.vertices[k].position = [50.0; 3];
+        s.nodes = chain(3 * BVH_STACK_SIZE, target, |_| far as u32);
+        let h = closest_hit(s.view(), &ray);
+        assert_eq!((h.primitive, h.t), (target, 1.0));
+        assert!(any_hit(s.view(), &ray));
     }
 
     /// Hits that only the long stack reaches: the short walk drops them, the second walk finds
@@ -1247,39 +1556,53 @@ mod tests {
     #[test]
     fn the_long_stack_finds_what_the_short_one_dropped() {
         // Triangle k of the stack of layers lies at z = -k, under a ray going down from z = 1.
-        let layers: Vec<BvhTriangle> = (0..BVH_STACK_SIZE as u32)
+        let mut layers: Vec<Tri> = (0..BVH_STACK_SIZE)
             .map(|k| {
                 let z = -(k as f32);
-                tri([[-1.0, -1.0, z], [2.0, -1.0, z], [0.0, 2.0, z]], 0, k)
+                [[-1.0, -1.0, z], [2.0, -1.0, z], [0.0, 2.0, z]]
             })
             .collect();
-        let mut layers = layers;
         // Layer 0 is not in the tree below.
-        layers[0].v0 = [50.0; 3];
+        layers[0][0] = [50.0; 3];
         let ray = Ray {
             origin: [0.25, 0.25, 1.0],
             t_min: 0.0,
             direction: [0.0, 0.0, -1.0],
             t_max: f32::INFINITY,
         };
+        // Bottom-level leaves name the layer by its input index through this map.
+        let mut s = bare(&layers);
+        let at = |s: &TestScene, layer: usize| {
+            s.triangles
+                .iter()
+                .position(|t| t.material as usize == layer)
+                .unwrap() as u32
+        };
         let depth = BVH_SHORT_STACK_SIZE + 20;
         // Side leaf k holds layer `depth - k` (the deeper side leaves hold the nearer layers)
         // and the chain ends on the farthest layer: the short stack drops the nearest ones.
-        let nodes = chain(depth, BVH_STACK_SIZE as u32 - 1, |k| (depth - k) as u32);
-        let h = closest_hit(&nodes, &layers, &ray);
-        let nearest = (depth - (depth - 1)) as u32;
-        assert_eq!((h.primitive, h.t), (nearest, 1.0 + nearest as f32));
-        assert_eq!(h, closest_hit_brute_force(&layers, &ray));
-        assert!(any_hit(&nodes, &layers, &ray));
+        s.nodes = chain(depth, at(&s, BVH_STACK_SIZE - 1), |k| at(&s, depth - k));
+        let h = closest_hit(s.view(), &ray);
+        let nearest = depth - (depth - 1);
+        assert_eq!(
+            (s.input_index(h.primitive), h.t),
+            (nearest as u32, 1.0 + nearest as f32)
+        );
+        assert_eq!(h, closest_hit_brute_force(s.view(), &ray));
+        assert!(any_hit(s.view(), &ray));
         // Only the dropped side leaves hit: any_hit needs the second walk too.
-        let mut far = layers.clone();
-        far[BVH_STACK_SIZE - 1].v0 = [50.0; 3];
+        let mut far = s.clone();
+        let mut hide = |layer: usize| {
+            let k = far.triangles[at(&s, layer) as usize].indices[0] as usize;
+            far.vertices[k].position = [50.0; 3];
+        };
+        hide(BVH_STACK_SIZE - 1);
         for k in 0..BVH_SHORT_STACK_SIZE {
-            far[depth - k].v0 = [50.0; 3];
+            hide(depth - k);
         }
-        let h = closest_hit(&nodes, &far, &ray);
-        assert_eq!(h, closest_hit_brute_force(&far, &ray));
+        let h = closest_hit(far.view(), &ray);
+        assert_eq!(h, closest_hit_brute_force(far.view(), &ray));
         assert!(h.is_hit());
-        assert!(any_hit(&nodes, &far, &ray));
+        assert!(any_hit(far.view(), &ray));
     }
 }

@@ -208,6 +208,7 @@ mod tests {
         ];
         let instances = [GpuInstance {
             object_to_world: identity_rows,
+            world_to_object: identity_rows,
             normal_to_world: identity_rows,
             mesh: 0,
             winding: 1.0,
@@ -219,8 +220,9 @@ mod tests {
             first_vertex: 0,
             vertex_count: 4,
             has_uvs: 0,
+            bvh_root: u32::MAX,
             flags: 0,
-            _pad: [0; 2],
+            _pad: 0,
         }];
         let materials = [GpuMaterial {
             base_color: [0.8, 0.1, 0.1, 1.0],

@@ -6,11 +6,12 @@
 //! All `#[repr(C)]` + [`Pod`], only `f32`/`u32`, explicit padding; sizes and offsets are asserted
 //! by the tests below.
 //!
-//! * [`GpuInstance`] (112 bytes), indexed by the hit's instance.
-//! * [`GpuMesh`] (32 bytes), indexed by [`GpuInstance::mesh`].
+//! * [`GpuInstance`] (160 bytes), indexed by the hit's instance.
+//! * [`GpuMesh`] (32 bytes), indexed by [`GpuInstance::mesh`]; [`GpuMesh::bvh_root`] is the root
+//!   of its bottom-level BVH in the node buffer (`crate::bvh`).
 //! * [`GpuVertex`] (32 bytes): every mesh's vertices, concatenated, in object space.
 //! * [`GpuTriangle`] (16 bytes): every mesh's triangles, concatenated; a hit's primitive indexes
-//!   its mesh's run.
+//!   its mesh's run, in the leaf order of the mesh's bottom-level BVH.
 //! * [`GpuMaterial`] (64 bytes).
 //! * [`GpuTexture`] (32 bytes), the texture table. The texels are sampled images on the device
 //!   and one `u32` array on the CPU (see [`crate::textures`]).
@@ -41,20 +42,24 @@ pub const WRAP_MIRRORED_REPEAT: u32 = 1;
 /// Clamp to the edge texels.
 pub const WRAP_CLAMP_TO_EDGE: u32 = 2;
 
-/// One placement of a mesh (112 bytes).
+/// One placement of a mesh (160 bytes).
 ///
 /// | offset | field             |
 /// |--------|-------------------|
 /// | 0      | `object_to_world` |
-/// | 48     | `normal_to_world` |
-/// | 96     | `mesh`            |
-/// | 100    | `winding`         |
-/// | 104    | `_pad`            |
+/// | 48     | `world_to_object` |
+/// | 96     | `normal_to_world` |
+/// | 144    | `mesh`            |
+/// | 148    | `winding`         |
+/// | 152    | `_pad`            |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuInstance {
     /// Object to world, three rows of four (row-major 3×4).
     pub object_to_world: [[f32; 4]; 3],
+    /// World to object, the inverse of `object_to_world` (computed in `f64`): the software
+    /// traversal moves rays into the mesh's space with it.
+    pub world_to_object: [[f32; 4]; 3],
     /// Rows of the inverse transpose of the upper 3×3 of `object_to_world` (`w` = 0): transforms
     /// object-space normals to world space (normalise afterwards).
     pub normal_to_world: [[f32; 4]; 3],
@@ -72,6 +77,7 @@ impl GpuInstance {
     /// compile for SPIR-V.)
     pub const ZERO: Self = Self {
         object_to_world: [[0.0; 4]; 3],
+        world_to_object: [[0.0; 4]; 3],
         normal_to_world: [[0.0; 4]; 3],
         mesh: 0,
         winding: 0.0,
@@ -114,8 +120,9 @@ pub const MESH_ALPHA_TESTED: u32 = 1;
 /// | 8      | `first_vertex`   |
 /// | 12     | `vertex_count`   |
 /// | 16     | `has_uvs`        |
-/// | 20     | `flags`          |
-/// | 24     | `_pad`           |
+/// | 20     | `bvh_root`       |
+/// | 24     | `flags`          |
+/// | 28     | `_pad`           |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMesh {
@@ -129,10 +136,13 @@ pub struct GpuMesh {
     pub vertex_count: u32,
     /// 1 when the vertices carry UVs; 0 when the mesh has none (UVs then read as zero).
     pub has_uvs: u32,
+    /// Index of the root node of the mesh's bottom-level BVH in the node buffer; its leaves
+    /// hold triangle indices relative to `first_triangle`.
+    pub bvh_root: u32,
     /// [`MESH_ALPHA_TESTED`] or 0.
     pub flags: u32,
     /// Explicit padding.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 impl GpuMesh {
@@ -143,8 +153,9 @@ impl GpuMesh {
         first_vertex: 0,
         vertex_count: 0,
         has_uvs: 0,
+        bvh_root: u32::MAX,
         flags: 0,
-        _pad: [0; 2],
+        _pad: 0,
     };
 }
 
@@ -637,12 +648,13 @@ mod tests {
 
     #[test]
     fn layouts() {
-        assert_eq!(size_of::<GpuInstance>(), 112);
+        assert_eq!(size_of::<GpuInstance>(), 160);
         assert_eq!(offset_of!(GpuInstance, object_to_world), 0);
-        assert_eq!(offset_of!(GpuInstance, normal_to_world), 48);
-        assert_eq!(offset_of!(GpuInstance, mesh), 96);
-        assert_eq!(offset_of!(GpuInstance, winding), 100);
-        assert_eq!(offset_of!(GpuInstance, _pad), 104);
+        assert_eq!(offset_of!(GpuInstance, world_to_object), 48);
+        assert_eq!(offset_of!(GpuInstance, normal_to_world), 96);
+        assert_eq!(offset_of!(GpuInstance, mesh), 144);
+        assert_eq!(offset_of!(GpuInstance, winding), 148);
+        assert_eq!(offset_of!(GpuInstance, _pad), 152);
 
         assert_eq!(size_of::<GpuMesh>(), 32);
         assert_eq!(offset_of!(GpuMesh, first_triangle), 0);
@@ -650,8 +662,9 @@ mod tests {
         assert_eq!(offset_of!(GpuMesh, first_vertex), 8);
         assert_eq!(offset_of!(GpuMesh, vertex_count), 12);
         assert_eq!(offset_of!(GpuMesh, has_uvs), 16);
-        assert_eq!(offset_of!(GpuMesh, flags), 20);
-        assert_eq!(offset_of!(GpuMesh, _pad), 24);
+        assert_eq!(offset_of!(GpuMesh, bvh_root), 20);
+        assert_eq!(offset_of!(GpuMesh, flags), 24);
+        assert_eq!(offset_of!(GpuMesh, _pad), 28);
 
         assert_eq!(size_of::<GpuVertex>(), 32);
         assert_eq!(offset_of!(GpuVertex, position), 0);
@@ -904,14 +917,20 @@ mod tests {
             first_vertex: 0,
             vertex_count: 3,
             has_uvs: 1,
+            bvh_root: 0,
             flags: 0,
-            _pad: [0; 2],
+            _pad: 0,
         }];
         let instances = [GpuInstance {
             object_to_world: [
                 [-2.0, 0.0, 0.0, 5.0],
                 [0.0, 1.0, 0.0, 0.0],
                 [0.0, 0.0, 3.0, 1.0],
+            ],
+            world_to_object: [
+                [-0.5, 0.0, 0.0, 2.5],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0 / 3.0, -1.0 / 3.0],
             ],
             normal_to_world: [
                 [-0.5, 0.0, 0.0, 0.0],

@@ -4,7 +4,7 @@
 use gi_host::KernelVariant;
 use gi_host::vulkan::{
     AccelerationStructure, BindingKind, Buffer, DescriptorSet, Instance, Kernel, KernelModule,
-    Resource, SceneSet, SceneSets,
+    Resource, SHADING_BINDINGS, SceneSet, SceneSets,
 };
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::ray::{HitRecord, Ray};
@@ -170,9 +170,17 @@ fn ray_queries_hit_the_expected_triangles() {
         .unwrap()
         .unwrap_err();
     assert!(err.to_string().contains("dispatch_traced"), "{err}");
+    // The shading data a kernel that traces binds too: nothing here reads it.
+    let placeholder = Buffer::device_zeroed::<[u32; 4]>(&ctx, "placeholder", 1).unwrap();
+    let shading = DescriptorSet::new(
+        &ctx,
+        SceneSet::Shading,
+        &[Resource::Buffer(&placeholder); SHADING_BINDINGS],
+    )
+    .unwrap();
     let scene = SceneSets {
         geometry: &geometry,
-        shading: None,
+        shading: &shading,
     };
     ctx.submit(|cmd| {
         kernel
@@ -214,6 +222,8 @@ fn ray_queries_hit_the_expected_triangles() {
     }
     drop(kernel);
     drop(geometry);
+    drop(shading);
+    drop(placeholder);
     drop(ray_buf);
     drop(hit_buf);
     drop(tlas);

@@ -23,7 +23,7 @@ use gi_host::scene::Scene;
 use gi_host::scene::bvh::Bvh;
 use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
-use gi_host::scene::upload::{GpuScene, build_bvh};
+use gi_host::scene::upload::GpuScene;
 use gi_shared::camera::{CameraParams, primary_ray, view_projection};
 use gi_shared::gbuffer::GBufferTexel;
 use gi_shared::scene_data::srgb_to_linear;
@@ -41,7 +41,7 @@ struct Loaded {
 
 fn load(file: &str) -> Loaded {
     let (scene, _warnings) = Scene::load(scene_path(file)).unwrap();
-    let bvh = build_bvh(&scene).unwrap();
+    let bvh = Bvh::new(&scene).unwrap();
     let shading = ShadingData::new(&scene).unwrap();
     Loaded {
         scene,

@@ -13,10 +13,11 @@ use gi_host::image_io::HdrImage;
 use gi_host::path_tracer::{
     MAX_SAMPLES_PER_SUBMIT, PathTracerPass, PathTracerSettings, Render, Strategy, render_on_cpu,
 };
+use gi_host::scene::bvh::Bvh;
 use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::{Environment, LightSet};
 use gi_host::scene::procedural::transformed;
-use gi_host::scene::upload::{GpuScene, build_bvh};
+use gi_host::scene::upload::GpuScene;
 use gi_host::scene::{Aabb, Instance, Light, LightKind, Material, Mesh, Scene};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::path_tracer::path_random;
@@ -79,7 +80,7 @@ fn render_gpu_lit(
 
 fn render_cpu(scene: &Scene, camera: &CameraParams, settings: &PathTracerSettings) -> HdrImage {
     let shading = ShadingData::new(scene).unwrap();
-    let bvh = build_bvh(scene).unwrap();
+    let bvh = Bvh::new(scene).unwrap();
     render_on_cpu(
         &shading,
         &LightSet::new(scene, None, false),
@@ -147,6 +148,7 @@ fn quad_scene(
         bounds: Aabb::EMPTY,
         animation: None,
         load_stages: Vec::new(),
+        blases: Vec::new(),
     };
     scene.update_derived();
     scene
@@ -545,7 +547,7 @@ fn an_environment_image_lights_a_plane() {
         ..Default::default()
     };
     let shading = ShadingData::new(&scene).unwrap();
-    let bvh = build_bvh(&scene).unwrap();
+    let bvh = Bvh::new(&scene).unwrap();
     let cpu = render_on_cpu(&shading, &set, &bvh, &camera, &settings).unwrap();
     for variant in VARIANTS {
         let ctx = context(variant);

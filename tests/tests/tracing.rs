@@ -2,8 +2,7 @@
 //! the same BVH on the device, and the ray-query kernel against device-built acceleration
 //! structures. 100 000 random rays per scene, from inside the scene's bounds in uniformly random
 //! directions, on every repository scene, the third-party Blender box, and a scene of mirrored
-//! instances (`tests/data/mirrored.gltf`), where ray queries decide the front face in object
-//! space and the software BVH by the triangle's mirror flag.
+//! instances (`tests/data/mirrored.gltf`), where both decide the front face in object space.
 //!
 //! Agreement: the same instance, primitive and front face, and distances within 1e-4 relative.
 //! Near the origin the rounding of a hit distance scales with the scene's coordinates, not with
@@ -11,20 +10,23 @@
 //! Two tracers may legitimately pick different triangles when a ray hits both at the same
 //! distance (a shared edge or vertex, or coplanar faces such as a box's bottom lying on the
 //! floor): such ties are counted and accepted when both distances agree; they must stay under 1%
-//! of the rays. Both triangle tests are watertight, but they see different coordinates (world
-//! space here, object space in ray queries), so a ray grazing the silhouette of an open surface
-//! may still hit in one and miss in the other: such edge misses are counted and must stay below
-//! 1 in 10 000 rays. On closed meshes no ray may slip through the software traversal: 10⁶ rays
-//! aimed exactly at shared vertices and edges all hit, on the CPU and in the software kernel
-//! (lavapipe's ray queries let about 1% of them through; counted, not asserted).
+//! of the rays. Both triangle tests are watertight, but they see different coordinates (each
+//! implementation rounds the ray's move into object space its own way), so a ray grazing the
+//! silhouette of an open surface may still hit in one and miss in the other: such edge misses are
+//! counted and must stay below 1 in 10 000 rays. On closed meshes no ray may slip through the
+//! software traversal: 10⁶ rays aimed exactly at shared vertices and edges all hit, on the CPU and
+//! in the software kernel (lavapipe's ray queries let about 1% of them through; counted, not
+//! asserted).
 
 use gi_host::KernelVariant;
 use gi_host::scene::Scene;
 use gi_host::scene::bvh::Bvh;
+use gi_host::scene::gpu_data::ShadingData;
+use gi_host::scene::lights::LightSet;
 use gi_host::scene::procedural::{
     self, clear_of_the_axes, cube, icosphere, ray_at_shared_feature, transformed,
 };
-use gi_host::scene::upload::{SceneGeometry, build_bvh};
+use gi_host::scene::upload::GpuScene;
 use gi_host::trace_rays::TraceRays;
 use gi_shared::random::Random;
 use gi_shared::ray::{HitRecord, Ray};
@@ -53,6 +55,17 @@ fn random_rays(scene: &Scene, seed: u32) -> Vec<Ray> {
             }
         })
         .collect()
+}
+
+/// `scene` on the device, with its BVH and shading data (lights: its own, no environment).
+fn upload(
+    ctx: &gi_host::vulkan::Context,
+    scene: &Scene,
+    bvh: &Bvh,
+    shading: &ShadingData,
+) -> GpuScene {
+    let lights = LightSet::new(scene, None, false);
+    GpuScene::upload(ctx, scene, Some(bvh), shading, &lights).unwrap()
 }
 
 #[derive(Default, Debug)]
@@ -89,11 +102,17 @@ fn compare(name: &str, extent: f32, reference: &[HitRecord], other: &[HitRecord]
 /// Traces the random rays of `path` on the CPU and in both variants and asserts agreement;
 /// returns the scene and the CPU's hits.
 fn check_scene(path: PathBuf) -> (Scene, Vec<HitRecord>) {
-    let file = path.display().to_string();
     let (scene, _warnings) = Scene::load(&path).unwrap();
-    let bvh: Bvh = build_bvh(&scene).unwrap();
+    check(&path, scene)
+}
+
+/// [`check_scene`] for a scene already loaded or built (`path` names it).
+fn check(path: &Path, scene: Scene) -> (Scene, Vec<HitRecord>) {
+    let file = path.display().to_string();
+    let bvh = Bvh::new(&scene).unwrap();
+    let shading = ShadingData::new(&scene).unwrap();
     let rays = random_rays(&scene, 17);
-    let cpu: Vec<HitRecord> = rays.iter().map(|r| bvh.closest_hit(r)).collect();
+    let cpu: Vec<HitRecord> = rays.iter().map(|r| bvh.closest_hit(&shading, r)).collect();
     let hits_on_cpu = cpu.iter().filter(|h| h.is_hit()).count();
     assert!(
         hits_on_cpu > RAYS / 10,
@@ -101,11 +120,11 @@ fn check_scene(path: PathBuf) -> (Scene, Vec<HitRecord>) {
     );
     for variant in KernelVariant::ALL {
         let ctx = context(variant);
-        let geometry = SceneGeometry::new(&ctx, &scene, Some(&bvh)).unwrap();
+        let gpu_scene = upload(&ctx, &scene, &bvh, &shading);
         let pass = TraceRays::new(&ctx).unwrap();
-        let gpu = pass.run(&ctx, &geometry, &rays).unwrap();
+        let gpu = pass.run(&ctx, &gpu_scene, &rays).unwrap();
         drop(pass);
-        drop(geometry);
+        drop(gpu_scene);
         finish_without_validation_messages(ctx);
         let extent = (scene.bounds.max - scene.bounds.min).length();
         let a = compare(&format!("{file} {variant}"), extent, &cpu, &gpu.hits);
@@ -195,6 +214,55 @@ fn mirrored_instances() {
     assert!(faces.iter().all(|&n| n > RAYS / 50), "{faces:?}");
 }
 
+/// One mesh placed 400 times, mirrored, scaled (unevenly too) and rotated: the two-level BVH
+/// (one bottom level for all) gives exactly what brute force over every instance's triangles
+/// gives, on the CPU, and both device variants agree with it as on the other scenes.
+#[test]
+fn instanced_mesh() {
+    let mut rng = Random::new(41, 0);
+    let placements: Vec<(u32, Mat4)> = (0..400)
+        .map(|i| {
+            let axis = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
+            let turn = Quat::from_axis_angle(axis.normalize_or(Vec3::Z), 6.0 * rng.next_f32());
+            let s = rng.next_in(0.05, 0.5);
+            let scale = match i % 4 {
+                0 => Vec3::new(-s, s, s),
+                1 => Vec3::new(s, 0.25 * s, 2.0 * s),
+                2 => Vec3::new(s, -s, -s),
+                _ => Vec3::splat(s),
+            };
+            let at = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 8.0 - 4.0;
+            (0, Mat4::from_scale_rotation_translation(scale, turn, at))
+        })
+        .collect();
+    let scene = procedural::scene(vec![icosphere(2)], &placements).unwrap();
+    let bvh = Bvh::new(&scene).unwrap();
+    let shading = ShadingData::new(&scene).unwrap();
+    assert_eq!(bvh.nodes.len(), 399 + scene.blases[0].nodes.len());
+    let view = bvh.scene(&shading);
+    let rays = random_rays(&scene, 43);
+    let mut ties = 0;
+    for ray in &rays[..RAYS / 10] {
+        let got = bvh.closest_hit(&shading, ray);
+        let want = gi_shared::bvh::closest_hit_brute_force(view, ray);
+        if (got.instance, got.primitive) != (want.instance, want.primitive) && got.t == want.t {
+            ties += 1;
+        } else {
+            assert_eq!(got, want, "{ray:?}");
+        }
+    }
+    assert!(ties <= RAYS / 1000, "{ties} ties");
+    let (scene, cpu) = check(Path::new("<400 instances of an icosphere>"), scene);
+    let mirrored = cpu
+        .iter()
+        .filter(|h| h.is_hit() && scene.instances[h.instance as usize].is_mirrored())
+        .count();
+    assert!(
+        mirrored > RAYS / 20,
+        "{mirrored} hits on mirrored instances"
+    );
+}
+
 /// Rays aimed exactly at shared vertices and edges of closed meshes (see
 /// [`ray_at_shared_feature`]), 10⁶ per variant: on the CPU and in the software kernel none may
 /// miss, and each hits at its target. The placements are baked into the vertices (instances keep
@@ -231,6 +299,7 @@ fn rays_at_shared_vertices_and_edges_never_slip_through_the_software_bvh() {
         name: String,
         scene: Scene,
         bvh: Bvh,
+        shading: ShadingData,
         rays: Vec<Ray>,
     }
     let mut groups = Vec::new();
@@ -255,7 +324,8 @@ fn rays_at_shared_vertices_and_edges_never_slip_through_the_software_bvh() {
                     .collect();
                 groups.push(Group {
                     name: format!("{} {name} inside={inside}", mesh.name),
-                    bvh: build_bvh(&scene).unwrap(),
+                    bvh: Bvh::new(&scene).unwrap(),
+                    shading: ShadingData::new(&scene).unwrap(),
                     scene,
                     rays,
                 });
@@ -285,14 +355,18 @@ fn rays_at_shared_vertices_and_edges_never_slip_through_the_software_bvh() {
         let ctx = context(variant);
         for g in &groups {
             if variant == KernelVariant::Software {
-                let cpu: Vec<HitRecord> = g.rays.iter().map(|r| g.bvh.closest_hit(r)).collect();
+                let cpu: Vec<HitRecord> = g
+                    .rays
+                    .iter()
+                    .map(|r| g.bvh.closest_hit(&g.shading, r))
+                    .collect();
                 assert_eq!(leaks(g, &cpu), 0, "cpu {}", g.name);
             }
-            let geometry = SceneGeometry::new(&ctx, &g.scene, Some(&g.bvh)).unwrap();
+            let gpu_scene = upload(&ctx, &g.scene, &g.bvh, &g.shading);
             let pass = TraceRays::new(&ctx).unwrap();
-            let gpu = pass.run(&ctx, &geometry, &g.rays).unwrap();
+            let gpu = pass.run(&ctx, &gpu_scene, &g.rays).unwrap();
             drop(pass);
-            drop(geometry);
+            drop(gpu_scene);
             let n = leaks(g, &gpu.hits);
             println!(
                 "{variant:<24} {:<32} {n:>5} of {} rays leak",

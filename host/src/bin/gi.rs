@@ -13,10 +13,11 @@ use gi_host::image_io::{HdrImage, ToneMap};
 use gi_host::metrics::{self, CompareSettings};
 use gi_host::path_tracer::{PathTracerPass, PathTracerSettings, Render, Strategy};
 use gi_host::scene::Scene;
+use gi_host::scene::bvh::Bvh;
 use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::{Environment, LightSet};
 use gi_host::scene::synthetic::{self, SyntheticParams};
-use gi_host::scene::upload::{GpuScene, build_bvh};
+use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
 use gi_render::{GiArgs, Method, render_gi};
@@ -525,7 +526,7 @@ fn gbuffer(
     let scene = load_scene(path)?;
     let shading = ShadingData::new(&scene)?;
     let bvh = match ctx.variant() {
-        KernelVariant::Software => Some(build_bvh(&scene)?),
+        KernelVariant::Software => Some(Bvh::new(&scene)?),
         KernelVariant::RayQuery => None,
     };
     println!(

@@ -78,7 +78,8 @@ impl ShadingData {
     /// [`MAX_STORAGE_BUFFER_BYTES`], naming the scene and the buffer.
     pub fn new(scene: &Scene) -> Result<Self> {
         let mut data = Self::default();
-        for mesh in &scene.meshes {
+        let roots = super::bvh::mesh_roots(scene);
+        for (m, mesh) in scene.meshes.iter().enumerate() {
             let first_vertex = u32_index(scene, "vertices", data.vertices.len())?;
             let first_triangle = u32_index(scene, "triangles", data.triangles.len())?;
             data.meshes.push(GpuMesh {
@@ -87,6 +88,8 @@ impl ShadingData {
                 first_vertex,
                 vertex_count: u32_index(scene, "vertices", mesh.positions.len())?,
                 has_uvs: u32::from(mesh.uvs.is_some()),
+                // A scene without bottom levels (not through `Scene::update_derived`) has none.
+                bvh_root: roots.get(m).copied().unwrap_or(u32::MAX),
                 flags: if mesh.materials.iter().any(|&m| {
                     scene
                         .materials
@@ -98,7 +101,7 @@ impl ShadingData {
                 } else {
                     0
                 },
-                _pad: [0; 2],
+                _pad: 0,
             });
             for (i, (p, n)) in mesh.positions.iter().zip(&mesh.normals).enumerate() {
                 let uv = mesh
@@ -129,8 +132,16 @@ impl ShadingData {
             .iter()
             .map(|inst| {
                 let n = inst.normal_matrix().transpose().to_cols_array_2d();
+                let inverse = inst
+                    .transform
+                    .as_dmat4()
+                    .inverse()
+                    .transpose()
+                    .to_cols_array_2d();
+                let row = |r: [f64; 4]| r.map(|x| x as f32);
                 GpuInstance {
                     object_to_world: inst.transform_3x4(),
+                    world_to_object: [row(inverse[0]), row(inverse[1]), row(inverse[2])],
                     normal_to_world: n.map(|r| [r[0], r[1], r[2], 0.0]),
                     mesh: inst.mesh,
                     winding: if inst.is_mirrored() { -1.0 } else { 1.0 },

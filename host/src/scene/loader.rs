@@ -161,6 +161,7 @@ impl Builder<'_> {
             bounds: Aabb::EMPTY,
             load_stages: self.stages,
             animation: None,
+            blases: Vec::new(),
         };
         scene.update_derived();
         if !self.doc.root.animations.is_empty() {

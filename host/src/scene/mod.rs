@@ -5,13 +5,15 @@
 //!
 //! # Two views of the same triangles
 //!
-//! * Per mesh, in object space: [`Mesh`]es and the [`Instance`]s that place them. One bottom-level
-//!   acceleration structure per mesh, made of a single geometry, so that a ray query's primitive
-//!   index is the index into [`Mesh::triangles`]; one top-level instance per [`Instance`], with
-//!   [`Instance::transform_3x4`] as its `VkTransformMatrixKHR`.
+//! * Per mesh, in object space: [`Mesh`]es and the [`Instance`]s that place them. One bottom level
+//!   per mesh, made of a single geometry, so that a hit's primitive index is the index into
+//!   [`Mesh::triangles`]: the software BVH's ([`Scene::blases`], whose leaf order the triangles
+//!   are kept in) and the ray queries' acceleration structure, built from the same triangles; one
+//!   top-level instance per [`Instance`], with [`Instance::transform_3x4`] as its
+//!   `VkTransformMatrixKHR`.
 //! * Flattened, in world space: [`Scene::world_triangles`], each triangle with its instance index,
-//!   its primitive (triangle) index within the instance's mesh and its material, for the software
-//!   BVH. Both views name a triangle by the same (instance, primitive) pair.
+//!   its primitive (triangle) index within the instance's mesh and its material, for the light
+//!   tables and tests. Both views name a triangle by the same (instance, primitive) pair.
 //!
 //! All glTF primitives of a mesh are concatenated into one [`Mesh`], with a material per triangle.
 //! Only what the scene has is stored: [`Scene::emissive_triangles`] is empty without emissive
@@ -109,6 +111,9 @@ pub struct Scene {
     /// Bounds of all world-space triangles (after [`Scene::set_time`], possibly larger: see
     /// [`animation`]).
     pub bounds: Aabb,
+    /// The software BVH's bottom level of each mesh, indexed like [`Scene::meshes`]; each mesh's
+    /// triangles are in its leaf order.
+    pub blases: Vec<bvh::Blas>,
     /// The file's node animations; `None` when it has none that can be played. The scene is
     /// loaded in its rest pose (the nodes' own transforms), not at time 0. It refers to
     /// instances, lights and cameras by index: keep those lists as the loader made them.
@@ -139,10 +144,22 @@ impl Scene {
         loader::load(path.as_ref())
     }
 
-    /// Recomputes [`Scene::bounds`] and [`Scene::emissive_triangles`] from the meshes, instances
-    /// and materials: the loader's last step, and what a scene built in code calls once its parts
-    /// are in place.
+    /// Recomputes [`Scene::blases`] (reordering each mesh's triangles and their materials into
+    /// the leaf order of its bottom level), [`Scene::bounds`] and [`Scene::emissive_triangles`]
+    /// from the meshes, instances and materials: the loader's last step, and what a scene built
+    /// in code calls once its parts are in place (and again after changing meshes).
     pub fn update_derived(&mut self) {
+        use rayon::prelude::*;
+        self.blases = self
+            .meshes
+            .par_iter_mut()
+            .map(|mesh| {
+                let (blas, order) = bvh::Blas::build(&mesh.positions, &mesh.triangles);
+                mesh.triangles = order.iter().map(|&i| mesh.triangles[i as usize]).collect();
+                mesh.materials = order.iter().map(|&i| mesh.materials[i as usize]).collect();
+                blas
+            })
+            .collect();
         let mut bounds = Aabb::EMPTY;
         let mut emissive = Vec::new();
         for tri in self.world_triangles() {

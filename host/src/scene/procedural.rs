@@ -184,6 +184,7 @@ pub fn scene(meshes: Vec<Mesh>, instances: &[(u32, Mat4)]) -> Option<Scene> {
         bounds: Aabb::EMPTY,
         animation: None,
         load_stages: Vec::new(),
+        blases: Vec::new(),
     };
     scene.update_derived();
     Some(scene)

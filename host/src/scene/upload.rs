@@ -1,11 +1,12 @@
 //! The scene on the device. Its geometry ([`SceneGeometry`]) in the form the context's kernel
 //! variant traces: bottom-level acceleration structures per mesh and a top-level one of instances
-//! for ray queries, or the flattened BVH's node and triangle buffers for the software traversal;
-//! bound as set 1 of every kernel that traces. The whole scene ([`GpuScene`]) adds the shading data
-//! and lights, bound as set 2 (see `vulkan::pipeline`).
+//! for ray queries, or the two-level BVH's node buffer for the software traversal; bound as set 1
+//! of every kernel that traces. The whole scene ([`GpuScene`]) adds the shading data and lights,
+//! bound as set 2 (see `vulkan::pipeline`), which every kernel that traces needs too: the
+//! software traversal reads the triangles and vertices there.
 
 use super::Scene;
-use super::bvh::{Bvh, TriangleId};
+use super::bvh::Bvh;
 use super::gpu_data::{GpuShadingData, ShadingData};
 use super::lights::{GpuLights, LightSet};
 use super::memory_report::SceneMemory;
@@ -33,52 +34,20 @@ pub enum GeometryData {
         /// Top level; instance custom index = instance index.
         tlas: AccelerationStructure,
     },
-    /// Software traversal of the flattened BVH.
+    /// Software traversal of the two-level BVH.
     Software {
-        /// `gi_shared::bvh::BvhNode`s.
+        /// `gi_shared::bvh::BvhNode`s ([`Bvh::nodes`]).
         nodes: Buffer,
-        /// `gi_shared::bvh::BvhTriangle`s.
-        triangles: Buffer,
     },
-}
-
-/// Flattens every instance's triangles to world space for the software BVH, flagging those of
-/// mirroring instances so that both tracing variants agree on the front face.
-pub fn build_bvh(scene: &Scene) -> Result<Bvh> {
-    let (tris, ids): (Vec<[[f32; 3]; 3]>, Vec<TriangleId>) = scene
-        .world_triangles()
-        .map(|t| {
-            (
-                t.vertices.map(|v| v.to_array()),
-                TriangleId {
-                    instance: t.instance,
-                    primitive: t.primitive,
-                    mirrored: scene
-                        .instances
-                        .get(t.instance as usize)
-                        .is_some_and(|i| i.is_mirrored()),
-                },
-            )
-        })
-        .unzip();
-    Bvh::build(&tris, &ids)
 }
 
 impl SceneGeometry {
     /// Uploads `scene` for the context's variant, with its descriptor set. The software variant
-    /// uses `bvh` when given (built from this scene by [`build_bvh`]) and builds it otherwise.
+    /// uses `bvh` when given (built from this scene by [`Bvh::new`]) and builds it otherwise.
     pub fn new(ctx: &Context, scene: &Scene, bvh: Option<&Bvh>) -> Result<Self> {
         let data = GeometryData::new(ctx, scene, bvh)?;
         let set = DescriptorSet::new(ctx, SceneSet::Geometry, &data.resources())?;
         Ok(Self { data, set })
-    }
-
-    /// The sets a kernel that only traces is dispatched with.
-    pub fn sets(&self) -> SceneSets<'_> {
-        SceneSets {
-            geometry: &self.set,
-            shading: None,
-        }
     }
 }
 
@@ -115,14 +84,13 @@ impl GeometryData {
                 let bvh = match bvh {
                     Some(b) => b,
                     None => {
-                        built = build_bvh(scene)?;
+                        built = Bvh::new(scene)?;
                         &built
                     }
                 };
                 let usage = vk::BufferUsageFlags::empty();
                 Ok(Self::Software {
                     nodes: Buffer::device_local(ctx, "bvh nodes", &bvh.nodes, usage)?,
-                    triangles: Buffer::device_local(ctx, "bvh triangles", &bvh.triangles, usage)?,
                 })
             }
         }
@@ -135,16 +103,14 @@ impl GeometryData {
             Self::RayQuery { blases, tlas } => {
                 blases.iter().map(|b| b.bytes()).sum::<u64>() + tlas.bytes()
             }
-            Self::Software { nodes, triangles } => nodes.size + triangles.size,
+            Self::Software { nodes } => nodes.size,
         }
     }
 
     fn resources(&self) -> Vec<Resource<'_>> {
         match self {
             Self::RayQuery { tlas, .. } => vec![Resource::AccelerationStructure(tlas.handle)],
-            Self::Software { nodes, triangles } => {
-                vec![Resource::Buffer(nodes), Resource::Buffer(triangles)]
-            }
+            Self::Software { nodes } => vec![Resource::Buffer(nodes)],
         }
     }
 }
@@ -213,7 +179,7 @@ impl GpuScene {
     pub fn sets(&self) -> SceneSets<'_> {
         SceneSets {
             geometry: &self.geometry.set,
-            shading: Some(&self.set),
+            shading: &self.set,
         }
     }
 

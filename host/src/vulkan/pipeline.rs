@@ -6,7 +6,7 @@
 //!   each dispatch by push descriptors, at most [`MAX_PUSH_BINDINGS`] (the least
 //!   `maxPushDescriptors` a device may have). Nothing to allocate or keep alive per dispatch.
 //! * **set 1**: the scene's geometry ([`SceneSet::Geometry`]): the top-level acceleration
-//!   structure with ray queries, the BVH's nodes and triangles in software. A persistent set
+//!   structure with ray queries, the two-level BVH's nodes in software. A persistent set
 //!   allocated once with the geometry (`SceneGeometry`), since it changes only with the scene.
 //! * **set 2**: the scene's shading data and lights ([`SceneSet::Shading`]), persistent, owned by
 //!   the uploaded scene (`GpuScene`).
@@ -441,7 +441,7 @@ impl SceneSet {
     pub fn binding_kinds(self, variant: KernelVariant, texture_slots: u32) -> Vec<BindingKind> {
         match (self, variant) {
             (Self::Geometry, KernelVariant::RayQuery) => vec![BindingKind::AccelerationStructure],
-            (Self::Geometry, KernelVariant::Software) => vec![BindingKind::StorageBuffer; 2],
+            (Self::Geometry, KernelVariant::Software) => vec![BindingKind::StorageBuffer],
             (Self::Shading, _) => {
                 let mut kinds = vec![BindingKind::StorageBuffer; SHADING_BINDINGS];
                 kinds[TEXTURES_BINDING] = BindingKind::Textures(texture_slots);
@@ -519,19 +519,15 @@ impl Drop for DescriptorSet {
 pub struct SceneSets<'a> {
     /// Set 1 ([`SceneSet::Geometry`]).
     pub geometry: &'a DescriptorSet,
-    /// Set 2 ([`SceneSet::Shading`]); `None` for kernels that only trace.
-    pub shading: Option<&'a DescriptorSet>,
+    /// Set 2 ([`SceneSet::Shading`]): the software traversal reads its geometry.
+    pub shading: &'a DescriptorSet,
 }
 
 impl SceneSets<'_> {
     fn handles(&self) -> Vec<vk::DescriptorSet> {
         debug_assert_eq!(self.geometry.kind, SceneSet::Geometry);
-        debug_assert!(self.shading.is_none_or(|s| s.kind == SceneSet::Shading));
-        [Some(self.geometry), self.shading]
-            .into_iter()
-            .flatten()
-            .map(|s| s.set)
-            .collect()
+        debug_assert_eq!(self.shading.kind, SceneSet::Shading);
+        vec![self.geometry.set, self.shading.set]
     }
 }
 

@@ -21,10 +21,6 @@ use spirv_std::spirv;
 traced_kernel! {
     /// Traces shadow ray `id.x` and accumulates its light.
     #[spirv(compute(threads(64)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn populate_radiance_cache(
         scene;
         #[spirv(global_invocation_id)] id: UVec3,

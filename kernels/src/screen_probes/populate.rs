@@ -21,9 +21,7 @@ use gi_shared::light_grid::report_hit_bounds;
 use gi_shared::lights::GpuLight;
 use gi_shared::packing::unpack_seed;
 use gi_shared::ray::Ray;
-use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
-};
+use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use gi_shared::screen_probes::{GiFrameParams, MISS_DISTANCE, PROBE_CELLS, ProbeRay, SPAWN_COUNT};
 use spirv_std::glam::{UVec3, Vec3, Vec4};
 use spirv_std::spirv;
@@ -31,10 +29,6 @@ use spirv_std::spirv;
 traced_kernel! {
     /// Traces ray `lane` of spawn slot `group`.
     #[spirv(compute(threads(64)))]
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "an entry point takes one argument per binding"
-    )]
     pub fn populate_screen_probes(
         scene;
         #[spirv(workgroup_id)] group: UVec3,
@@ -51,10 +45,6 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] queries: &mut [CacheQuery],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] counters: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] bounds: &mut [u32],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 0)] instances: &[GpuInstance],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 1)] meshes: &[GpuMesh],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 2)] vertices: &[GpuVertex],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 3)] triangles: &[GpuTriangle],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
         #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
@@ -90,8 +80,9 @@ traced_kernel! {
             };
             let hit = scene.closest_hit(&ray);
             let shaded = shade_cache_hit(
-                &params.view, &ray, &surface, &hit, index, instances, meshes, vertices, triangles,
-                materials, textures, &Bindless(texture_images), lights, light_table, environment, environment_cdf,
+                &params.view, &ray, &surface, &hit, index, scene.instances, scene.meshes,
+                scene.vertices, scene.triangles, materials, textures, &Bindless(texture_images), lights, light_table,
+                environment, environment_cdf,
             );
             if hit.is_hit() {
                 record.hit_distance = hit.t * direction.length();

@@ -3,8 +3,8 @@
 //! `f64` ray/triangle oracle agrees with it wherever its answer is not ambiguous.
 
 use super::*;
+use crate::scene::gpu_data::ShadingData;
 use crate::scene::procedural::{self, clear_of_the_axes, cube, icosphere, ray_at_shared_feature};
-use crate::scene::upload::build_bvh;
 use gi_shared::random::Random;
 use glam::{Mat4, Quat, Vec3};
 
@@ -66,7 +66,8 @@ fn rays_at_shared_vertices_and_edges_never_slip_through() {
                     clear_of_the_axes(transform)
                 };
                 let scene = procedural::scene(vec![mesh.clone()], &[(0, placement)]).unwrap();
-                let bvh = build_bvh(&scene).unwrap();
+                let bvh = Bvh::new(&scene).unwrap();
+                let shading = ShadingData::new(&scene).unwrap();
                 let seed = (k * 2 + usize::from(inside)) as u32 + 100 * mesh.triangles.len() as u32;
                 let results: Vec<(Ray, HitRecord, f32)> = (0..RAYS_PER_GROUP)
                     .into_par_iter()
@@ -82,7 +83,7 @@ fn rays_at_shared_vertices_and_edges_never_slip_through() {
                             .max(target.abs().max_element());
                         let tolerance =
                             1e-4 + 64.0 * m * f32::EPSILON / Vec3::from(ray.direction).length();
-                        (ray, bvh.closest_hit(&ray), tolerance)
+                        (ray, bvh.closest_hit(&shading, &ray), tolerance)
                     })
                     .collect();
                 let misses: Vec<&Ray> = results
@@ -115,12 +116,10 @@ fn rays_at_shared_vertices_and_edges_never_slip_through() {
     assert!(total >= 1_000_000);
 }
 
-/// The `f64` oracle: Möller–Trumbore on the `f32` inputs widened to `f64`, written
-/// independently of the traversal. Returns `(t, u, v)` of the ray against the triangle's plane
+/// The `f64` oracle: Möller–Trumbore on the ray `o + t·d` and the `f32` triangle widened to
+/// `f64`, written independently of the traversal. Returns `(t, u, v)` of the ray against the triangle's plane
 /// (NaN when parallel), whatever the sign of the barycentrics.
-fn oracle(ray: &Ray, tri: &[[f32; 3]; 3]) -> (f64, f64, f64) {
-    let o = ray.origin.map(f64::from);
-    let d = ray.direction.map(f64::from);
+fn oracle(o: [f64; 3], d: [f64; 3], tri: &[[f32; 3]; 3]) -> (f64, f64, f64) {
     let [a, b, c] = tri.map(|v| v.map(f64::from));
     let e1 = sub64(b, a);
     let e2 = sub64(c, a);
@@ -156,10 +155,10 @@ enum Verdict {
     Ambiguous,
 }
 
-fn verdict(ray: &Ray, tris: &[[[f32; 3]; 3]]) -> Verdict {
+fn verdict(origin: [f64; 3], direction: [f64; 3], tris: &[[[f32; 3]; 3]]) -> Verdict {
     let mut hits: Vec<(f64, usize)> = Vec::new();
     for (i, tri) in tris.iter().enumerate() {
-        let (t, u, v) = oracle(ray, tri);
+        let (t, u, v) = oracle(origin, direction, tri);
         if t.is_nan() || t < 0.0 {
             // Parallel, or behind the origin (no test ray starts on a surface).
             continue;
@@ -184,20 +183,18 @@ fn verdict(ray: &Ray, tris: &[[[f32; 3]; 3]]) -> Verdict {
 
 /// The BVH against the `f64` oracle with brute force over all triangles, on random rays (half
 /// aimed at random points of random triangles) through the placed meshes and a random soup: the
-/// same primitive and the same distance within [`T_RELATIVE`] (and [`T_ULPS`]) on every ray whose answer is not ambiguous.
+/// same primitive and the same distance within [`T_RELATIVE`] (and [`T_ULPS`]) on every ray whose
+/// answer is not ambiguous. The oracle works in the mesh's object space, with the world ray moved
+/// there in `f64`, as instancing requires: rounding the placed triangles to world-space `f32`
+/// would move them by more than the margins far from the origin.
 #[test]
 fn the_bvh_agrees_with_an_f64_oracle() {
     const RAYS_PER_SCENE: usize = 20_000;
-    type Scene = (String, Vec<[[f32; 3]; 3]>, Mat4);
-    let mut scenes: Vec<Scene> = Vec::new();
+    let mut scenes: Vec<(String, crate::scene::Scene)> = Vec::new();
     for mesh in [cube(), icosphere(2)] {
         for (name, transform) in transforms(22) {
             let scene = procedural::scene(vec![mesh.clone()], &[(0, transform)]).unwrap();
-            let tris = scene
-                .world_triangles()
-                .map(|t| t.vertices.map(|v| v.to_array()))
-                .collect();
-            scenes.push((format!("{} {name}", mesh.name), tris, transform));
+            scenes.push((format!("{} {name}", mesh.name), scene));
         }
     }
     let mut rng = Random::new(23, 0);
@@ -218,18 +215,35 @@ fn the_bvh_agrees_with_an_f64_oracle() {
             })
         })
         .collect();
-    scenes.push(("random soup".into(), soup, Mat4::IDENTITY));
+    let soup = crate::scene::Mesh {
+        name: "random soup".into(),
+        positions: soup.iter().flatten().map(|&v| Vec3::from(v)).collect(),
+        normals: vec![Vec3::ZERO; 3 * soup.len()],
+        uvs: None,
+        triangles: (0..soup.len() as u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect(),
+        materials: vec![0; soup.len()],
+    };
+    let soup = procedural::scene(vec![soup], &[(0, Mat4::IDENTITY)]).unwrap();
+    scenes.push(("random soup".into(), soup));
 
     let (mut checked, mut ambiguous, mut hits) = (0, 0, 0);
-    for (s, (name, tris, transform)) in scenes.iter().enumerate() {
-        let ids: Vec<TriangleId> = (0..tris.len() as u32)
-            .map(|primitive| TriangleId {
-                instance: 0,
-                primitive,
-                mirrored: false,
-            })
+    for (s, (name, scene)) in scenes.iter().enumerate() {
+        let transform = &scene.instances[0].transform;
+        let inverse = transform.as_dmat4().inverse();
+        let mesh = &scene.meshes[0];
+        // Object space, in the leaf order the BVH reports primitives in.
+        let object: Vec<[[f32; 3]; 3]> = (0..mesh.triangles.len())
+            .map(|i| mesh.triangle(i).map(|v| v.to_array()))
             .collect();
-        let bvh = Bvh::build(tris, &ids).unwrap();
+        let tris: Vec<[[f32; 3]; 3]> = scene
+            .world_triangles()
+            .map(|t| t.vertices.map(|v| v.to_array()))
+            .collect();
+        let tris = &tris;
+        let bvh = Bvh::new(scene).unwrap();
+        let shading = ShadingData::new(scene).unwrap();
         let outcomes: Vec<Option<(bool, String)>> = (0..RAYS_PER_SCENE)
             .into_par_iter()
             .map(|i| {
@@ -260,8 +274,10 @@ fn the_bvh_agrees_with_an_f64_oracle() {
                     direction: (target - origin).to_array(),
                     t_max: f32::INFINITY,
                 };
-                let got = bvh.closest_hit(&ray);
-                match verdict(&ray, tris) {
+                let got = bvh.closest_hit(&shading, &ray);
+                let o = inverse.transform_point3(Vec3::from(ray.origin).as_dvec3());
+                let d = inverse.transform_vector3(Vec3::from(ray.direction).as_dvec3());
+                match verdict(o.to_array(), d.to_array(), &object) {
                     Verdict::Ambiguous => None,
                     Verdict::Miss => Some((
                         false,
