@@ -941,7 +941,8 @@ mod tests {
             vertex_count: s.vertices.len() as u32,
             has_uvs: 0,
             bvh_root: tlas_nodes,
-            _pad: [0; 2],
+            flags: 0,
+            _pad: 0,
         });
         s.instances = placements.iter().map(|&m| instance(0, m)).collect();
         // World bounds of the mesh bounds' corners, widened: the traversal must not cull an
