@@ -110,6 +110,7 @@ impl GiRenderer {
         let restir = RestirResources::new(ctx, settings.restir, rays)?;
         let mut gbuffer_bindings = vec![BindingKind::StorageBuffer];
         gbuffer_bindings.extend(GBufferImages::binding_kinds());
+        gbuffer_bindings.push(BindingKind::StorageBuffer);
         let made = (|| -> Result<_> {
             Ok((
                 Kernel::new(ctx, &module, "gbuffer::gbuffer", &gbuffer_bindings, 0)?,
@@ -332,6 +333,7 @@ impl GiRenderer {
         timer.pass(ctx, cmd, "GBuffer", || {
             let mut resources = vec![Resource::Buffer(camera)];
             resources.extend(gbuffer.resources());
+            resources.push(Resource::Buffer(scene.previous_transforms()));
             self.gbuffer_kernel.dispatch_traced(
                 ctx,
                 cmd,

@@ -125,6 +125,11 @@ pub struct GiSettings {
     /// history grows and as the screen's blur cost rises. Cost: three passes. Quality: off,
     /// young history (disocclusions, motion) stays noisy.
     pub denoiser_spatial: bool,
+    /// Per-object reprojection: probe and denoiser history follow moving objects through the
+    /// G-buffer's motion vectors. Cost: a motion read per pixel, a 3 × 3 solve where an object
+    /// moved. Quality: off, a moving object leaves a trail of stale history behind it and starts
+    /// over where it arrives; static scenes render the same either way.
+    pub object_motion: bool,
 }
 
 /// The screen probes' spawn rate: one probe traced per spawn tile per frame.
@@ -175,6 +180,7 @@ impl Default for GiSettings {
             relaxed_fallback: true,
             denoiser_temporal: true,
             denoiser_spatial: true,
+            object_motion: true,
         }
     }
 }

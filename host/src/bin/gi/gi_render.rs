@@ -54,6 +54,8 @@ pub enum Technique {
     Feedback,
     /// The cache's light-leak fixes (short-ray flag and bypass).
     LeakFixes,
+    /// Per-object reprojection of moving objects.
+    ObjectMotion,
 }
 
 /// A quality preset of `gi render` (README, "Speed and accuracy": each one's measured cost and
@@ -158,6 +160,7 @@ impl GiArgs {
                 Technique::Temporal => s.denoiser_temporal = false,
                 Technique::Spatial => s.denoiser_spatial = false,
                 Technique::Feedback => s.temporal_feedback = false,
+                Technique::ObjectMotion => s.object_motion = false,
                 Technique::LeakFixes => {
                     s.short_ray_flag = false;
                     s.bypass = false;
@@ -217,7 +220,7 @@ pub fn render_gi(
         "gi:                  {} frames, spawn tile {} px, cache cells {} px, sample cap {}, \
          reprojection {}, parallax {}, backup {}, patching {}, guiding {}, hysteresis {}, \
          probe filter {}, jitter {}, relaxed {}, temporal {}, spatial {}, feedback {}, \
-         leak fixes {}, ReSTIR {}",
+         leak fixes {}, object motion {}, ReSTIR {}",
         args.frames,
         s.spawn_rate.tile(),
         s.cell_size_pixels,
@@ -235,6 +238,7 @@ pub fn render_gi(
         on_off(s.denoiser_spatial),
         on_off(s.temporal_feedback),
         on_off(s.short_ray_flag && s.bypass),
+        on_off(s.object_motion),
         on_off(s.restir)
     );
     let mut gi = GiRenderer::new(ctx, &lights, width, height, settings, options)?;
