@@ -250,7 +250,8 @@ pub fn previous_point(
         valid: camera_only,
     };
     // Without a motion texel (an engine's G-buffer may leave it empty) the camera decides.
-    if !object_motion || !(motion.w > 0.0) {
+    let has_motion = motion.w > 0.0;
+    if !object_motion || !has_motion {
         return static_point;
     }
     let from_motion =
@@ -484,5 +485,52 @@ mod tests {
         let behind = Vec3::new(0.0, 0.0, 1.0);
         assert_eq!(motion_vector(&moved, behind, behind), Vec4::ZERO);
         assert!(in_image(&c, UVec2::new(31, 31)) && !in_image(&c, UVec2::new(32, 0)));
+    }
+
+    #[test]
+    fn previous_points_follow_the_motion_image_where_an_object_moved() {
+        let c = camera();
+        let mut previous = c;
+        previous.position = [0.3, -0.2, 0.5];
+        previous.view_proj = view_projection(&previous);
+        let moved = c.with_previous(&previous);
+        // The point is at `now`; it was at `before` (its object moved).
+        let (now, before) = (Vec3::new(0.1, 0.2, -2.0), Vec3::new(-0.2, 0.25, -2.3));
+        let pixel = UVec2::new(17, 19);
+        let m = motion_vector(&moved, now, before);
+        let clip = to_clip(&moved.previous_view_proj, before);
+        let expected = uv_of_clip(clip) * moved.image_size_f32() - Vec2::splat(0.5);
+        // The motion of `now` as seen through `pixel`: shift the texel to that pixel.
+        let seen = uv_of_clip(to_clip(&moved.view_proj, now)) * moved.image_size_f32();
+        let shift = Vec2::new(pixel.x as f32 + 0.5, pixel.y as f32 + 0.5) - seen;
+        let texel = Vec4::new(m.x + shift.x, m.y + shift.y, m.z, m.w);
+        let p = previous_point(&moved, pixel, now, texel, true);
+        assert!(p.valid && p.moved);
+        assert!((p.pixel_position - expected).length() < 1e-3, "{p:?} vs {expected}");
+        assert!((p.position - before).length() < 1e-4, "{p:?} vs {before}");
+        // Camera-only: the point where it is now, projected with the previous camera.
+        let q = previous_point(&moved, pixel, now, texel, false);
+        assert!(q.valid && !q.moved);
+        assert_eq!(q.position, now);
+        // A static point: the motion agrees with the camera, and the camera-only answer stands.
+        let s = motion_vector(&moved, now, now);
+        let texel = Vec4::new(s.x + shift.x, s.y + shift.y, s.z, s.w);
+        assert_eq!(
+            previous_point(&moved, pixel, now, texel, true),
+            previous_point(&moved, pixel, now, texel, false)
+        );
+        // Behind the previous camera: no history.
+        assert!(!previous_point(&moved, pixel, Vec3::new(0.0, 0.0, 3.0), Vec4::ZERO, true).valid);
+    }
+
+    #[test]
+    fn previous_transforms_move_hit_points() {
+        let t = PreviousTransform::moved_from([
+            [1.0, 0.0, 0.0, 0.5],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, -1.0],
+        ]);
+        assert_eq!(t.transform_point(Vec3::ONE), Vec3::new(1.5, 1.0, 0.0));
+        assert_eq!(PreviousTransform::STATIC.moved, 0);
     }
 }

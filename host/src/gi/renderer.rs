@@ -32,8 +32,9 @@ use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::cell_size_const;
 use gi_shared::primary_lighting::EXACT_DIRECT_LIGHTS;
 use gi_shared::screen_probes::{
-    BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_SAMPLED_DIRECT, GiFrameParams, OVERRIDE_COUNT,
-    PATCHED_COUNT, PROBE_CELL_PIXELS, RELAXED_COUNT, REPROJECTED_COUNT, SPAWN_COUNT,
+    BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_HYSTERESIS, FLAG_SAMPLED_DIRECT, GiFrameParams,
+    OVERRIDE_COUNT, PATCHED_COUNT, PROBE_CELL_PIXELS, RELAXED_COUNT, REPROJECTED_COUNT,
+    SPAWN_COUNT,
 };
 
 /// Timestamp spans per frame: one per pass.
@@ -264,6 +265,11 @@ impl GiRenderer {
         let max_groups = ctx.capabilities().max_workgroup_count[0];
         params.view.max_groups = max_groups;
         let mut frame_params = self.frame_params(&frame_camera);
+        if self.settings.object_motion && scene.has_object_motion() {
+            // Damped brightening would hold a moving occluder's shadow in the static probes it
+            // leaves for dozens of frames: a dark trail (README, "Moving objects").
+            frame_params.flags &= !FLAG_HYSTERESIS;
+        }
         frame_params.max_groups = max_groups;
         self.probes.swap();
         self.denoiser.swap();

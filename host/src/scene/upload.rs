@@ -163,6 +163,7 @@ pub struct GpuScene {
     pub lights: GpuLights,
     set: DescriptorSet,
     previous_transforms: Buffer,
+    object_motion: bool,
 }
 
 /// The previous-transform buffer's contents for instances now at `current` that were at
@@ -207,6 +208,7 @@ impl GpuScene {
             lights,
             set,
             previous_transforms,
+            object_motion: false,
         })
     }
 
@@ -238,9 +240,15 @@ impl GpuScene {
         let moved = Self::upload(ctx, scene, None, &shading, lights)?;
         *self = Self {
             previous_transforms: Buffer::parameters(ctx, "previous transforms", &transforms)?,
+            object_motion: transforms.iter().any(|t| t.moved != 0),
             ..moved
         };
         Ok(())
+    }
+
+    /// Whether an instance moved between the previous pose and this one ([`GpuScene::set_pose`]).
+    pub fn has_object_motion(&self) -> bool {
+        self.object_motion
     }
 
     /// The instances' previous transforms (`gi_shared::gbuffer::PreviousTransform`s), for the
