@@ -506,7 +506,10 @@ mod tests {
         let texel = Vec4::new(m.x + shift.x, m.y + shift.y, m.z, m.w);
         let p = previous_point(&moved, pixel, now, texel, true);
         assert!(p.valid && p.moved);
-        assert!((p.pixel_position - expected).length() < 1e-3, "{p:?} vs {expected}");
+        assert!(
+            (p.pixel_position - expected).length() < 1e-3,
+            "{p:?} vs {expected}"
+        );
         assert!((p.position - before).length() < 1e-4, "{p:?} vs {before}");
         // Camera-only: the point where it is now, projected with the previous camera.
         let q = previous_point(&moved, pixel, now, texel, false);
