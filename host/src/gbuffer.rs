@@ -16,7 +16,7 @@ use crate::vulkan::{
 };
 use ash::vk;
 use gi_shared::camera::{CameraParams, primary_ray};
-use gi_shared::gbuffer::{GBUFFER_TILE, GBufferTexel, gbuffer_texel};
+use gi_shared::gbuffer::{GBUFFER_TILE, GBufferTexel, PreviousTransform, gbuffer_texel};
 use gi_shared::hash::pcg_chain;
 use gi_shared::packing::f16_to_f32;
 use gi_shared::scene_data::linear_to_srgb;
@@ -197,6 +197,7 @@ impl GBufferPass {
         let module = KernelModule::new(ctx)?;
         let mut bindings = vec![BindingKind::StorageBuffer];
         bindings.extend(GBufferImages::binding_kinds());
+        bindings.push(BindingKind::StorageBuffer);
         let kernel = Kernel::new(ctx, &module, "gbuffer::gbuffer", &bindings, 0)?;
         let camera = Buffer::parameters(ctx, "G-buffer camera", &[CameraParams::default()])?;
         Ok(Self { kernel, camera })
@@ -226,6 +227,7 @@ impl GBufferPass {
         self.camera.write(bytemuck::bytes_of(camera))?;
         let mut resources = vec![Resource::Buffer(&self.camera)];
         resources.extend(images.resources());
+        resources.push(Resource::Buffer(scene.previous_transforms()));
         let groups = [
             width.div_ceil(GBUFFER_TILE),
             height.div_ceil(GBUFFER_TILE),
@@ -239,8 +241,15 @@ impl GBufferPass {
 }
 
 /// The G-buffer computed on the CPU by the kernel's per-pixel function, tracing with `bvh` (built
-/// from the same scene as `shading`). Channels keep full `f32` precision.
-pub fn render_on_cpu(shading: &ShadingData, bvh: &Bvh, camera: &CameraParams) -> GBufferData {
+/// from the same scene as `shading`), with the instances' previous transforms `previous` (as
+/// [`crate::scene::upload::previous_transforms`] makes them; `&[]` for none). Channels keep full
+/// `f32` precision.
+pub fn render_on_cpu(
+    shading: &ShadingData,
+    bvh: &Bvh,
+    camera: &CameraParams,
+    previous: &[PreviousTransform],
+) -> GBufferData {
     let [width, height] = camera.image_size;
     let texels = (0..height)
         .flat_map(|y| (0..width).map(move |x| UVec2::new(x, y)))
@@ -251,6 +260,7 @@ pub fn render_on_cpu(shading: &ShadingData, bvh: &Bvh, camera: &CameraParams) ->
                 camera,
                 &ray,
                 &hit,
+                previous,
                 &shading.instances,
                 &shading.meshes,
                 &shading.vertices,
@@ -430,7 +440,7 @@ mod tests {
         let s = test_scene("textured.gltf");
         let shading = ShadingData::new(&s).unwrap();
         let bvh = crate::scene::bvh::Bvh::new(&s).unwrap();
-        let data = render_on_cpu(&shading, &bvh, &scene_camera(&s, 16, 12));
+        let data = render_on_cpu(&shading, &bvh, &scene_camera(&s, 16, 12), &[]);
         assert_eq!(data.texels.len(), 16 * 12);
         assert!(data.texels.iter().any(|t| t.is_surface()));
         assert!(

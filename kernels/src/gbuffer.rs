@@ -3,13 +3,14 @@
 //! contents in `gi_shared::gbuffer`).
 //!
 //! Set 0: the camera (`CameraParams`), then the images (depth, geometric normal, shading normal,
-//! albedo, emissive, motion, ids). Set 1: the scene's geometry. Set 2: the scene's shading data
+//! albedo, emissive, motion, ids), then the instances' previous transforms
+//! (`PreviousTransform`s, for the motion vectors of moving objects). Set 1: the scene's geometry. Set 2: the scene's shading data
 //! (instances, meshes, vertices, triangles, materials, texture table, texels; the lights that
 //! follow are unused). Workgroups of 8 × 8 pixels.
 
 use crate::texture_images::{Bindless, SceneTextures};
 use gi_shared::camera::{CameraParams, primary_ray};
-use gi_shared::gbuffer::{GBufferTexel, gbuffer_texel, in_image};
+use gi_shared::gbuffer::{GBufferTexel, PreviousTransform, gbuffer_texel, in_image};
 use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::{Image, spirv};
@@ -59,6 +60,7 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 5)] emissive: &HalfImage,
         #[spirv(descriptor_set = 0, binding = 6)] motion: &FloatImage,
         #[spirv(descriptor_set = 0, binding = 7)] ids: &IdImage,
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] previous_transforms: &[PreviousTransform],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
         #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
@@ -70,8 +72,8 @@ traced_kernel! {
         let ray = primary_ray(camera, pixel, camera.jitter());
         let hit = scene.closest_hit(&ray);
         let texel = gbuffer_texel(
-            camera, &ray, &hit, scene.instances, scene.meshes, scene.vertices, scene.triangles,
-            materials, textures, &Bindless(texture_images),
+            camera, &ray, &hit, previous_transforms, scene.instances, scene.meshes, scene.vertices,
+            scene.triangles, materials, textures, &Bindless(texture_images),
         );
         write_texel!(
             pixel,

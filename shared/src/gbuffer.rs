@@ -24,19 +24,79 @@
 //! `StorageImageExtendedFormats`; four-channel ones need nothing beyond `Shader`, and the spare
 //! channels carry what reprojection wants next (previous depth, validity, material, facing).
 //!
-//! Motion vectors project the hit point with this frame's and the previous frame's
-//! view-projection; equal matrices (a static camera) give exactly zero. Neither matrix holds the
-//! jitter: motion vectors carry no jitter.
+//! Motion vectors project the hit point with this frame's view-projection and its previous world
+//! position with the previous frame's. The previous world position is the point itself, unless
+//! its instance moved: then the instance's previous object-to-world transform
+//! ([`PreviousTransform`], one per instance, bound beside the images) carries the point's
+//! object-space position (interpolated from the object-space vertices) to where it was. A static
+//! camera and a static instance give exactly zero. Neither matrix holds the jitter: motion
+//! vectors carry no jitter.
+//!
+//! The GI passes find a pixel's surface in the previous frame with [`previous_point`]: from the
+//! motion image where the object moved, else by reprojecting the point with the previous camera.
 
-use glam::{UVec2, UVec4, Vec3, Vec4};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat3, UVec2, UVec4, Vec2, Vec3, Vec4};
 
 use crate::camera::{CameraParams, to_clip, uv_of_clip};
 use crate::ray::{HitRecord, Ray};
 use crate::ray_cone::RayCone;
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, hit_surface,
+    object_position,
 };
 use crate::textures::TextureImages;
+
+/// One instance's object-to-world transform in the previous frame, as the `gbuffer` kernel reads
+/// it (set 0, binding 8; one per instance, indexed like the instances). An instance without an
+/// entry, or whose entry has `moved` = 0, did not move: a scene without moving instances binds one
+/// [`PreviousTransform::STATIC`] entry.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PreviousTransform {
+    /// The first three rows of the previous object-to-world matrix.
+    pub object_to_world: [[f32; 4]; 3],
+    /// 1 when the instance's transform changed since the previous frame, else 0.
+    pub moved: u32,
+    /// Explicit padding.
+    pub _pad: [u32; 3],
+}
+
+impl PreviousTransform {
+    /// An instance that did not move.
+    pub const STATIC: Self = Self {
+        object_to_world: [[0.0; 4]; 3],
+        moved: 0,
+        _pad: [0; 3],
+    };
+
+    /// An instance that moved from `rows` (the first three rows of its previous object-to-world
+    /// matrix).
+    pub fn moved_from(rows: [[f32; 4]; 3]) -> Self {
+        Self {
+            object_to_world: rows,
+            moved: 1,
+            _pad: [0; 3],
+        }
+    }
+
+    /// The world position of `object` under the previous transform.
+    #[inline]
+    pub fn transform_point(&self, object: Vec3) -> Vec3 {
+        let h = object.extend(1.0);
+        Vec3::new(
+            Vec4::from_array(self.object_to_world[0]).dot(h),
+            Vec4::from_array(self.object_to_world[1]).dot(h),
+            Vec4::from_array(self.object_to_world[2]).dot(h),
+        )
+    }
+}
+
+/// Largest distance, in pixels, between the motion image's previous position of a pixel and the
+/// previous camera's projection of its surface point under which [`previous_point`] takes the
+/// surface as static (the two differ by rounding only, the G-buffer's point being the ray's and
+/// the GI passes' the one rebuilt from depth).
+pub const STATIC_MOTION_PIXELS: f32 = 1.0 / 32.0;
 
 /// Workgroup of the `gbuffer` kernel: `GBUFFER_TILE × GBUFFER_TILE` pixels.
 pub const GBUFFER_TILE: u32 = 8;
@@ -85,19 +145,19 @@ impl GBufferTexel {
     }
 }
 
-/// Motion of world position `p` between the previous frame and this one, as stored in the motion
-/// image: `(this − previous screen position in pixels, previous linear depth, 1)`, or zero when
-/// `p` is not in front of the previous camera.
+/// Motion of the surface point at world position `p`, which was at `previous_p` in the previous
+/// frame, as stored in the motion image: `(this − previous screen position in pixels, previous
+/// linear depth, 1)`, or zero when `previous_p` is not in front of the previous camera.
 #[inline]
-pub fn motion_vector(camera: &CameraParams, p: Vec3) -> Vec4 {
-    let previous = to_clip(&camera.previous_view_proj, p);
+pub fn motion_vector(camera: &CameraParams, p: Vec3, previous_p: Vec3) -> Vec4 {
+    let previous = to_clip(&camera.previous_view_proj, previous_p);
     // False for a NaN depth too.
     let in_front = previous.w > 0.0;
     if !in_front {
         return Vec4::ZERO;
     }
-    // Exactly zero for a static camera, whatever a compiler makes of the two projections.
-    if rows_equal(&camera.view_proj, &camera.previous_view_proj) {
+    // Exactly zero for a static camera and point, whatever a compiler makes of the projections.
+    if p == previous_p && rows_equal(&camera.view_proj, &camera.previous_view_proj) {
         return Vec4::new(0.0, 0.0, previous.w, 1.0);
     }
     let current = to_clip(&camera.view_proj, p);
@@ -115,8 +175,102 @@ fn rows_equal(a: &[[f32; 4]; 4], b: &[[f32; 4]; 4]) -> bool {
         && Vec4::from_array(a[3]) == Vec4::from_array(b[3])
 }
 
+/// The world position that `camera`'s previous view-projection projects to the continuous pixel
+/// position `pixel_position` (pixel centres at integer coordinates) at linear depth `depth`.
+/// The view-projection has no depth row: its x, y and w rows, a 3 × 3 system, are inverted.
+#[inline]
+pub fn unproject_previous(camera: &CameraParams, pixel_position: Vec2, depth: f32) -> Vec3 {
+    let m = &camera.previous_view_proj;
+    let uv = (pixel_position + Vec2::splat(0.5)) / camera.image_size_f32();
+    let ndc = uv * 2.0 - Vec2::ONE;
+    let rows = Mat3::from_cols(
+        Vec3::new(m[0][0], m[0][1], m[0][2]),
+        Vec3::new(m[1][0], m[1][1], m[1][2]),
+        Vec3::new(m[3][0], m[3][1], m[3][2]),
+    )
+    .transpose();
+    let rhs = Vec3::new(
+        ndc.x * depth - m[0][3],
+        ndc.y * depth - m[1][3],
+        depth - m[3][3],
+    );
+    rows.inverse() * rhs
+}
+
+/// Where a pixel's surface point was in the previous frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreviousPoint {
+    /// Continuous pixel position in the previous image (pixel centres at integer coordinates);
+    /// may lie off the image.
+    pub pixel_position: Vec2,
+    /// Previous world position.
+    pub position: Vec3,
+    /// Whether the point moved with its object (the motion image disagrees with the camera's
+    /// reprojection).
+    pub moved: bool,
+    /// False when the point was behind the previous camera or is not finite: no history.
+    pub valid: bool,
+}
+
+impl PreviousPoint {
+    /// No previous point.
+    pub const NONE: Self = Self {
+        pixel_position: Vec2::ZERO,
+        position: Vec3::ZERO,
+        moved: false,
+        valid: false,
+    };
+}
+
+/// Where the surface point `position` seen through `pixel` (G-buffer motion texel `motion`) was in
+/// the previous frame ([`PreviousPoint::NONE`] when it was behind the previous camera or is not
+/// finite).
+///
+/// Without `object_motion`, and wherever the motion image agrees with the previous camera's
+/// projection of `position` within [`STATIC_MOTION_PIXELS`] (a static object), the point is
+/// `position` projected with the previous camera: camera-only reprojection, bit for bit. Where
+/// they disagree, the object moved: the previous pixel is `pixel + jitter − motion.xy` and the
+/// previous world position is unprojected from it at the previous depth `motion.z`.
+#[inline]
+pub fn previous_point(
+    camera: &CameraParams,
+    pixel: UVec2,
+    position: Vec3,
+    motion: Vec4,
+    object_motion: bool,
+) -> PreviousPoint {
+    let clip = to_clip(&camera.previous_view_proj, position);
+    // False for NaN too.
+    let camera_only = clip.w > 0.0 && clip.is_finite();
+    let projected = uv_of_clip(clip) * camera.image_size_f32() - Vec2::splat(0.5);
+    let static_point = PreviousPoint {
+        pixel_position: projected,
+        position,
+        moved: false,
+        valid: camera_only,
+    };
+    // Without a motion texel (an engine's G-buffer may leave it empty) the camera decides.
+    let has_motion = motion.w > 0.0;
+    if !object_motion || !has_motion {
+        return static_point;
+    }
+    let from_motion =
+        Vec2::new(pixel.x as f32, pixel.y as f32) + camera.jitter() - Vec2::new(motion.x, motion.y);
+    if camera_only && (from_motion - projected).abs().max_element() <= STATIC_MOTION_PIXELS {
+        return static_point;
+    }
+    let previous = unproject_previous(camera, from_motion, motion.z);
+    PreviousPoint {
+        pixel_position: from_motion,
+        position: previous,
+        moved: true,
+        valid: previous.is_finite() && from_motion.is_finite(),
+    }
+}
+
 /// The G-buffer pixel of `ray` (a primary ray of `camera`) with closest hit `hit`, reading the
-/// scene's shading data (see [`crate::scene_data`]).
+/// scene's shading data (see [`crate::scene_data`]) and the instances' previous transforms
+/// (`previous`, see [`PreviousTransform`]).
 #[allow(
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
@@ -125,6 +279,7 @@ pub fn gbuffer_texel<I: TextureImages + ?Sized>(
     camera: &CameraParams,
     ray: &Ray,
     hit: &HitRecord,
+    previous: &[PreviousTransform],
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
     vertices: &[GpuVertex],
@@ -155,13 +310,27 @@ pub fn gbuffer_texel<I: TextureImages + ?Sized>(
         // A degenerate triangle: face the camera.
         geometric = -direction.normalize_or_zero();
     }
+    let i = hit.instance as usize;
+    let previous_position = if i < previous.len() && previous[i].moved != 0 {
+        previous[i].transform_point(object_position(
+            instances,
+            meshes,
+            vertices,
+            triangles,
+            hit.instance,
+            hit.primitive,
+            Vec2::from_array(hit.barycentrics),
+        ))
+    } else {
+        position
+    };
     GBufferTexel {
         depth,
         geometric_normal: geometric.extend(1.0),
         shading_normal: shading.extend(1.0),
         albedo: material.base_color,
         emissive: material.emissive.extend(0.0),
-        motion: motion_vector(camera, position),
+        motion: motion_vector(camera, position, previous_position),
         ids: UVec4::new(
             hit.instance,
             hit.primitive,
@@ -182,7 +351,6 @@ mod tests {
     use super::*;
     use crate::camera::{primary_ray, view_projection};
     use crate::scene_data::NONE;
-    use glam::Vec2;
 
     /// The G-buffer pixel (16, 16) of `camera` for `hit` on a unit quad at z = -2 made of two
     /// triangles with a red, emissive material: facing +z (towards a camera at the origin looking
@@ -240,6 +408,7 @@ mod tests {
             camera,
             &ray,
             hit,
+            &[],
             &instances,
             &meshes,
             &vertices,
@@ -308,14 +477,65 @@ mod tests {
         previous.position = [-0.5, 0.0, 0.0];
         previous.view_proj = view_projection(&previous);
         let moved = c.with_previous(&previous);
-        let m = motion_vector(&moved, Vec3::new(0.0, 0.0, -2.0));
+        let m = motion_vector(&moved, Vec3::new(0.0, 0.0, -2.0), Vec3::new(0.0, 0.0, -2.0));
         // Previous screen x: ndc = 0.5 / (2 · tan 0.5) → pixels 16 · (1 + ndc).
         let expected = -16.0 * 0.5 / (2.0 * 0.5f32.tan());
         assert!((m.x - expected).abs() < 1e-4, "{m} vs {expected}");
         assert_eq!(m.y, 0.0);
         assert_eq!((m.z, m.w), (2.0, 1.0));
         // Behind the previous camera: invalid.
-        assert_eq!(motion_vector(&moved, Vec3::new(0.0, 0.0, 1.0)), Vec4::ZERO);
+        let behind = Vec3::new(0.0, 0.0, 1.0);
+        assert_eq!(motion_vector(&moved, behind, behind), Vec4::ZERO);
         assert!(in_image(&c, UVec2::new(31, 31)) && !in_image(&c, UVec2::new(32, 0)));
+    }
+
+    #[test]
+    fn previous_points_follow_the_motion_image_where_an_object_moved() {
+        let c = camera();
+        let mut previous = c;
+        previous.position = [0.3, -0.2, 0.5];
+        previous.view_proj = view_projection(&previous);
+        let moved = c.with_previous(&previous);
+        // The point is at `now`; it was at `before` (its object moved).
+        let (now, before) = (Vec3::new(0.1, 0.2, -2.0), Vec3::new(-0.2, 0.25, -2.3));
+        let pixel = UVec2::new(17, 19);
+        let m = motion_vector(&moved, now, before);
+        let clip = to_clip(&moved.previous_view_proj, before);
+        let expected = uv_of_clip(clip) * moved.image_size_f32() - Vec2::splat(0.5);
+        // The motion of `now` as seen through `pixel`: shift the texel to that pixel.
+        let seen = uv_of_clip(to_clip(&moved.view_proj, now)) * moved.image_size_f32();
+        let shift = Vec2::new(pixel.x as f32 + 0.5, pixel.y as f32 + 0.5) - seen;
+        let texel = Vec4::new(m.x + shift.x, m.y + shift.y, m.z, m.w);
+        let p = previous_point(&moved, pixel, now, texel, true);
+        assert!(p.valid && p.moved);
+        assert!(
+            (p.pixel_position - expected).length() < 1e-3,
+            "{p:?} vs {expected}"
+        );
+        assert!((p.position - before).length() < 1e-4, "{p:?} vs {before}");
+        // Camera-only: the point where it is now, projected with the previous camera.
+        let q = previous_point(&moved, pixel, now, texel, false);
+        assert!(q.valid && !q.moved);
+        assert_eq!(q.position, now);
+        // A static point: the motion agrees with the camera, and the camera-only answer stands.
+        let s = motion_vector(&moved, now, now);
+        let texel = Vec4::new(s.x + shift.x, s.y + shift.y, s.z, s.w);
+        assert_eq!(
+            previous_point(&moved, pixel, now, texel, true),
+            previous_point(&moved, pixel, now, texel, false)
+        );
+        // Behind the previous camera: no history.
+        assert!(!previous_point(&moved, pixel, Vec3::new(0.0, 0.0, 3.0), Vec4::ZERO, true).valid);
+    }
+
+    #[test]
+    fn previous_transforms_move_hit_points() {
+        let t = PreviousTransform::moved_from([
+            [1.0, 0.0, 0.0, 0.5],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, -1.0],
+        ]);
+        assert_eq!(t.transform_point(Vec3::ONE), Vec3::new(1.5, 1.0, 0.0));
+        assert_eq!(PreviousTransform::STATIC.moved, 0);
     }
 }

@@ -324,17 +324,17 @@ fn vertex(vertices: &[GpuVertex], mesh: &GpuMesh, index: u32) -> GpuVertex {
     }
 }
 
-/// The surface of triangle `primitive` of `instance` at `barycentrics` (weights of the second and
-/// third vertex, as in [`crate::ray::HitRecord`]).
-pub fn fetch_surface(
+/// Instance `instance`, its mesh, the mesh's triangle `primitive` and that triangle's three vertices;
+/// zero or empty parts when out of range.
+#[inline]
+fn instance_triangle(
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
     vertices: &[GpuVertex],
     triangles: &[GpuTriangle],
     instance: u32,
     primitive: u32,
-    barycentrics: Vec2,
-) -> Surface {
+) -> (GpuInstance, GpuMesh, GpuTriangle, [GpuVertex; 3]) {
     let inst = if (instance as usize) < instances.len() {
         instances[instance as usize]
     } else {
@@ -357,6 +357,44 @@ pub fn fetch_surface(
     let a = vertex(vertices, &mesh, tri.indices[0]);
     let b = vertex(vertices, &mesh, tri.indices[1]);
     let c = vertex(vertices, &mesh, tri.indices[2]);
+    (inst, mesh, tri, [a, b, c])
+}
+
+/// The object-space position of triangle `primitive` of `instance` at `barycentrics` (as for
+/// [`fetch_surface`]): what the instance's previous transform moves to the point's previous
+/// world position ([`crate::gbuffer`]'s motion vectors).
+pub fn object_position(
+    instances: &[GpuInstance],
+    meshes: &[GpuMesh],
+    vertices: &[GpuVertex],
+    triangles: &[GpuTriangle],
+    instance: u32,
+    primitive: u32,
+    barycentrics: Vec2,
+) -> Vec3 {
+    let (_, _, _, [a, b, c]) =
+        instance_triangle(instances, meshes, vertices, triangles, instance, primitive);
+    let pa = Vec3::from_array(a.position);
+    let (e1, e2) = (
+        Vec3::from_array(b.position) - pa,
+        Vec3::from_array(c.position) - pa,
+    );
+    pa + e1 * barycentrics.x + e2 * barycentrics.y
+}
+
+/// The surface of triangle `primitive` of `instance` at `barycentrics` (weights of the second and
+/// third vertex, as in [`crate::ray::HitRecord`]).
+pub fn fetch_surface(
+    instances: &[GpuInstance],
+    meshes: &[GpuMesh],
+    vertices: &[GpuVertex],
+    triangles: &[GpuTriangle],
+    instance: u32,
+    primitive: u32,
+    barycentrics: Vec2,
+) -> Surface {
+    let (inst, mesh, tri, [a, b, c]) =
+        instance_triangle(instances, meshes, vertices, triangles, instance, primitive);
     let (w1, w2) = (barycentrics.x, barycentrics.y);
     let w0 = 1.0 - w1 - w2;
 

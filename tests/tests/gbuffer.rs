@@ -258,7 +258,7 @@ fn check_cornell_box_content(name: &str, scene: &Scene, g: &GBufferData) {
 fn cornell_box_matches_the_cpu_in_both_variants() {
     let loaded = load("cornell-box.gltf");
     let camera = scene_camera(&loaded.scene, WIDTH, HEIGHT);
-    let cpu = render_on_cpu(&loaded.shading, &loaded.bvh, &camera);
+    let cpu = render_on_cpu(&loaded.shading, &loaded.bvh, &camera, &[]);
     check_cornell_box_content("cpu", &loaded.scene, &cpu);
     let mut per_variant = vec![];
     for variant in KernelVariant::ALL {
@@ -320,7 +320,7 @@ fn motion_vectors_follow_a_known_camera_move() {
     previous.position = (camera.position() - offset).to_array();
     previous.view_proj = view_projection(&previous);
     let moving = camera.with_previous(&previous);
-    let cpu = render_on_cpu(&loaded.shading, &loaded.bvh, &moving);
+    let cpu = render_on_cpu(&loaded.shading, &loaded.bvh, &moving, &[]);
     for variant in KernelVariant::ALL {
         let gpu = render(variant, &loaded, &[moving]).remove(0);
         let name = format!("cornell-box {variant}, moving camera");
@@ -378,7 +378,7 @@ fn textured_scene_shows_the_checker() {
         (64, 64, true)
     );
     let camera = scene_camera(&loaded.scene, WIDTH, HEIGHT);
-    let cpu = render_on_cpu(&loaded.shading, &loaded.bvh, &camera);
+    let cpu = render_on_cpu(&loaded.shading, &loaded.bvh, &camera, &[]);
     let floor = material(&loaded.scene, "checker floor");
     let light = srgb_to_linear(230.0 / 255.0);
     let dark = srgb_to_linear(40.0 / 255.0);
@@ -451,7 +451,7 @@ fn ray_cones_pick_the_mip_level_the_footprint_needs() {
     }
     loaded.shading = ShadingData::new(&loaded.scene).unwrap();
     let camera = scene_camera(&loaded.scene, WIDTH, HEIGHT);
-    let cpu = render_on_cpu(&loaded.shading, &loaded.bvh, &camera);
+    let cpu = render_on_cpu(&loaded.shading, &loaded.bvh, &camera, &[]);
     let floor = material(&loaded.scene, "checker floor");
     let factor = loaded.scene.materials[floor as usize].base_color.x;
     let alpha = (2.0 * camera.tan_half_fov_y / HEIGHT as f32).atan();

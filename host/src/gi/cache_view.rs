@@ -204,6 +204,7 @@ impl CacheView {
         let buffer = BindingKind::StorageBuffer;
         let mut gbuffer_bindings = vec![buffer];
         gbuffer_bindings.extend(GBufferImages::binding_kinds());
+        gbuffer_bindings.push(buffer);
         let restir = RestirResources::new(ctx, settings.restir, width * height)?;
         let made = (|| -> Result<_> {
             Ok((
@@ -382,6 +383,7 @@ impl CacheView {
         timer.pass(ctx, cmd, "GBuffer", || {
             let mut resources = vec![Resource::Buffer(&res.camera)];
             resources.extend(self.gbuffer.resources());
+            resources.push(Resource::Buffer(scene.previous_transforms()));
             self.gbuffer_kernel.dispatch_traced(
                 ctx,
                 cmd,

@@ -89,7 +89,7 @@ impl DenoiserPasses {
                 ctx,
                 module,
                 "gi_denoiser::reproject_gi::reproject_gi",
-                "bbiibbbbbbbb",
+                "bbiibbbbbbbbi",
                 0,
             )?,
             blur_mask: kernel(
@@ -169,6 +169,7 @@ impl DenoiserPasses {
                 Resource::Buffer(res.luma_delta.previous()),
                 Resource::Buffer(res.luma_delta.current()),
                 Resource::Buffer(&res.blur_mask),
+                Resource::Image(&i[5]),
             ],
             &[],
             pixel_groups(gbuffer),

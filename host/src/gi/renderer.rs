@@ -32,8 +32,9 @@ use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::cell_size_const;
 use gi_shared::primary_lighting::EXACT_DIRECT_LIGHTS;
 use gi_shared::screen_probes::{
-    BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_SAMPLED_DIRECT, GiFrameParams, OVERRIDE_COUNT,
-    PATCHED_COUNT, PROBE_CELL_PIXELS, RELAXED_COUNT, REPROJECTED_COUNT, SPAWN_COUNT,
+    BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_HYSTERESIS, FLAG_SAMPLED_DIRECT, GiFrameParams,
+    OVERRIDE_COUNT, PATCHED_COUNT, PROBE_CELL_PIXELS, RELAXED_COUNT, REPROJECTED_COUNT,
+    SPAWN_COUNT,
 };
 
 /// Timestamp spans per frame: one per pass.
@@ -110,6 +111,7 @@ impl GiRenderer {
         let restir = RestirResources::new(ctx, settings.restir, rays)?;
         let mut gbuffer_bindings = vec![BindingKind::StorageBuffer];
         gbuffer_bindings.extend(GBufferImages::binding_kinds());
+        gbuffer_bindings.push(BindingKind::StorageBuffer);
         let made = (|| -> Result<_> {
             Ok((
                 Kernel::new(ctx, &module, "gbuffer::gbuffer", &gbuffer_bindings, 0)?,
@@ -263,6 +265,11 @@ impl GiRenderer {
         let max_groups = ctx.capabilities().max_workgroup_count[0];
         params.view.max_groups = max_groups;
         let mut frame_params = self.frame_params(&frame_camera);
+        if self.settings.object_motion && scene.has_object_motion() {
+            // Damped brightening would hold a moving occluder's shadow in the static probes it
+            // leaves for dozens of frames: a dark trail (README, "Moving objects").
+            frame_params.flags &= !FLAG_HYSTERESIS;
+        }
         frame_params.max_groups = max_groups;
         self.probes.swap();
         self.denoiser.swap();
@@ -332,6 +339,7 @@ impl GiRenderer {
         timer.pass(ctx, cmd, "GBuffer", || {
             let mut resources = vec![Resource::Buffer(camera)];
             resources.extend(gbuffer.resources());
+            resources.push(Resource::Buffer(scene.previous_transforms()));
             self.gbuffer_kernel.dispatch_traced(
                 ctx,
                 cmd,

@@ -205,7 +205,7 @@ impl ScreenProbePasses {
                 ctx,
                 module,
                 &format!("{sp}reproject::reproject_screen_probes"),
-                "bbiibbbbbbbb",
+                "bbiibbbbbbbbi",
                 0,
             )?,
             spawn: kernel(
@@ -294,6 +294,7 @@ impl ScreenProbePasses {
                 Resource::Buffer(res.atlas.current()),
                 Resource::Buffer(&res.empty_tiles),
                 Resource::Buffer(&res.counters),
+                Resource::Image(&gbuffer.images[5]),
             ],
             &[],
             [g[0], g[1], 1],
@@ -564,6 +565,7 @@ pub fn technique_flags(settings: &GiSettings) -> u32 {
         (settings.relaxed_fallback, FLAG_RELAXED_FALLBACK),
         (settings.denoiser_temporal, FLAG_DENOISER_TEMPORAL),
         (settings.denoiser_spatial, FLAG_DENOISER_SPATIAL),
+        (settings.object_motion, FLAG_OBJECT_MOTION),
     ]
     .into_iter()
     .filter(|(on, _)| *on)

@@ -125,6 +125,13 @@ pub struct GiSettings {
     /// history grows and as the screen's blur cost rises. Cost: three passes. Quality: off,
     /// young history (disocclusions, motion) stays noisy.
     pub denoiser_spatial: bool,
+    /// Moving objects: probe and denoiser history follow moving objects through the G-buffer's
+    /// motion vectors, and on frames where an instance moved the probes' shadow-preserving
+    /// hysteresis is suspended (it would hold the moving object's shadow, damping the
+    /// brightening where it leaves). Cost: a motion read per pixel, a 3 × 3 solve where an object
+    /// moved. Quality: off, the moving object's history lags behind it and it leaves a dark
+    /// trail; static scenes render the same either way.
+    pub object_motion: bool,
 }
 
 /// The screen probes' spawn rate: one probe traced per spawn tile per frame.
@@ -175,6 +182,7 @@ impl Default for GiSettings {
             relaxed_fallback: true,
             denoiser_temporal: true,
             denoiser_spatial: true,
+            object_motion: true,
         }
     }
 }

@@ -10,12 +10,14 @@ use super::bvh::Bvh;
 use super::gpu_data::{GpuShadingData, ShadingData};
 use super::lights::{GpuLights, LightSet};
 use super::memory_report::SceneMemory;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::kernels::KernelVariant;
 use crate::vulkan::{
     AccelerationStructure, Buffer, Context, DescriptorSet, Instance, Resource, SceneSet, SceneSets,
 };
 use ash::vk;
+use gi_shared::gbuffer::PreviousTransform;
+use glam::Mat4;
 
 /// The scene's geometry on the device and its descriptor set (set 1 of every kernel that traces,
 /// see `kernels/src/trace.rs`).
@@ -115,8 +117,9 @@ impl GeometryData {
     }
 }
 
-/// A scene on the device: its geometry (set 1), shading data and lights, and the descriptor set
-/// that binds the last two (set 2).
+/// A scene on the device: its geometry (set 1), shading data and lights, the descriptor set
+/// that binds the last two (set 2), and the instances' previous transforms (what the G-buffer's
+/// motion vectors of moving objects need, bound in the G-buffer kernel's set 0).
 pub struct GpuScene {
     /// The geometry, with set 1.
     pub geometry: SceneGeometry,
@@ -125,6 +128,30 @@ pub struct GpuScene {
     /// The lights.
     pub lights: GpuLights,
     set: DescriptorSet,
+    previous_transforms: Buffer,
+    object_motion: bool,
+}
+
+/// The previous-transform buffer's contents for instances now at `current` that were at
+/// `previous` in the last frame: one [`PreviousTransform`] per instance when any moved, else one
+/// [`PreviousTransform::STATIC`] (no object motion).
+pub fn previous_transforms(current: &[Mat4], previous: &[Mat4]) -> Vec<PreviousTransform> {
+    let moved = |(c, p): (&Mat4, &Mat4)| c != p;
+    if !current.iter().zip(previous).any(moved) {
+        return vec![PreviousTransform::STATIC];
+    }
+    current
+        .iter()
+        .zip(previous)
+        .map(|(c, p)| {
+            if c == p {
+                PreviousTransform::STATIC
+            } else {
+                let rows = p.transpose().to_cols_array_2d();
+                PreviousTransform::moved_from([rows[0], rows[1], rows[2]])
+            }
+        })
+        .collect()
 }
 
 impl GpuScene {
@@ -139,12 +166,61 @@ impl GpuScene {
         resources.extend(lights.resources());
         let set = DescriptorSet::new(ctx, SceneSet::Shading, &resources)?;
         drop(resources);
+        let previous_transforms =
+            Buffer::parameters(ctx, "previous transforms", &[PreviousTransform::STATIC])?;
         Ok(Self {
             geometry,
             shading,
             lights,
             set,
+            previous_transforms,
+            object_motion: false,
         })
+    }
+
+    /// Moves the scene on the device to `scene`'s current pose (after [`Scene::set_time`]), lit
+    /// by `lights` (made from the posed scene), with `previous` the instances' object-to-world
+    /// transforms in the frame before (the last pose's `Scene::pose_at`): the G-buffer then gives
+    /// moving objects their motion vectors. Today the geometry, shading data and lights are
+    /// uploaded again; instances that did not move cost nothing in the G-buffer.
+    pub fn set_pose(
+        &mut self,
+        ctx: &Context,
+        scene: &Scene,
+        lights: &LightSet,
+        previous: &[Mat4],
+    ) -> Result<()> {
+        if previous.len() != scene.instances.len() {
+            return Err(Error::InvalidArgument {
+                name: "previous transforms",
+                why: format!(
+                    "{} transforms for a scene of {} instances",
+                    previous.len(),
+                    scene.instances.len()
+                ),
+            });
+        }
+        let current: Vec<Mat4> = scene.instances.iter().map(|i| i.transform).collect();
+        let transforms = previous_transforms(&current, previous);
+        let shading = ShadingData::new(scene)?;
+        let moved = Self::upload(ctx, scene, None, &shading, lights)?;
+        *self = Self {
+            previous_transforms: Buffer::parameters(ctx, "previous transforms", &transforms)?,
+            object_motion: transforms.iter().any(|t| t.moved != 0),
+            ..moved
+        };
+        Ok(())
+    }
+
+    /// Whether an instance moved between the previous pose and this one ([`GpuScene::set_pose`]).
+    pub fn has_object_motion(&self) -> bool {
+        self.object_motion
+    }
+
+    /// The instances' previous transforms (`gi_shared::gbuffer::PreviousTransform`s), for the
+    /// G-buffer kernel's set 0.
+    pub fn previous_transforms(&self) -> &Buffer {
+        &self.previous_transforms
     }
 
     /// Uploads `scene` lit by its emitters and `environment` (importance-sampled where

@@ -5,10 +5,10 @@
 //! (images), 4 irradiance (`[f32; 4]`, this frame's interpolation), 5 previous history, 6
 //! current history (`[f32; 4]`: rgb mean, w count), 7 previous surface, 8 current surface
 //! (`[f32; 4]`: position, packed normal bits), 9 previous luma delta, 10 current luma delta
-//! (`f32`), 11 blur mask (`f32`). Workgroups of 8 × 8 pixels, dispatched
+//! (`f32`), 11 blur mask (`f32`), 12 G-buffer motion (image). Workgroups of 8 × 8 pixels, dispatched
 //! `[ceil(W / 8), ceil(H / 8), 1]`.
 
-use crate::gbuffer::{DepthImage, HalfImage};
+use crate::gbuffer::{DepthImage, FloatImage, HalfImage};
 use gi_shared::camera::CameraParams;
 use gi_shared::gi_denoiser::reproject_gi::reproject_gi_pixel;
 use gi_shared::screen_probes::GiFrameParams;
@@ -35,6 +35,7 @@ pub fn reproject_gi(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] previous_luma_delta: &[f32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] luma_delta: &mut [f32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] blur_mask: &mut [f32],
+    #[spirv(descriptor_set = 0, binding = 12)] motion: &FloatImage,
 ) {
     let pixel = UVec2::new(id.x, id.y);
     if pixel.x >= frame.image_size[0] || pixel.y >= frame.image_size[1] {
@@ -51,12 +52,14 @@ pub fn reproject_gi(
     }
     let d: f32 = depth.read(pixel);
     let gn: Vec4 = geometric_normal.read(pixel);
+    let m: Vec4 = motion.read(pixel);
     let r = reproject_gi_pixel(
         frame,
         camera,
         pixel,
         d,
         gn,
+        m,
         irradiance[i],
         previous_history,
         previous_surface,

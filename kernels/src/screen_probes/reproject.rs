@@ -7,10 +7,10 @@
 //!
 //! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, previous records,
 //! previous mask, previous atlas, current records, current mask, current atlas, empty tiles, GI
-//! counters. `[probe_grid.x, probe_grid.y, 1]` workgroups of 8 × 8.
+//! counters, G-buffer motion. `[probe_grid.x, probe_grid.y, 1]` workgroups of 8 × 8.
 
 use crate::atomics::{DeviceWords, WorkgroupWords};
-use crate::gbuffer::{DepthImage, HalfImage};
+use crate::gbuffer::{DepthImage, FloatImage, HalfImage};
 use gi_shared::atomics::AtomicWords;
 use gi_shared::camera::CameraParams;
 use gi_shared::screen_probes::hemisphere::gather_mapped;
@@ -40,6 +40,15 @@ fn texel(
     }
 }
 
+/// The G-buffer's motion at `pixel`; none outside the image.
+fn motion_texel(camera: &CameraParams, motion: &FloatImage, pixel: UVec2) -> Vec4 {
+    if pixel.x < camera.image_size[0] && pixel.y < camera.image_size[1] {
+        motion.read(pixel)
+    } else {
+        Vec4::ZERO
+    }
+}
+
 /// Reprojects probe tile `group.xy`; lane `local` is pixel, source cell and target cell `local`.
 #[spirv(compute(threads(8, 8)))]
 #[allow(
@@ -61,6 +70,7 @@ pub fn reproject_screen_probes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] atlas: &mut [[f32; 4]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] empty_tiles: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] counters: &mut [u32],
+    #[spirv(descriptor_set = 0, binding = 12)] motion: &FloatImage,
     #[spirv(workgroup)] key: &mut [u32; 1],
     #[spirv(workgroup)] sources: &mut [u32; LANES],
     #[spirv(workgroup)] mapped: &mut [u32; LANES],
@@ -91,6 +101,7 @@ pub fn reproject_screen_probes(
         lane,
         d,
         gn,
+        motion_texel(camera, motion, pixel),
         previous_records,
         previous_mask,
     );

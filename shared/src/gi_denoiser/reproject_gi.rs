@@ -3,11 +3,14 @@
 //!
 //! Per pixel:
 //!
-//! 1. Its surface point ([`primary_surface`]) is projected with the previous view-projection to
-//!    a sub-pixel position of the previous image ([`previous_pixel_position`]).
+//! 1. Its surface point ([`primary_surface`]) is found in the previous image at a sub-pixel
+//!    position, with its previous world position ([`previous_point`]: the previous camera's
+//!    projection, or with [`FLAG_OBJECT_MOTION`] the G-buffer's motion vector where the object
+//!    moved, so that the history follows a moving object).
 //! 2. The 3 × 3 previous pixels around the nearest one are weighted by
 //!    `1 − subpixel distance / √2` ([`history_tap_weight`]); a tap counts when its history exists,
-//!    its stored surface lies within `cell × lerp(1, 5, (1 − N·V)^6)` of the point (more at
+//!    its stored surface lies within `cell × lerp(1, 5, (1 − N·V)^6)` of the point's previous
+//!    position (more at
 //!    grazing angles, where positions spread along the view ray) and its normal agrees
 //!    (`dot > 0.95`) ([`accepts_history`]). The taps' history (mean, count) and luma delta are
 //!    blended with these weights.
@@ -34,11 +37,14 @@
 use glam::{UVec2, Vec2, Vec3, Vec4};
 
 use crate::cache_view::primary_surface;
-use crate::camera::{CameraParams, to_clip, uv_of_clip};
+use crate::camera::CameraParams;
 use crate::color::luminance;
+use crate::gbuffer::{PreviousPoint, previous_point};
 use crate::math::{abs, floor, max, min, saturate, sqrt, to_i32_clamped};
 use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
-use crate::screen_probes::{FLAG_DENOISER_TEMPORAL, FLAG_HISTORY, GiFrameParams};
+use crate::screen_probes::{
+    FLAG_DENOISER_TEMPORAL, FLAG_HISTORY, FLAG_OBJECT_MOTION, GiFrameParams,
+};
 
 /// Smoothing of the tracked luma delta per frame.
 pub const LUMA_DELTA_SMOOTHING: f32 = 1.0 / 8.0;
@@ -62,20 +68,6 @@ pub const BLUR_MASK_SKY: f32 = -1.0;
 
 /// `1 / √2`: the weight of a tap falls to zero at a distance of `√2` pixels.
 const INV_SQRT_2: f32 = core::f32::consts::FRAC_1_SQRT_2;
-
-/// The previous frame's continuous pixel position of the world point `position` (pixel centres
-/// at integer coordinates, so `(0, 0)` is the centre of the top-left pixel), or `None` when it
-/// lies behind the previous camera or is not finite.
-#[inline]
-pub fn previous_pixel_position(camera: &CameraParams, position: Vec3) -> Option<Vec2> {
-    let clip = to_clip(&camera.previous_view_proj, position);
-    // False for NaN too.
-    if !(clip.w > 0.0 && clip.is_finite()) {
-        return None;
-    }
-    let uv = uv_of_clip(clip);
-    Some(uv * camera.image_size_f32() - Vec2::splat(0.5))
-}
 
 /// The weight of a history tap at `offset` pixels from the reprojected position:
 /// `saturate(1 − |offset| / √2)`.
@@ -202,14 +194,18 @@ pub struct ReprojectedHistory {
     pub weight: f32,
 }
 
-/// The history of the surface at `position` (unit normal `normal`) in the previous frame's
-/// buffers: the accepted 3 × 3 taps around its reprojected position, blended by
-/// [`history_tap_weight`].
+/// The history of the surface that was at `previous_position` (unit normal `normal`), at the
+/// continuous pixel position `p` of the previous image, in the previous frame's buffers: the
+/// accepted 3 × 3 taps around `p`, blended by [`history_tap_weight`].
 #[inline]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
 pub fn gather_history(
     frame: &GiFrameParams,
-    camera: &CameraParams,
-    position: Vec3,
+    p: Vec2,
+    previous_position: Vec3,
     normal: Vec3,
     previous_history: &[[f32; 4]],
     previous_surface: &[[f32; 4]],
@@ -220,9 +216,6 @@ pub fn gather_history(
         count: 0.0,
         luma_delta: 0.0,
         weight: 0.0,
-    };
-    let Some(p) = previous_pixel_position(camera, position) else {
-        return out;
     };
     let [w, h] = frame.image_size;
     let nearest_x = to_i32_clamped(floor(p.x + 0.5));
@@ -249,7 +242,7 @@ pub fn gather_history(
                     if hist.w > 0.0
                         && hist.is_finite()
                         && d.is_finite()
-                        && accepts_history(frame, position, normal, previous_surface[t])
+                        && accepts_history(frame, previous_position, normal, previous_surface[t])
                     {
                         sum += hist * tw;
                         delta += d * tw;
@@ -306,7 +299,7 @@ pub fn accumulate(
     }
 }
 
-/// ReprojectGI for one pixel: `depth` and `geometric_normal` are its G-buffer texels, `current`
+/// ReprojectGI for one pixel: `depth`, `geometric_normal` and `motion` are its G-buffer texels, `current`
 /// this frame's interpolated `[r, g, b, hint]`, then the previous frame's buffers.
 #[allow(
     clippy::too_many_arguments,
@@ -319,6 +312,7 @@ pub fn reproject_gi_pixel(
     pixel: UVec2,
     depth: f32,
     geometric_normal: Vec4,
+    motion: Vec4,
     current: [f32; 4],
     previous_history: &[[f32; 4]],
     previous_surface: &[[f32; 4]],
@@ -330,11 +324,22 @@ pub fn reproject_gi_pixel(
     }
     let n = surface.geometric_normal;
     let record = surface_record(surface.position, n);
-    let history = if frame.has(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY) {
+    let previous = if frame.has(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY) {
+        previous_point(
+            camera,
+            pixel,
+            surface.position,
+            motion,
+            frame.has(FLAG_OBJECT_MOTION),
+        )
+    } else {
+        PreviousPoint::NONE
+    };
+    let history = if previous.valid {
         gather_history(
             frame,
-            camera,
-            surface.position,
+            previous.pixel_position,
+            previous.position,
             n,
             previous_history,
             previous_surface,
@@ -357,8 +362,8 @@ pub fn reproject_gi_pixel(
     )
 }
 
-/// The whole pass on the CPU: every pixel of the G-buffer (`depth`, `geometric_normal`, row by
-/// row) reprojected into the current buffers.
+/// The whole pass on the CPU: every pixel of the G-buffer (`depth`, `geometric_normal`,
+/// `motion`, row by row) reprojected into the current buffers.
 #[allow(
     clippy::too_many_arguments,
     reason = "the kernel's bindings, one argument each"
@@ -368,6 +373,7 @@ pub fn reproject_gi_image(
     camera: &CameraParams,
     depth: &[f32],
     geometric_normal: &[Vec4],
+    motion: &[Vec4],
     irradiance: &[[f32; 4]],
     previous_history: &[[f32; 4]],
     history: &mut [[f32; 4]],
@@ -387,6 +393,7 @@ pub fn reproject_gi_image(
                 UVec2::new(x, y),
                 depth[i],
                 geometric_normal[i],
+                motion[i],
                 irradiance[i],
                 previous_history,
                 previous_surface,
@@ -479,6 +486,8 @@ mod tests {
             c,
             &g.0,
             &g.1,
+            // No motion texels: the camera reprojects.
+            &vec![Vec4::ZERO; g.0.len()],
             input,
             &prev.history,
             &mut next.history,

@@ -107,6 +107,11 @@ pub const FLAG_DENOISER_SPATIAL: u32 = 1 << 12;
 /// Direct light of punctual lights is resampled (too many to sum: one RIS sample and shadow ray
 /// per pixel) instead of summed exactly.
 pub const FLAG_SAMPLED_DIRECT: u32 = 1 << 13;
+/// Per-object reprojection: probe and denoiser reprojection find a moving object's pixels in
+/// the previous frame through the G-buffer's motion vectors ([`crate::gbuffer::previous_point`]),
+/// so that history follows the object (off: the previous camera reprojects every surface point as
+/// if the scene were static, and a moving object's history stays behind, a trail).
+pub const FLAG_OBJECT_MOTION: u32 = 1 << 14;
 
 /// Counter word: probes appended to the spawn list this frame.
 pub const SPAWN_COUNT: usize = 0;

@@ -28,24 +28,25 @@
 use super::LANES;
 use super::hemisphere::{gather_mapped, record_frame};
 use super::radiance_backup::radiance_backup;
-use glam::{UVec2, Vec3, Vec4};
+use glam::{UVec2, Vec2, Vec3, Vec4};
 
 use super::hemisphere::{ProbeFrame, UNMAPPED, map_cell};
 use super::radiance_backup::with_backup;
 use super::reuse::reuse_score;
 use super::spawn::{probe_tile_spawn_seed, sees_surface};
 use super::{
-    EMPTY, EMPTY_COUNT, FLAG_HISTORY, FLAG_PARALLAX, FLAG_RADIANCE_BACKUP, FLAG_REPROJECTION,
-    GiFrameParams, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRecord, REPROJECTED_COUNT,
-    cell_is_filled,
+    EMPTY, EMPTY_COUNT, FLAG_HISTORY, FLAG_OBJECT_MOTION, FLAG_PARALLAX, FLAG_RADIANCE_BACKUP,
+    FLAG_REPROJECTION, GiFrameParams, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRecord,
+    REPROJECTED_COUNT, cell_is_filled,
 };
 use crate::append_list::append;
 use crate::atomics::AtomicWords;
 use crate::cache_view::primary_surface;
 use crate::camera::CameraParams;
+use crate::gbuffer::previous_point;
 use crate::math::min_u32;
+use crate::math::to_u32_clamped;
 use crate::packing::{pack_score_lane, pack_seed, pack_snorm10x3, unpack_score_lane};
-use crate::radiance_feedback::reproject;
 
 /// The workgroup's key before any lane found a probe: above every [`pack_score_lane`] key.
 pub const NO_WINNER: u32 = u32::MAX;
@@ -79,7 +80,8 @@ impl ReuseCandidate {
     };
 }
 
-/// Phase 1 for the lane `lane` at `pixel` (G-buffer texel `depth`, `geometric_normal`): the
+/// Phase 1 for the lane `lane` at `pixel` (G-buffer texels `depth`, `geometric_normal`,
+/// `motion`; the previous frame's pixel and position from [`previous_point`]): the
 /// previous probe that may stand for the pixel's surface and the key of that reuse, or
 /// [`ReuseCandidate::NONE`]. The key is `pack_score_lane(score, lane)`, with 64 added to the
 /// lane unless the pixel reprojects onto the previous probe's own seed pixel: among equal
@@ -96,6 +98,7 @@ pub fn reuse_candidate(
     lane: u32,
     depth: f32,
     geometric_normal: Vec4,
+    motion: Vec4,
     previous_records: &[ProbeRecord],
     previous_mask: &[u32],
 ) -> ReuseCandidate {
@@ -106,10 +109,20 @@ pub fn reuse_candidate(
     if !surface.valid {
         return ReuseCandidate::NONE;
     }
-    let Some(previous) = reproject(camera, surface.position) else {
+    let previous = previous_point(
+        camera,
+        pixel,
+        surface.position,
+        motion,
+        frame.has(FLAG_OBJECT_MOTION),
+    );
+    if !previous.valid {
+        return ReuseCandidate::NONE;
+    }
+    let Some(previous_pixel) = pixel_of(camera, previous.pixel_position) else {
         return ReuseCandidate::NONE;
     };
-    let source = frame.probe_tile_of(previous.pixel);
+    let source = frame.probe_tile_of(previous_pixel);
     let s = source as usize;
     if source >= frame.probe_count || s >= previous_mask.len() || s >= previous_records.len() {
         return ReuseCandidate::NONE;
@@ -125,17 +138,35 @@ pub fn reuse_candidate(
         frame,
         record.world_position(),
         record.world_normal(),
-        surface.position,
+        previous.position,
         surface.geometric_normal,
     ) else {
         return ReuseCandidate::NONE;
     };
-    let own_seed = previous.pixel == record.seed_pixel();
+    let own_seed = previous_pixel == record.seed_pixel();
     let lane = lane % PROBE_CELLS;
     ReuseCandidate {
         key: pack_score_lane(score, if own_seed { lane } else { lane + PROBE_CELLS }),
         source,
     }
+}
+
+/// The pixel holding the continuous pixel position `p` (pixel centres at integer coordinates),
+/// `None` off `camera`'s image.
+#[inline]
+pub fn pixel_of(camera: &CameraParams, p: Vec2) -> Option<UVec2> {
+    let q = p + Vec2::splat(0.5);
+    let size = camera.image_size_f32();
+    // False for NaN too.
+    if !(q.x >= 0.0 && q.y >= 0.0 && q.x < size.x && q.y < size.y) {
+        return None;
+    }
+    let pixel = UVec2::new(to_u32_clamped(q.x), to_u32_clamped(q.y));
+    // Rounding can reach the size for positions just below it.
+    if pixel.x >= camera.image_size[0] || pixel.y >= camera.image_size[1] {
+        return None;
+    }
+    Some(pixel)
 }
 
 /// The winning lane of the workgroup's minimum key, `None` for [`NO_WINNER`].
@@ -338,9 +369,9 @@ pub struct CurrentProbes<'a> {
 
 /// The CPU model of one workgroup of ReprojectScreenProbes: probe tile `tile`'s phases, run
 /// serially in the kernel's order with the kernel's functions. `gbuffer(pixel)` gives the
-/// G-buffer's linear depth and geometric normal of a pixel inside the image; `counters` are the
+/// G-buffer's linear depth, geometric normal and motion of a pixel inside the image; `counters` are the
 /// GI counter words.
-pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4)>(
+pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4, Vec4)>(
     frame: &GiFrameParams,
     camera: &CameraParams,
     tile: UVec2,
@@ -357,7 +388,7 @@ pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4)>(
         if pixel.x < frame.image_size[0] && pixel.y < frame.image_size[1] {
             gbuffer(pixel)
         } else {
-            (0.0, Vec4::ZERO)
+            (0.0, Vec4::ZERO, Vec4::ZERO)
         }
     };
     // Phase 1.
@@ -365,7 +396,7 @@ pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4)>(
     let mut sources = [NO_PROBE; LANES];
     for lane in 0..PROBE_CELLS {
         let pixel = lane_pixel(tile, lane);
-        let (depth, normal) = texel(pixel);
+        let (depth, normal, motion) = texel(pixel);
         let c = reuse_candidate(
             frame,
             camera,
@@ -373,6 +404,7 @@ pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4)>(
             lane,
             depth,
             normal,
+            motion,
             previous.records,
             previous.mask,
         );
@@ -385,7 +417,7 @@ pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4)>(
     let r = match winner_lane(key[0]) {
         Some(w) => {
             let seed = lane_pixel(tile, w);
-            let (depth, normal) = texel(seed);
+            let (depth, normal, _) = texel(seed);
             reprojection(
                 camera,
                 seed,
@@ -417,9 +449,9 @@ pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4)>(
         }
     }
     let spawn_seed = probe_tile_spawn_seed(frame, tile_index);
-    let (seed_depth, seed_normal) = match spawn_seed {
+    let (seed_depth, seed_normal, _) = match spawn_seed {
         Some(seed) => texel(seed),
-        None => (0.0, Vec4::ZERO),
+        None => (0.0, Vec4::ZERO, Vec4::ZERO),
     };
     let spawned = !r.is_valid() && spawn_fills(spawn_seed.is_some(), seed_depth, seed_normal);
     finish_tile(
@@ -554,7 +586,11 @@ mod tests {
                     frame,
                     camera,
                     UVec2::new(x, y),
-                    gbuffer,
+                    // No motion texels: the camera reprojects.
+                    &|p| {
+                        let (d, n) = gbuffer(p);
+                        (d, n, Vec4::ZERO)
+                    },
                     &prev,
                     &mut cur,
                     &mut counters,

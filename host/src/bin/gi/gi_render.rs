@@ -9,6 +9,7 @@ use gi_host::gi::renderer::{DEFAULT_GI_FRAMES, GiRenderer};
 use gi_host::gi::{GiSettings, Preset, SpawnRate, ViewOptions};
 use gi_host::image_io::{HdrImage, ToneMap};
 use gi_host::metrics::{self, CompareSettings};
+use gi_host::scene::lights::LightSet;
 use gi_host::vulkan::Context;
 use gi_shared::camera::CameraParams;
 use glam::Vec3;
@@ -54,6 +55,8 @@ pub enum Technique {
     Feedback,
     /// The cache's light-leak fixes (short-ray flag and bypass).
     LeakFixes,
+    /// Per-object reprojection of moving objects.
+    ObjectMotion,
 }
 
 /// A quality preset of `gi render` (README, "Speed and accuracy": each one's measured cost and
@@ -111,6 +114,20 @@ pub struct GiArgs {
     /// GI: world-space ReSTIR temporal reuse of the cache's light samples.
     #[arg(long)]
     pub restir: bool,
+    /// GI: frames per second at which the scene's animation (glTF node animations) plays: frame
+    /// `f` shows time `f / fps`, looped. `0` holds the scene in its rest pose. Scenes without
+    /// animation ignore it.
+    #[arg(long, default_value_t = 30.0, value_parser = parse_fps)]
+    pub fps: f32,
+}
+
+fn parse_fps(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(fps) if fps.is_finite() && fps >= 0.0 => Ok(fps),
+        _ => Err(format!(
+            "{s:?} is not a frame rate (a number of frames per second, 0 or more)"
+        )),
+    }
 }
 
 fn parse_spawn_rate(s: &str) -> Result<SpawnRate, String> {
@@ -158,6 +175,7 @@ impl GiArgs {
                 Technique::Temporal => s.denoiser_temporal = false,
                 Technique::Spatial => s.denoiser_spatial = false,
                 Technique::Feedback => s.temporal_feedback = false,
+                Technique::ObjectMotion => s.object_motion = false,
                 Technique::LeakFixes => {
                     s.short_ray_flag = false;
                     s.bypass = false;
@@ -207,17 +225,29 @@ pub fn render_gi(
     settings.validate(width, height)?;
     let reference = args.reference.as_deref().map(HdrImage::read).transpose()?;
     let start = Instant::now();
-    let scene = load_scene(path)?;
+    let mut scene = load_scene(path)?;
     describe(path, &scene);
     let base = view_camera(view, &scene, width, height);
     let camera_path = args.camera_path(&base, scene.bounds.center())?;
-    let (lights, gpu) = upload(ctx, &scene, sky)?;
+    let environment = sky.environment.clone();
+    let sample_environment = sky.sample;
+    let (mut lights, mut gpu) = upload(ctx, &scene, sky)?;
+    let animated = scene.animation.is_some() && args.fps > 0.0;
+    if animated {
+        println!(
+            "animation:           played at {} frames per second",
+            args.fps
+        );
+    }
+    // Whether the last frame moved an instance: the next one then updates the previous
+    // transforms even if nothing moves.
+    let mut moving = false;
     let s = &settings;
     println!(
         "gi:                  {} frames, spawn tile {} px, cache cells {} px, sample cap {}, \
          reprojection {}, parallax {}, backup {}, patching {}, guiding {}, hysteresis {}, \
          probe filter {}, jitter {}, relaxed {}, temporal {}, spatial {}, feedback {}, \
-         leak fixes {}, ReSTIR {}",
+         leak fixes {}, object motion {}, ReSTIR {}",
         args.frames,
         s.spawn_rate.tile(),
         s.cell_size_pixels,
@@ -235,6 +265,7 @@ pub fn render_gi(
         on_off(s.denoiser_spatial),
         on_off(s.temporal_feedback),
         on_off(s.short_ray_flag && s.bypass),
+        on_off(s.object_motion),
         on_off(s.restir)
     );
     let mut gi = GiRenderer::new(ctx, &lights, width, height, settings, options)?;
@@ -256,6 +287,15 @@ pub fn render_gi(
     };
     let rendered = (|| -> Result<_, Box<dyn std::error::Error>> {
         for f in 0..args.frames {
+            if animated && f > 0 {
+                let before = scene.pose_at((f - 1) as f32 / args.fps);
+                let moved = !scene.set_time(f as f32 / args.fps).is_empty();
+                if moved || moving {
+                    lights = LightSet::new(&scene, environment.clone(), sample_environment);
+                    gpu.set_pose(ctx, &scene, &lights, &before)?;
+                }
+                moving = moved;
+            }
             let camera = camera_path.camera(&base, f);
             let st = gi.render_frame(ctx, &gpu, &camera)?;
             let last = f + 1 == args.frames;

@@ -1,0 +1,362 @@
+//! Moving objects (issue 12): the G-buffer's per-object motion vectors and the GI frame's
+//! per-object reprojection, on `scenes/moving-box.gltf` (a cube sliding across a Cornell room while
+//! it turns), in both tracing variants, with the validation layer silent.
+//!
+//! * [`motion_vectors_follow_a_moving_box`]: the cube's motion vectors match the analytic
+//!   displacement of its points between two poses within 0.01 pixel, the CPU reference agrees,
+//!   and every other pixel's motion is exactly zero (static camera, static instances).
+//! * [`a_moving_box_leaves_no_trail`]: the trail metric. The cube moves for [`TRAIL_FRAMES`]
+//!   frames at 30 frames per second; the last frame is compared with a converged static render
+//!   of the last pose in the trail (pixels the cube covered in the frames before but not in the
+//!   last one) and on the cube, with per-object reprojection and with camera-only reprojection.
+
+use gi_host::KernelVariant;
+use gi_host::gbuffer::{GBufferData, GBufferImages, GBufferPass, render_on_cpu, scene_camera};
+use gi_host::gi::renderer::GiRenderer;
+use gi_host::gi::{GiSettings, ViewOptions};
+use gi_host::image_io::HdrImage;
+use gi_host::scene::Scene;
+use gi_host::scene::gpu_data::ShadingData;
+use gi_host::scene::lights::LightSet;
+use gi_host::scene::bvh::Bvh;
+use gi_host::scene::upload::{GpuScene, previous_transforms};
+use gi_host::vulkan::Context;
+use gi_shared::camera::{CameraParams, primary_ray};
+use gi_shared::gbuffer::GBufferTexel;
+use gi_tests::{context, finish_without_validation_messages, scene_path};
+use glam::{DVec3, DVec4, Mat4, UVec2, Vec2};
+
+const WIDTH: u32 = 64;
+const HEIGHT: u32 = 48;
+/// Seconds per frame.
+const STEP: f32 = 1.0 / 30.0;
+/// Frames the cube moves in the trail test.
+const TRAIL_FRAMES: u32 = 24;
+/// When the trail test's animation starts: the cube is then well inside the room.
+const TRAIL_START: f32 = 0.2;
+/// Static frames of the trail test's reference.
+const REFERENCE_FRAMES: u32 = 64;
+/// The old trail: pixels the cube left at least this many frames before the last.
+const OLD_TRAIL_FRAMES: u32 = 8;
+
+fn load() -> (Scene, u32) {
+    let (scene, warnings) = Scene::load(scene_path("moving-box.gltf")).unwrap();
+    assert!(warnings.is_empty(), "{warnings:#?}");
+    let cube = scene
+        .instances
+        .iter()
+        .position(|i| i.name == "cube")
+        .expect("moving-box has a cube") as u32;
+    (scene, cube)
+}
+
+/// Where `p` lands on `camera`'s screen, in pixels, and its linear depth, in f64.
+fn project_f64(camera: &CameraParams, p: DVec3) -> (f64, f64, f64) {
+    let d = p - camera.position().as_dvec3();
+    let depth = d.dot(camera.forward().as_dvec3());
+    let tan = f64::from(camera.tan_half_fov_y);
+    let ndc_x = d.dot(camera.right().as_dvec3()) / (depth * tan * f64::from(camera.aspect));
+    let ndc_y = -d.dot(camera.up().as_dvec3()) / (depth * tan);
+    (
+        (ndc_x + 1.0) * 0.5 * f64::from(camera.image_size[0]),
+        (ndc_y + 1.0) * 0.5 * f64::from(camera.image_size[1]),
+        depth,
+    )
+}
+
+/// Checks `data`'s motion against the analytic motion of `cube` from `previous` to `current`
+/// (object-to-world transforms) under the static `camera`; returns the cube's pixel count and
+/// its largest motion.
+fn check_motion(
+    name: &str,
+    data: &GBufferData,
+    camera: &CameraParams,
+    cube: u32,
+    current: Mat4,
+    previous: Mat4,
+) -> (u32, f64) {
+    let to_object = current.as_dmat4().inverse();
+    let previous = previous.as_dmat4();
+    let (mut on_cube, mut largest) = (0, 0.0f64);
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let t = data.texel(x, y);
+            if !t.is_surface() {
+                assert_eq!(t.motion, glam::Vec4::ZERO, "{name}: sky ({x}, {y})");
+                continue;
+            }
+            if t.ids.x != cube {
+                // A static instance under a static camera: exactly zero.
+                assert_eq!(
+                    (t.motion.x, t.motion.y, t.motion.w),
+                    (0.0, 0.0, 1.0),
+                    "{name}: static pixel ({x}, {y})"
+                );
+                continue;
+            }
+            // The hit point from the pixel's ray and depth (the ray's forward component is 1),
+            // carried back to where the cube held it.
+            let ray = primary_ray(camera, UVec2::new(x, y), Vec2::ZERO);
+            let p = DVec3::from_array(ray.origin.map(f64::from))
+                + DVec3::from_array(ray.direction.map(f64::from)) * f64::from(t.depth);
+            let object = to_object * DVec4::from((p, 1.0));
+            let before = (previous * object).truncate();
+            let (px, py, previous_depth) = project_f64(camera, before);
+            let expected = (f64::from(x) + 0.5 - px, f64::from(y) + 0.5 - py);
+            let error = (f64::from(t.motion.x) - expected.0)
+                .abs()
+                .max((f64::from(t.motion.y) - expected.1).abs());
+            assert!(
+                error < 0.01,
+                "{name}: cube pixel ({x}, {y}): motion {:?}, expected {expected:?}",
+                t.motion
+            );
+            assert!(
+                (f64::from(t.motion.z) - previous_depth).abs() <= 1e-4 * previous_depth,
+                "{name}: previous depth {} vs {previous_depth}",
+                t.motion.z
+            );
+            on_cube += 1;
+            largest = largest.max(expected.0.abs().max(expected.1.abs()));
+        }
+    }
+    (on_cube, largest)
+}
+
+#[test]
+fn motion_vectors_follow_a_moving_box() {
+    let (mut scene, cube) = load();
+    let (t0, t1) = (0.5, 0.5 + 2.0 * STEP);
+    scene.set_time(t0);
+    let before = scene.pose_at(t0);
+    scene.set_time(t1);
+    let now = scene.pose_at(t1);
+    let camera = scene_camera(&scene, WIDTH, HEIGHT);
+    let previous = previous_transforms(&now, &before);
+    assert_eq!(previous.len(), scene.instances.len());
+    let shading = ShadingData::new(&scene).unwrap();
+    let bvh = Bvh::new(&scene).unwrap();
+    let cpu = render_on_cpu(&shading, &bvh, &camera, &previous);
+    let (c, m) = (now[cube as usize], before[cube as usize]);
+    let (pixels, largest) = check_motion("cpu", &cpu, &camera, cube, c, m);
+    println!("cpu: {pixels} cube pixels, largest motion {largest:.3} px");
+    assert!(pixels > 40, "the cube covers {pixels} pixels");
+    assert!(largest > 0.5, "the cube moved {largest} px");
+    // Without previous transforms the cube's motion is the camera's: zero.
+    let still = render_on_cpu(&shading, &bvh, &camera, &[]);
+    assert!(
+        still
+            .texels
+            .iter()
+            .all(|t| t.motion.x == 0.0 && t.motion.y == 0.0)
+    );
+    for variant in KernelVariant::ALL {
+        let ctx = context(variant);
+        let lights = LightSet::new(&scene, None, false);
+        let mut gpu = GpuScene::upload(&ctx, &scene, None, &shading, &lights).unwrap();
+        gpu.set_pose(&ctx, &scene, &lights, &before).unwrap();
+        let mut pass = GBufferPass::new(&ctx).unwrap();
+        let images = GBufferImages::new(&ctx, WIDTH, HEIGHT).unwrap();
+        pass.run(&ctx, &gpu, &camera, &images).unwrap();
+        let data = images.read_back(&ctx).unwrap();
+        let name = format!("{variant}");
+        let (gpu_pixels, _) = check_motion(&name, &data, &camera, cube, c, m);
+        // Ties between the tracers move a pixel or two between instances at most.
+        assert!(
+            gpu_pixels.abs_diff(pixels) <= 2,
+            "{name}: {gpu_pixels} vs {pixels}"
+        );
+        // A pose that is the previous one: no object motion.
+        gpu.set_pose(&ctx, &scene, &lights, &now).unwrap();
+        pass.run(&ctx, &gpu, &camera, &images).unwrap();
+        let data = images.read_back(&ctx).unwrap();
+        assert!(
+            data.texels
+                .iter()
+                .all(|t| t.motion.x == 0.0 && t.motion.y == 0.0)
+        );
+        // A wrong transform count names what is wrong.
+        let e = gpu.set_pose(&ctx, &scene, &lights, &now[1..]).unwrap_err();
+        assert!(e.to_string().contains("previous transforms"), "{e}");
+        drop((pass, images, gpu));
+        finish_without_validation_messages(ctx);
+    }
+}
+
+/// Luminance-like mean of a pixel.
+fn value(c: [f32; 3]) -> f64 {
+    f64::from(c[0] + c[1] + c[2]) / 3.0
+}
+
+/// The trail test's run: `frames` frames of the animation from [`TRAIL_START`]; returns the last
+/// image and, per pixel, whether the cube covered it in any frame before the last.
+fn animate(
+    ctx: &Context,
+    scene: &mut Scene,
+    settings: GiSettings,
+    frames: u32,
+) -> (HdrImage, Vec<bool>, Vec<bool>, GBufferData) {
+    scene.set_time(TRAIL_START);
+    let lights = LightSet::new(scene, None, true);
+    let shading = ShadingData::new(scene).unwrap();
+    let mut gpu = GpuScene::upload(ctx, scene, None, &shading, &lights).unwrap();
+    let camera = scene_camera(scene, WIDTH, HEIGHT);
+    let mut gi = GiRenderer::new(
+        ctx,
+        &lights,
+        WIDTH,
+        HEIGHT,
+        settings,
+        ViewOptions::default(),
+    )
+    .unwrap();
+    let cube = scene
+        .instances
+        .iter()
+        .position(|i| i.name == "cube")
+        .unwrap() as u32;
+    let mut covered = vec![false; (WIDTH * HEIGHT) as usize];
+    let mut old = vec![false; (WIDTH * HEIGHT) as usize];
+    let mut last = None;
+    for f in 0..frames {
+        let t = TRAIL_START + f as f32 * STEP;
+        if f > 0 {
+            let before = scene.pose_at(t - STEP);
+            scene.set_time(t);
+            gpu.set_pose(ctx, scene, &lights, &before).unwrap();
+        }
+        gi.render_frame(ctx, &gpu, &camera).unwrap();
+        let g = gi.gbuffer().read_back(ctx).unwrap();
+        if f + 1 < frames {
+            for (c, t) in covered.iter_mut().zip(&g.texels) {
+                *c |= t.ids.x == cube;
+            }
+        }
+        if f + OLD_TRAIL_FRAMES < frames {
+            for (c, t) in old.iter_mut().zip(&g.texels) {
+                *c |= t.ids.x == cube;
+            }
+        } else {
+            for (c, t) in old.iter_mut().zip(&g.texels) {
+                *c &= t.ids.x != cube;
+            }
+        }
+        last = Some(g);
+    }
+    let image = gi.image(ctx).unwrap();
+    (image, covered, old, last.unwrap())
+}
+
+/// The converged image of `scene` held at the trail test's last pose.
+fn still_reference(ctx: &Context, scene: &mut Scene, settings: GiSettings) -> HdrImage {
+    scene.set_time(TRAIL_START + (TRAIL_FRAMES - 1) as f32 * STEP);
+    let lights = LightSet::new(scene, None, true);
+    let shading = ShadingData::new(scene).unwrap();
+    let gpu = GpuScene::upload(ctx, scene, None, &shading, &lights).unwrap();
+    let camera = scene_camera(scene, WIDTH, HEIGHT);
+    let mut gi = GiRenderer::new(
+        ctx,
+        &lights,
+        WIDTH,
+        HEIGHT,
+        settings,
+        ViewOptions::default(),
+    )
+    .unwrap();
+    for _ in 0..REFERENCE_FRAMES {
+        gi.render_frame(ctx, &gpu, &camera).unwrap();
+    }
+    gi.image(ctx).unwrap()
+}
+
+/// Mean absolute difference of `image` and `reference` over the pixels where `mask` holds, over
+/// the reference's mean there, and the mean signed difference over the same mean (the bias).
+fn relative_error(image: &HdrImage, reference: &HdrImage, mask: &[bool]) -> (f64, f64) {
+    let (mut diff, mut signed, mut sum, mut n) = (0.0, 0.0, 0.0, 0);
+    for ((a, b), m) in image.pixels().iter().zip(reference.pixels()).zip(mask) {
+        if *m {
+            diff += (value(*a) - value(*b)).abs();
+            signed += value(*a) - value(*b);
+            sum += value(*b);
+            n += 1;
+        }
+    }
+    assert!(n > 0 && sum > 0.0, "empty mask");
+    (diff / sum, signed / sum)
+}
+
+#[test]
+fn a_moving_box_leaves_no_trail() {
+    let (mut scene, cube) = load();
+    let base = GiSettings::for_resolution(WIDTH, HEIGHT);
+    let camera_only = GiSettings {
+        object_motion: false,
+        ..base
+    };
+    for variant in KernelVariant::ALL {
+        let ctx = context(variant);
+        let reference = still_reference(&ctx, &mut scene, base);
+        let (with, covered, old, last) = animate(&ctx, &mut scene, base, TRAIL_FRAMES);
+        let (without, ..) = animate(&ctx, &mut scene, camera_only, TRAIL_FRAMES);
+        let on_cube: Vec<bool> = last.texels.iter().map(|t| t.ids.x == cube).collect();
+        let trail: Vec<bool> = covered
+            .iter()
+            .zip(&on_cube)
+            .map(|(c, now)| *c && !now)
+            .collect();
+        // Far from the cube's path: the noise floor of one frame against the reference.
+        let elsewhere: Vec<bool> = covered
+            .iter()
+            .zip(&last.texels)
+            .map(|(c, t): (&bool, &GBufferTexel)| !c && t.ids.x != cube && t.is_surface())
+            .collect();
+        let count = |m: &[bool]| m.iter().filter(|x| **x).count();
+        let figures = [&with, &without].map(|image| {
+            [&trail, &old, &on_cube, &elsewhere].map(|m| relative_error(image, &reference, m))
+        });
+        println!(
+            "{variant}: {} trail ({} old), {} cube, {} other pixels",
+            count(&trail),
+            count(&old),
+            count(&on_cube),
+            count(&elsewhere)
+        );
+        for (name, f) in ["per-object", "camera-only"].iter().zip(&figures) {
+            println!(
+                "  {name}: relative error (bias) trail {:.4} ({:+.4}), old trail {:.4} ({:+.4}), \
+                 cube {:.4} ({:+.4}), elsewhere {:.4} ({:+.4})",
+                f[0].0, f[0].1, f[1].0, f[1].1, f[2].0, f[2].1, f[3].0, f[3].1
+            );
+        }
+        assert!(count(&trail) > 40, "trail of {} pixels", count(&trail));
+        assert!(count(&old) > 20, "old trail of {} pixels", count(&old));
+        let [trail_with, old_with, cube_with, elsewhere_with] = figures[0];
+        let [trail_without, old_without, cube_without, _] = figures[1];
+        // Measured over six runs (the hash cells' allocation order varies from run to run):
+        // camera-only trail 0.29–0.38, all of it dark (bias = −error); per-object 0.10–0.14 in
+        // software, 0.13–0.31 with ray queries (where the dark trail sometimes survives in part,
+        // see the README's "Moving objects"); cube 0.20–0.27 against 0.06–0.15.
+        assert!(
+            trail_with.0 < 0.9 * trail_without.0 && trail_with.1 > 0.9 * trail_without.1,
+            "{variant}: trail {trail_with:?} vs camera-only {trail_without:?}"
+        );
+        assert!(
+            old_with.0 < 0.9 * old_without.0,
+            "{variant}: old trail {old_with:?} vs camera-only {old_without:?}"
+        );
+        assert!(
+            cube_with.0 < 0.8 * cube_without.0,
+            "{variant}: cube {cube_with:?} vs camera-only {cube_without:?}"
+        );
+        assert!(
+            trail_without.1 < -0.2,
+            "{variant}: no trail to remove {trail_without:?}"
+        );
+        assert!(
+            elsewhere_with.0 < 0.15,
+            "{variant}: elsewhere {elsewhere_with:?}"
+        );
+        drop(with);
+        finish_without_validation_messages(ctx);
+    }
+}
