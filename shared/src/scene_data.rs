@@ -467,8 +467,8 @@ pub fn alpha_visible<I: TextureImages + ?Sized>(
     } else {
         0.0
     };
-    // Opaque materials skip the texture read.
-    if !(cutoff > 0.0) {
+    // Opaque materials (and a NaN cutoff) skip the texture read.
+    if cutoff.is_nan() || cutoff <= 0.0 {
         return true;
     }
     let m = sample_material(

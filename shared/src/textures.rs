@@ -110,13 +110,7 @@ fn level_entry(texture: &GpuTexture, level: u32) -> GpuTexture {
 /// Trilinear read of `texture` from the CPU's texel array (see the [module](self)): the same
 /// filter as a device sampler. A texture whose texels lie outside `texels` reads as 1.
 pub fn sample_mips(texture: &GpuTexture, texels: &[u32], uv: Vec2, lod: f32) -> Vec4 {
-    let levels = if texture.levels == 0 {
-        1
-    } else if texture.levels > MAX_MIP_LEVELS {
-        MAX_MIP_LEVELS
-    } else {
-        texture.levels
-    };
+    let levels = texture.levels.clamp(1, MAX_MIP_LEVELS);
     let d = clamped_lod(lod, levels);
     let low = floor(d);
     let fraction = d - low;

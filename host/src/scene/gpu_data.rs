@@ -421,7 +421,7 @@ mod tests {
         let mut s = test_scene("textured.gltf");
         // 2²² vertices of 32 bytes: 128 MiB, and one more.
         let mesh = &mut s.meshes[0];
-        let count = (MAX_STORAGE_BUFFER_BYTES / 32) as usize + 1;
+        let count = MAX_STORAGE_BUFFER_BYTES / 32 + 1;
         mesh.positions.resize(count, glam::Vec3::ZERO);
         mesh.normals.resize(count, glam::Vec3::Z);
         let err = ShadingData::new(&s).unwrap_err().to_string();

@@ -212,8 +212,7 @@ impl Capabilities {
     /// or fewer where the device allows fewer (at least 1).
     pub fn scene_texture_slots(&self) -> u32 {
         self.max_sampled_images
-            .min(crate::vulkan::MAX_SCENE_TEXTURES)
-            .max(1)
+            .clamp(1, crate::vulkan::MAX_SCENE_TEXTURES)
     }
 
     /// `cpu`, `discrete GPU`, ... for reports.
