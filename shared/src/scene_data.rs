@@ -107,8 +107,8 @@ impl GpuInstance {
     }
 }
 
-/// [`GpuMesh::flags`] bit: some of the mesh's triangles have an alpha-masked material, so
-/// tracing must test their alpha ([`alpha_visible`]) before accepting a hit.
+/// [`GpuMesh::flags`] bit: some of the mesh's triangles have an alpha-masked material, whose
+/// alpha ([`alpha_visible`]) decides whether a hit counts. The traversals do not test it yet.
 pub const MESH_ALPHA_TESTED: u32 = 1;
 
 /// A mesh: a run of triangles and a run of vertices (32 bytes).
@@ -231,8 +231,8 @@ pub struct GpuMaterial {
     /// 1 when the back face is lit like the front.
     pub double_sided: u32,
     /// glTF's `alphaCutoff` of an alpha-masked material: a point whose base colour alpha
-    /// (factor × texture, level 0) is below it is not there, for every ray ([`alpha_visible`]).
-    /// 0 for an opaque material.
+    /// (factor × texture, level 0) is below it is not there ([`alpha_visible`]; the traversals do
+    /// not call it yet). 0 for an opaque material.
     pub alpha_cutoff: f32,
     /// Explicit padding.
     pub _pad: [u32; 3],
@@ -438,8 +438,8 @@ pub fn fetch_surface(
 
 /// Whether the surface of triangle `primitive` of `instance` exists at `barycentrics`: false only
 /// where its material is alpha-masked and the base colour's alpha (factor × texture at level 0,
-/// the exact coverage: no mip level erodes it) is below the cutoff. Tracing calls it for the
-/// triangles of meshes flagged [`MESH_ALPHA_TESTED`].
+/// the exact coverage: no mip level erodes it) is below the cutoff. Meant for the triangles of
+/// meshes flagged [`MESH_ALPHA_TESTED`], once the traversals call it.
 #[allow(clippy::too_many_arguments, reason = "one argument per scene buffer")]
 pub fn alpha_visible<I: TextureImages + ?Sized>(
     instances: &[GpuInstance],

@@ -60,7 +60,8 @@
 //! (HDR) texels are clamped to [0, 1]; non-triangle primitives, orthographic cameras, extensions
 //! in `extensionsUsed` that the loader does not support, UV sets after the first, vertex colours,
 //! tangents, skins, morph targets, normal, occlusion and metallic-roughness textures are ignored;
-//! `BLEND` materials are alpha-masked at 0.5 (no transparency); nodes with a singular transform,
+//! `MASK` and `BLEND` (taken as `MASK` at 0.5) materials are loaded with their cutoff but render
+//! opaque, since tracing does not test alpha yet; nodes with a singular transform,
 //! and lights and cameras with invalid parameters, are skipped. Animation channels that cannot be
 //! played are dropped (see [`animation`]).
 
@@ -397,7 +398,8 @@ pub struct Material {
     pub double_sided: bool,
     /// `alphaCutoff` of an alpha-masked material (`alphaMode` `MASK`, and `BLEND`, which is
     /// treated as `MASK` at 0.5): where the base colour's alpha is below it, the surface is not
-    /// there. `None` for an opaque material.
+    /// there (`gi_shared::scene_data::alpha_visible`). `None` for an opaque material. Not yet
+    /// tested by the traversals: masked surfaces render opaque, with a warning.
     pub alpha_cutoff: Option<f32>,
 }
 
