@@ -11,8 +11,9 @@
 //! 1024 × 1024 in row order. Incoherent rays: random origins inside the scene's bounds,
 //! uniformly random directions. Run with
 //! `cargo bench --profile dev -p gi-host --bench tracing [-- WORD...]` (only the scenes whose
-//! name contains a word; `"1M build"` names the build-time line); figures are ratios within one
-//! run, not absolute claims.
+//! name contains a word; `"1M build"` names the build-time line; a word that is the path of a
+//! scene file benches that file, e.g. one from `gi generate`); figures are ratios within one run,
+//! not absolute claims.
 
 use gi_host::KernelVariant;
 use gi_host::gbuffer::scene_camera;
@@ -291,6 +292,17 @@ fn main() -> std::result::Result<(), Box<dyn std::error::Error>> {
         match Scene::load(file) {
             Ok((scene, _)) => bench(&contexts, &name, &scene)?,
             Err(e) => println!("{name:<26} skipped: {e}"),
+        }
+    }
+    // A word naming a scene file benches that file too (e.g. a `gi generate` scene).
+    for path in words
+        .iter()
+        .map(std::path::Path::new)
+        .filter(|p| p.is_file())
+    {
+        match Scene::load(path) {
+            Ok((scene, _)) => bench(&contexts, &path.display().to_string(), &scene)?,
+            Err(e) => println!("{} skipped: {e}", path.display()),
         }
     }
     if wanted("generated icospheres") {

@@ -4,7 +4,7 @@
 use gi_host::KernelVariant;
 use gi_host::vulkan::{
     AccelerationStructure, BindingKind, Buffer, DescriptorSet, Instance, Kernel, KernelModule,
-    Resource, SHADING_BINDINGS, SceneSet, SceneSets,
+    Resource, SHADING_BINDINGS, SceneSet, SceneSets, TEXTURES_BINDING,
 };
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::ray::{HitRecord, Ray};
@@ -172,12 +172,9 @@ fn ray_queries_hit_the_expected_triangles() {
     assert!(err.to_string().contains("dispatch_traced"), "{err}");
     // The shading data a kernel that traces binds too: nothing here reads it.
     let placeholder = Buffer::device_zeroed::<[u32; 4]>(&ctx, "placeholder", 1).unwrap();
-    let shading = DescriptorSet::new(
-        &ctx,
-        SceneSet::Shading,
-        &[Resource::Buffer(&placeholder); SHADING_BINDINGS],
-    )
-    .unwrap();
+    let mut shading_data = [Resource::Buffer(&placeholder); SHADING_BINDINGS];
+    shading_data[TEXTURES_BINDING] = Resource::Textures(&[]);
+    let shading = DescriptorSet::new(&ctx, SceneSet::Shading, &shading_data).unwrap();
     let scene = SceneSets {
         geometry: &geometry,
         shading: &shading,
