@@ -83,12 +83,7 @@ impl PreviousTransform {
     /// The world position of `object` under the previous transform.
     #[inline]
     pub fn transform_point(&self, object: Vec3) -> Vec3 {
-        let h = object.extend(1.0);
-        Vec3::new(
-            Vec4::from_array(self.object_to_world[0]).dot(h),
-            Vec4::from_array(self.object_to_world[1]).dot(h),
-            Vec4::from_array(self.object_to_world[2]).dot(h),
-        )
+        crate::scene_data::transform_point_3x4(&self.object_to_world, object)
     }
 }
 

@@ -87,12 +87,7 @@ impl GpuInstance {
     /// Transforms an object-space point to world space.
     #[inline]
     pub fn transform_point(&self, p: Vec3) -> Vec3 {
-        let h = p.extend(1.0);
-        Vec3::new(
-            Vec4::from_array(self.object_to_world[0]).dot(h),
-            Vec4::from_array(self.object_to_world[1]).dot(h),
-            Vec4::from_array(self.object_to_world[2]).dot(h),
-        )
+        transform_point_3x4(&self.object_to_world, p)
     }
 
     /// Transforms an object-space normal to world space (not normalised).
@@ -110,6 +105,17 @@ impl GpuInstance {
 /// [`GpuMesh::flags`] bit: some of the mesh's triangles have an alpha-masked material, whose
 /// alpha ([`alpha_visible`]) decides whether a hit counts. The traversals do not test it yet.
 pub const MESH_ALPHA_TESTED: u32 = 1;
+
+/// Point `p` transformed by the 3×4 matrix whose rows are `rows` (the bottom row `0 0 0 1`).
+#[inline]
+pub fn transform_point_3x4(rows: &[[f32; 4]; 3], p: Vec3) -> Vec3 {
+    let h = p.extend(1.0);
+    Vec3::new(
+        Vec4::from_array(rows[0]).dot(h),
+        Vec4::from_array(rows[1]).dot(h),
+        Vec4::from_array(rows[2]).dot(h),
+    )
+}
 
 /// A mesh: a run of triangles and a run of vertices (32 bytes).
 ///

@@ -37,6 +37,47 @@ fn texel_bytes(format: vk::Format) -> Option<u32> {
     }
 }
 
+/// Creates the image `info` describes in device memory, binds it, and registers it under `name`;
+/// on failure nothing is left behind. Returns the image, its memory (the caller owns and frees
+/// both) and the memory's size in bytes.
+pub(super) fn create_bound_image(
+    ctx: &Context,
+    name: &str,
+    info: &vk::ImageCreateInfo<'_>,
+) -> Result<(vk::Image, Allocation, u64)> {
+    let handle = unsafe { ctx.device.create_image(info, None) }.vk("vkCreateImage")?;
+    let requirements = unsafe { ctx.device.get_image_memory_requirements(handle) };
+    let allocation = match allocate(ctx, name, requirements, MemoryLocation::GpuOnly, false) {
+        Ok(a) => a,
+        Err(e) => {
+            unsafe { ctx.device.destroy_image(handle, None) };
+            return Err(e);
+        }
+    };
+    if let Err(result) = unsafe {
+        ctx.device
+            .bind_image_memory(handle, allocation.memory(), allocation.offset())
+    } {
+        unsafe { ctx.device.destroy_image(handle, None) };
+        if let Ok(mut a) = ctx.shared.allocator.lock() {
+            a.free(allocation).ok();
+        }
+        return Err(Error::Vulkan {
+            call: "vkBindImageMemory",
+            result,
+        });
+    }
+    ctx.shared.images.add(
+        handle,
+        super::memory::BufferInfo {
+            name: name.to_string(),
+            bytes: requirements.size,
+            location: MemoryLocation::GpuOnly,
+        },
+    );
+    Ok((handle, allocation, requirements.size))
+}
+
 const COLOR: vk::ImageSubresourceRange = vk::ImageSubresourceRange {
     aspect_mask: vk::ImageAspectFlags::COLOR,
     base_mip_level: 0,
@@ -90,24 +131,7 @@ impl Image {
             )
             .sharing_mode(vk::SharingMode::EXCLUSIVE)
             .initial_layout(vk::ImageLayout::UNDEFINED);
-        let handle = unsafe { ctx.device.create_image(&info, None) }.vk("vkCreateImage")?;
-        let requirements = unsafe { ctx.device.get_image_memory_requirements(handle) };
-        let allocation = allocate(ctx, name, requirements, MemoryLocation::GpuOnly, false);
-        let allocation = match allocation {
-            Ok(a) => a,
-            Err(e) => {
-                unsafe { ctx.device.destroy_image(handle, None) };
-                return Err(e);
-            }
-        };
-        ctx.shared.images.add(
-            handle,
-            super::memory::BufferInfo {
-                name: name.to_string(),
-                bytes: requirements.size,
-                location: MemoryLocation::GpuOnly,
-            },
-        );
+        let (handle, allocation, _) = create_bound_image(ctx, name, &info)?;
         // From here on, `image` frees what exists if a later step fails.
         let mut image = Self {
             handle,
@@ -119,19 +143,6 @@ impl Image {
             name: name.to_string(),
             shared: ctx.shared.clone(),
         };
-        // The allocation stays alive (and bound) until the image is dropped.
-        let memory = image
-            .allocation
-            .as_ref()
-            .map(|a| (unsafe { a.memory() }, a.offset()));
-        if let Some((memory, offset)) = memory
-            && let Err(result) = unsafe { ctx.device.bind_image_memory(handle, memory, offset) }
-        {
-            return Err(Error::Vulkan {
-                call: "vkBindImageMemory",
-                result,
-            });
-        }
         let view_info = vk::ImageViewCreateInfo::default()
             .image(handle)
             .view_type(vk::ImageViewType::TYPE_2D)

@@ -7,7 +7,8 @@
 //! textures, so a scene's whole texture set never needs a staging copy of its size.
 
 use super::context::{Context, SharedDevice};
-use super::memory::{Buffer, BufferInfo, allocate};
+use super::image::create_bound_image;
+use super::memory::Buffer;
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -64,7 +65,6 @@ impl TextureImage {
                 texture.levels.len()
             )));
         }
-        let mut expected = 0u64;
         for (l, level) in texture.levels.iter().enumerate() {
             let (w, h) = gi_shared::textures::level_size(texture.width, texture.height, l as u32);
             if level.len() as u64 != u64::from(w) * u64::from(h) * 4 {
@@ -73,7 +73,6 @@ impl TextureImage {
                     level.len()
                 )));
             }
-            expected += level.len() as u64;
         }
         let info = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
@@ -90,56 +89,23 @@ impl TextureImage {
             .usage(vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)
             .sharing_mode(vk::SharingMode::EXCLUSIVE)
             .initial_layout(vk::ImageLayout::UNDEFINED);
-        let handle = unsafe { ctx.device.create_image(&info, None) }.map_err(|result| {
-            bad(format!(
-                "vkCreateImage failed ({result}) for {}×{} {format:?} with {} levels",
-                texture.width,
-                texture.height,
-                texture.levels.len()
-            ))
-        })?;
-        let requirements = unsafe { ctx.device.get_image_memory_requirements(handle) };
-        let allocation = match allocate(
-            ctx,
-            texture.name,
-            requirements,
-            MemoryLocation::GpuOnly,
-            false,
-        ) {
-            Ok(a) => a,
-            Err(e) => {
-                unsafe { ctx.device.destroy_image(handle, None) };
-                return Err(e);
-            }
-        };
-        ctx.shared.images.add(
-            handle,
-            BufferInfo {
-                name: texture.name.to_string(),
-                bytes: requirements.size.max(expected),
-                location: MemoryLocation::GpuOnly,
-            },
-        );
+        let (handle, allocation, bytes) =
+            create_bound_image(ctx, texture.name, &info).map_err(|e| {
+                bad(format!(
+                    "{e} for {}×{} {format:?} with {} levels",
+                    texture.width,
+                    texture.height,
+                    texture.levels.len()
+                ))
+            })?;
         // From here on, `image` frees what exists if a later step fails.
         let mut image = Self {
             handle,
             view: vk::ImageView::null(),
-            bytes: requirements.size,
+            bytes,
             allocation: Some(allocation),
             shared: ctx.shared.clone(),
         };
-        let memory = image
-            .allocation
-            .as_ref()
-            .map(|a| (unsafe { a.memory() }, a.offset()));
-        if let Some((memory, offset)) = memory
-            && let Err(result) = unsafe { ctx.device.bind_image_memory(handle, memory, offset) }
-        {
-            return Err(Error::Vulkan {
-                call: "vkBindImageMemory",
-                result,
-            });
-        }
         let view_info = vk::ImageViewCreateInfo::default()
             .image(handle)
             .view_type(vk::ImageViewType::TYPE_2D)
