@@ -565,6 +565,7 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
             * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
         return out;
     }
+    // A probe traces one ray per octahedral cell: each stands for that share of the hemisphere.
     let cone = RayCone::hemisphere_share(0.0, PROBE_CELLS);
     let (surface, material) = hit_surface(
         instances, meshes, vertices, triangles, materials, textures, images, ray, cone, hit,

@@ -277,15 +277,24 @@ impl Image {
 
 impl Drop for Image {
     fn drop(&mut self) {
-        self.shared.images.remove(self.handle);
-        let device = &self.shared.device;
-        unsafe {
-            // Null until the view is made; destroying a null view is a no-op.
-            device.destroy_image_view(self.view, None);
-            device.destroy_image(self.handle, None);
-        }
-        if let (Some(a), Ok(mut alloc)) = (self.allocation.take(), self.shared.allocator.lock()) {
-            alloc.free(a).ok();
-        }
+        destroy_image(&self.shared, self.handle, self.view, self.allocation.take());
+    }
+}
+
+/// Frees what [`create_bound_image`] made and the view made of it (a null view until one is made:
+/// destroying it is a no-op), and forgets the image's registration.
+pub(super) fn destroy_image(
+    shared: &SharedDevice,
+    handle: vk::Image,
+    view: vk::ImageView,
+    allocation: Option<Allocation>,
+) {
+    shared.images.remove(handle);
+    unsafe {
+        shared.device.destroy_image_view(view, None);
+        shared.device.destroy_image(handle, None);
+    }
+    if let (Some(a), Ok(mut alloc)) = (allocation, shared.allocator.lock()) {
+        alloc.free(a).ok();
     }
 }

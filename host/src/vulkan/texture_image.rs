@@ -7,7 +7,7 @@
 //! textures, so a scene's whole texture set never needs a staging copy of its size.
 
 use super::context::{Context, SharedDevice};
-use super::image::create_bound_image;
+use super::image::{create_bound_image, destroy_image};
 use super::memory::Buffer;
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
@@ -119,15 +119,7 @@ impl TextureImage {
 
 impl Drop for TextureImage {
     fn drop(&mut self) {
-        self.shared.images.remove(self.handle);
-        let device = &self.shared.device;
-        unsafe {
-            device.destroy_image_view(self.view, None);
-            device.destroy_image(self.handle, None);
-        }
-        if let (Some(a), Ok(mut alloc)) = (self.allocation.take(), self.shared.allocator.lock()) {
-            alloc.free(a).ok();
-        }
+        destroy_image(&self.shared, self.handle, self.view, self.allocation.take());
     }
 }
 
@@ -204,50 +196,36 @@ fn upload_batch(
         copies.push(regions);
     }
     staging.write(&contents)?;
-    let barrier = |image: &TextureImage,
-                   levels: u32,
-                   old: vk::ImageLayout,
-                   new: vk::ImageLayout,
-                   src: vk::AccessFlags,
-                   dst: vk::AccessFlags| {
-        vk::ImageMemoryBarrier::default()
-            .src_access_mask(src)
-            .dst_access_mask(dst)
-            .old_layout(old)
-            .new_layout(new)
-            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .image(image.handle)
-            .subresource_range(all_levels(levels))
+    // Every image of the batch, all levels, from layout `old` to `new`.
+    let barriers = |old, new, src, dst| -> Vec<vk::ImageMemoryBarrier<'static>> {
+        images
+            .iter()
+            .zip(textures)
+            .map(|(image, t)| {
+                vk::ImageMemoryBarrier::default()
+                    .src_access_mask(src)
+                    .dst_access_mask(dst)
+                    .old_layout(old)
+                    .new_layout(new)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .image(image.handle)
+                    .subresource_range(all_levels(t.levels.len() as u32))
+            })
+            .collect()
     };
-    let to_transfer: Vec<_> = images
-        .iter()
-        .zip(textures)
-        .map(|(image, t)| {
-            barrier(
-                image,
-                t.levels.len() as u32,
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                vk::AccessFlags::empty(),
-                vk::AccessFlags::TRANSFER_WRITE,
-            )
-        })
-        .collect();
-    let to_read: Vec<_> = images
-        .iter()
-        .zip(textures)
-        .map(|(image, t)| {
-            barrier(
-                image,
-                t.levels.len() as u32,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-                vk::AccessFlags::TRANSFER_WRITE,
-                vk::AccessFlags::SHADER_READ,
-            )
-        })
-        .collect();
+    let to_transfer = barriers(
+        vk::ImageLayout::UNDEFINED,
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::AccessFlags::empty(),
+        vk::AccessFlags::TRANSFER_WRITE,
+    );
+    let to_read = barriers(
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        vk::AccessFlags::TRANSFER_WRITE,
+        vk::AccessFlags::SHADER_READ,
+    );
     ctx.submit(|cmd| unsafe {
         ctx.device.cmd_pipeline_barrier(
             cmd,
