@@ -4,7 +4,7 @@
 use gi_host::KernelVariant;
 use gi_host::vulkan::{
     AccelerationStructure, BindingKind, Buffer, DescriptorSet, Instance, Kernel, KernelModule,
-    Resource, SHADING_BINDINGS, SceneSet, SceneSets, TEXTURES_BINDING,
+    Resource, SHADING_BINDINGS, SceneSet, SceneSets, TEXTURES_BINDING, TopLevel,
 };
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::ray::{HitRecord, Ray};
@@ -95,7 +95,7 @@ fn ray_queries_hit_the_expected_triangles() {
             [0.0, 0.0, 1.0, z],
         ]
     };
-    let tlas = AccelerationStructure::instances(
+    let tlas = TopLevel::new(
         &ctx,
         &[
             Instance {
@@ -159,7 +159,7 @@ fn ray_queries_hit_the_expected_triangles() {
     let geometry = DescriptorSet::new(
         &ctx,
         SceneSet::Geometry,
-        &[Resource::AccelerationStructure(tlas.handle)],
+        &[Resource::AccelerationStructure(tlas.handle())],
     )
     .unwrap();
     let resources = [Resource::Buffer(&ray_buf), Resource::Buffer(&hit_buf)];

@@ -8,7 +8,7 @@
 //! ([`MAX_STORAGE_BUFFER_BYTES`]); a scene that does not is an error naming the scene and the
 //! buffer. Textures are images, one each, so their total size has no such bound.
 
-use super::{Scene, Wrap};
+use super::{Instance, Scene, Wrap};
 use crate::error::{Error, Result};
 use crate::vulkan::{
     Buffer, Context, Resource, Samplers, TextureImage, TextureLevels, upload_textures,
@@ -127,28 +127,7 @@ impl ShadingData {
                         }),
                 );
         }
-        data.instances = scene
-            .instances
-            .iter()
-            .map(|inst| {
-                let n = inst.normal_matrix().transpose().to_cols_array_2d();
-                let inverse = inst
-                    .transform
-                    .as_dmat4()
-                    .inverse()
-                    .transpose()
-                    .to_cols_array_2d();
-                let row = |r: [f64; 4]| r.map(|x| x as f32);
-                GpuInstance {
-                    object_to_world: inst.transform_3x4(),
-                    world_to_object: [row(inverse[0]), row(inverse[1]), row(inverse[2])],
-                    normal_to_world: n.map(|r| [r[0], r[1], r[2], 0.0]),
-                    mesh: inst.mesh,
-                    winding: if inst.is_mirrored() { -1.0 } else { 1.0 },
-                    _pad: [0; 2],
-                }
-            })
-            .collect();
+        data.instances = scene.instances.iter().map(gpu_instance).collect();
         data.materials = scene
             .materials
             .iter()
@@ -200,6 +179,27 @@ impl ShadingData {
         check_size(scene, "materials", &data.materials)?;
         check_size(scene, "textures", &data.textures)?;
         Ok(data)
+    }
+}
+
+/// The record of `inst` in the instances buffer: its transforms (object to world, world to object
+/// computed in `f64`, normals to world) and its mesh.
+pub fn gpu_instance(inst: &Instance) -> GpuInstance {
+    let n = inst.normal_matrix().transpose().to_cols_array_2d();
+    let inverse = inst
+        .transform
+        .as_dmat4()
+        .inverse()
+        .transpose()
+        .to_cols_array_2d();
+    let row = |r: [f64; 4]| r.map(|x| x as f32);
+    GpuInstance {
+        object_to_world: inst.transform_3x4(),
+        world_to_object: [row(inverse[0]), row(inverse[1]), row(inverse[2])],
+        normal_to_world: n.map(|r| [r[0], r[1], r[2], 0.0]),
+        mesh: inst.mesh,
+        winding: if inst.is_mirrored() { -1.0 } else { 1.0 },
+        _pad: [0; 2],
     }
 }
 
@@ -340,6 +340,12 @@ impl GpuShadingData {
             .iter()
             .zip(&self.buffers)
             .any(|(n, b)| *n == name && b.is_some())
+    }
+
+    /// The instances buffer (`GpuInstance`s, see [`gpu_instance`]); `None` for a scene without
+    /// instances.
+    pub fn instances(&self) -> Option<&Buffer> {
+        self.buffers[0].as_ref()
     }
 
     /// Bytes of device memory the textures take, mip chains included, with their table.

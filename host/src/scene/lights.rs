@@ -17,7 +17,7 @@
 use super::{LightKind, Scene};
 use crate::error::{Error, Result};
 use crate::image_io::HdrImage;
-use crate::vulkan::{Buffer, Context, Resource};
+use crate::vulkan::{Buffer, Context, Resource, StagedWrites};
 use ash::vk;
 use gi_shared::color::luminance;
 use gi_shared::environment::distribution_len;
@@ -334,6 +334,9 @@ pub struct GpuLights {
     environment: Buffer,
     distribution: Buffer,
     params: LightParams,
+    /// What `lights` holds, to find what a new pose changed ([`GpuLights::stage_pose`]).
+    uploaded: Vec<GpuLight>,
+    triangle_table_len: usize,
 }
 
 impl GpuLights {
@@ -371,7 +374,44 @@ impl GpuLights {
             environment: Buffer::device_local(ctx, "environment", texels, usage)?,
             distribution: Buffer::device_local(ctx, "environment distribution", cdf, usage)?,
             params: set.params(),
+            uploaded: set.lights.clone(),
+            triangle_table_len: set.triangle_table.len(),
         })
+    }
+
+    /// Queues in `writes` the lights of `set` (the same scene's, made after it moved) that differ
+    /// from those on the device, as one run from the first to the last that changed; returns how
+    /// many lights that run holds (0 when none changed). The triangle→light table and the
+    /// environment depend on the scene's meshes, materials and sky, not on its pose: they are
+    /// not written again.
+    ///
+    /// Errors when `set` does not match the uploaded lights in count, environment or table size
+    /// (made from another scene or sky: upload it anew).
+    pub fn stage_pose<'a>(&'a mut self, set: &LightSet, writes: &mut StagedWrites<'a>) -> Result<u32> {
+        if set.params() != self.params || set.triangle_table.len() != self.triangle_table_len {
+            return Err(Error::InvalidArgument {
+                name: "lights",
+                why: format!(
+                    "{:?} with a table of {} entries, but the device holds {:?} with {}: lights \
+                     of another scene or sky need a new upload",
+                    set.params(),
+                    set.triangle_table.len(),
+                    self.params,
+                    self.triangle_table_len
+                ),
+            });
+        }
+        let same = |(a, b): (&GpuLight, &GpuLight)| bytemuck::bytes_of(a) == bytemuck::bytes_of(b);
+        let pairs = || set.lights.iter().zip(&self.uploaded);
+        let Some(first) = pairs().position(|p| !same(p)) else {
+            return Ok(0);
+        };
+        let last = pairs().rposition(|p| !same(p)).unwrap_or(first);
+        let changed = &set.lights[first..=last];
+        self.uploaded[first..=last].copy_from_slice(changed);
+        let offset = (first * size_of::<GpuLight>()) as u64;
+        writes.write(&self.lights, offset, changed)?;
+        Ok(changed.len() as u32)
     }
 
     /// Number of lights (0 with the placeholder).

@@ -6,17 +6,19 @@
 //! software traversal reads the triangles and vertices there.
 
 use super::Scene;
-use super::bvh::Bvh;
-use super::gpu_data::{GpuShadingData, ShadingData};
+use super::bvh::{Bvh, build_tlas, instance_bounds};
+use super::gpu_data::{GpuShadingData, ShadingData, gpu_instance};
 use super::lights::{GpuLights, LightSet};
 use super::memory_report::SceneMemory;
 use crate::error::{Error, Result};
 use crate::kernels::KernelVariant;
 use crate::vulkan::{
     AccelerationStructure, Buffer, Context, DescriptorSet, Instance, Resource, SceneSet, SceneSets,
+    StagedWrites, TopLevel,
 };
 use ash::vk;
 use gi_shared::gbuffer::PreviousTransform;
+use gi_shared::scene_data::GpuInstance;
 use glam::Mat4;
 
 /// The scene's geometry on the device and its descriptor set (set 1 of every kernel that traces,
@@ -34,7 +36,7 @@ pub enum GeometryData {
         /// Bottom levels, indexed like `Scene::meshes`.
         blases: Vec<AccelerationStructure>,
         /// Top level; instance custom index = instance index.
-        tlas: AccelerationStructure,
+        tlas: TopLevel,
     },
     /// Software traversal of the two-level BVH.
     Software {
@@ -77,7 +79,7 @@ impl GeometryData {
                         custom_index: i as u32,
                     })
                     .collect();
-                let tlas = AccelerationStructure::instances(ctx, &instances)?;
+                let tlas = TopLevel::new(ctx, &instances)?;
                 drop(instances);
                 Ok(Self::RayQuery { blases, tlas })
             }
@@ -111,7 +113,7 @@ impl GeometryData {
 
     fn resources(&self) -> Vec<Resource<'_>> {
         match self {
-            Self::RayQuery { tlas, .. } => vec![Resource::AccelerationStructure(tlas.handle)],
+            Self::RayQuery { tlas, .. } => vec![Resource::AccelerationStructure(tlas.handle())],
             Self::Software { nodes } => vec![Resource::Buffer(nodes)],
         }
     }
@@ -120,6 +122,9 @@ impl GeometryData {
 /// A scene on the device: its geometry (set 1), shading data and lights, the descriptor set
 /// that binds the last two (set 2), and the instances' previous transforms (what the G-buffer's
 /// motion vectors of moving objects need, bound in the G-buffer kernel's set 0).
+///
+/// [`GpuScene::set_pose`] moves its instances in place; textures, vertices, triangles and
+/// bottom levels are written once, at the upload.
 pub struct GpuScene {
     /// The geometry, with set 1.
     pub geometry: SceneGeometry,
@@ -130,6 +135,27 @@ pub struct GpuScene {
     set: DescriptorSet,
     previous_transforms: Buffer,
     object_motion: bool,
+    /// Each instance's mesh and object-to-world transform, as the device has them.
+    posed: Vec<(u32, Mat4)>,
+    last_pose: PoseUpdate,
+}
+
+/// What one [`GpuScene::set_pose`] wrote: O(instances) at most, nothing that depends on the
+/// scene's triangle or texel count.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PoseUpdate {
+    /// Instances whose transform differs from the pose before (their records were rewritten).
+    pub moved_instances: u32,
+    /// Lights rewritten: the run from the first to the last light whose record changed.
+    pub lights: u32,
+    /// Whether the top level was built again (software: on the CPU, its nodes uploaded; ray
+    /// queries: on the device): whenever an instance moved.
+    pub top_level_rebuilt: bool,
+    /// Bytes copied to device-local buffers: instance records, top-level nodes or instance
+    /// records of the acceleration structure, lights.
+    pub uploaded_bytes: u64,
+    /// Bytes written to the host-visible previous transforms.
+    pub parameter_bytes: u64,
 }
 
 /// The previous-transform buffer's contents for instances now at `current` that were at
@@ -155,9 +181,10 @@ pub fn previous_transforms(current: &[Mat4], previous: &[Mat4]) -> Vec<PreviousT
 }
 
 impl GpuScene {
-    /// Binds the uploaded parts as one scene.
+    /// Binds the uploaded parts of `scene` as one scene.
     pub fn new(
         ctx: &Context,
+        scene: &Scene,
         geometry: SceneGeometry,
         shading: GpuShadingData,
         lights: GpuLights,
@@ -175,14 +202,31 @@ impl GpuScene {
             set,
             previous_transforms,
             object_motion: false,
+            posed: scene
+                .instances
+                .iter()
+                .map(|i| (i.mesh, i.transform))
+                .collect(),
+            last_pose: PoseUpdate::default(),
         })
     }
 
     /// Moves the scene on the device to `scene`'s current pose (after [`Scene::set_time`]), lit
     /// by `lights` (made from the posed scene), with `previous` the instances' object-to-world
     /// transforms in the frame before (the last pose's `Scene::pose_at`): the G-buffer then gives
-    /// moving objects their motion vectors. Today the geometry, shading data and lights are
-    /// uploaded again; instances that did not move cost nothing in the G-buffer.
+    /// moving objects their motion vectors.
+    ///
+    /// Writes in place only what the pose changed ([`GpuScene::last_pose`] says what): the
+    /// records of the instances whose transform differs from the device's, the top level (in
+    /// the software variant built on the CPU over the instances' bounds, its nodes written over
+    /// the first of the node buffer; with ray queries its instance records rewritten and the
+    /// structure rebuilt on the device), the lights that changed, and the previous transforms.
+    /// Every buffer keeps its handle, so the descriptor sets stay valid. Every submission waits
+    /// for its completion, so no command still reads what this writes.
+    ///
+    /// Errors when `previous` or `scene` do not have the uploaded scene's instance count, when
+    /// an instance shows another mesh, or when `lights` were made from another scene or sky:
+    /// such changes need a new upload.
     pub fn set_pose(
         &mut self,
         ctx: &Context,
@@ -190,26 +234,110 @@ impl GpuScene {
         lights: &LightSet,
         previous: &[Mat4],
     ) -> Result<()> {
-        if previous.len() != scene.instances.len() {
-            return Err(Error::InvalidArgument {
-                name: "previous transforms",
-                why: format!(
-                    "{} transforms for a scene of {} instances",
-                    previous.len(),
-                    scene.instances.len()
-                ),
-            });
+        let count = |what: &'static str, n: usize| Error::InvalidArgument {
+            name: what,
+            why: format!(
+                "{n} for a scene of {} instances on the device ({}); set_pose moves \
+                 instances, a scene of others needs a new upload",
+                self.posed.len(),
+                scene.source.display()
+            ),
+        };
+        if previous.len() != self.posed.len() {
+            return Err(count("previous transforms", previous.len()));
+        }
+        if scene.instances.len() != self.posed.len() {
+            return Err(count("scene instances", scene.instances.len()));
+        }
+        let mut moved = Vec::new();
+        for (i, (inst, &(mesh, transform))) in scene.instances.iter().zip(&self.posed).enumerate()
+        {
+            if inst.mesh != mesh {
+                return Err(Error::InvalidArgument {
+                    name: "scene instances",
+                    why: format!(
+                        "{}: instance {i} ({:?}) shows mesh {} where the device has mesh {mesh}; \
+                         set_pose moves instances, changing them needs a new upload",
+                        scene.source.display(),
+                        inst.name,
+                        inst.mesh
+                    ),
+                });
+            }
+            if inst.transform != transform {
+                moved.push(i);
+            }
+        }
+        let mut writes = StagedWrites::new();
+        let lights_written = self.lights.stage_pose(lights, &mut writes)?;
+        if let Some(buffer) = self.shading.instances() {
+            for &i in &moved {
+                let offset = (i * size_of::<GpuInstance>()) as u64;
+                writes.write(buffer, offset, &[gpu_instance(&scene.instances[i])])?;
+            }
+        }
+        let rebuild = match &mut self.geometry.data {
+            _ if moved.is_empty() => None,
+            GeometryData::Software { nodes } => {
+                // The top level is the first `tlas_node_count` nodes, whatever the pose.
+                let (top, _) = build_tlas(&instance_bounds(scene));
+                writes.write(nodes, 0, &top)?;
+                None
+            }
+            GeometryData::RayQuery { tlas, .. } => {
+                for &i in &moved {
+                    tlas.set_transform(i, scene.instances[i].transform_3x4())?;
+                }
+                let tlas: &TopLevel = tlas;
+                for &i in &moved {
+                    tlas.stage_record(i, &mut writes)?;
+                }
+                Some(tlas)
+            }
+        };
+        let uploaded_bytes = writes.bytes();
+        if uploaded_bytes > 0 || rebuild.is_some() {
+            writes.submit(ctx, |cmd| match rebuild {
+                Some(tlas) => tlas.record_rebuild(ctx, cmd),
+                None => Ok(()),
+            })??;
+        }
+        for &i in &moved {
+            self.posed[i].1 = scene.instances[i].transform;
         }
         let current: Vec<Mat4> = scene.instances.iter().map(|i| i.transform).collect();
         let transforms = previous_transforms(&current, previous);
-        let shading = ShadingData::new(scene)?;
-        let moved = Self::upload(ctx, scene, None, &shading, lights)?;
-        *self = Self {
-            previous_transforms: Buffer::parameters(ctx, "previous transforms", &transforms)?,
-            object_motion: transforms.iter().any(|t| t.moved != 0),
-            ..moved
+        let motion = transforms.iter().any(|t| t.moved != 0);
+        let mut parameter_bytes = 0;
+        if motion || self.object_motion {
+            let capacity = self.previous_transforms.size as usize / size_of::<PreviousTransform>();
+            if transforms.len() > capacity {
+                self.previous_transforms =
+                    Buffer::parameters(ctx, "previous transforms", &transforms)?;
+            } else if motion {
+                self.previous_transforms
+                    .write(bytemuck::cast_slice(&transforms))?;
+            } else {
+                // Motion stopped: every entry of the larger buffer must say so.
+                let still = vec![PreviousTransform::STATIC; capacity];
+                self.previous_transforms.write(bytemuck::cast_slice(&still))?;
+            }
+            parameter_bytes = self.previous_transforms.size;
+        }
+        self.object_motion = motion;
+        self.last_pose = PoseUpdate {
+            moved_instances: moved.len() as u32,
+            lights: lights_written,
+            top_level_rebuilt: !moved.is_empty(),
+            uploaded_bytes,
+            parameter_bytes,
         };
         Ok(())
+    }
+
+    /// What the last [`GpuScene::set_pose`] wrote (all zero before the first).
+    pub fn last_pose(&self) -> PoseUpdate {
+        self.last_pose
     }
 
     /// Whether an instance moved between the previous pose and this one ([`GpuScene::set_pose`]).
@@ -248,7 +376,7 @@ impl GpuScene {
         let geometry = SceneGeometry::new(ctx, scene, bvh)?;
         let shading = GpuShadingData::new(ctx, shading)?;
         let lights = GpuLights::new(ctx, lights)?;
-        Self::new(ctx, geometry, shading, lights)
+        Self::new(ctx, scene, geometry, shading, lights)
     }
 
     /// The sets every kernel that traces is dispatched with.

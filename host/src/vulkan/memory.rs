@@ -437,3 +437,108 @@ pub(crate) fn memory_barrier(
         )
     };
 }
+
+/// Writes into existing device-local buffers, in place and batched: the bytes are gathered on
+/// the host ([`StagedWrites::write`]), then [`StagedWrites::submit`] copies them through one
+/// staging buffer in one submission, one copy region per run of adjacent bytes. The buffers keep
+/// their handles, so the descriptor sets that bind them stay valid.
+#[derive(Default)]
+pub struct StagedWrites<'a> {
+    bytes: Vec<u8>,
+    copies: Vec<(&'a Buffer, vk::BufferCopy)>,
+}
+
+impl<'a> StagedWrites<'a> {
+    /// No writes yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Queues `data` for `dst` at byte `offset`. Errors, queueing nothing, when it does not fit.
+    pub fn write<T: bytemuck::Pod>(&mut self, dst: &'a Buffer, offset: u64, data: &[T]) -> Result<()> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let size = bytes.len() as u64;
+        if offset.checked_add(size).is_none_or(|end| end > dst.size) {
+            return Err(Error::InvalidArgument {
+                name: "buffer write",
+                why: format!(
+                    "{size} bytes at offset {offset} do not fit in buffer {:?} of {}",
+                    dst.name, dst.size
+                ),
+            });
+        }
+        if size == 0 {
+            return Ok(());
+        }
+        let src_offset = self.bytes.len() as u64;
+        self.bytes.extend_from_slice(bytes);
+        // Records of neighbouring instances (or lights) become one region.
+        if let Some((last, region)) = self.copies.last_mut()
+            && last.handle == dst.handle
+            && region.dst_offset + region.size == offset
+        {
+            region.size += size;
+            return Ok(());
+        }
+        self.copies.push((
+            dst,
+            vk::BufferCopy {
+                src_offset,
+                dst_offset: offset,
+                size,
+            },
+        ));
+        Ok(())
+    }
+
+    /// Bytes queued.
+    pub fn bytes(&self) -> u64 {
+        self.bytes.len() as u64
+    }
+
+    /// Copies what was queued, then records `then` (a build that reads the written buffers) in
+    /// the same submission, and waits (at most [`super::SUBMIT_TIMEOUT`]). The copies wait for
+    /// every command submitted before (which may still read the old contents) and are visible to
+    /// every later command. Submits `then` alone when nothing was queued.
+    pub fn submit<R>(self, ctx: &Context, then: impl FnOnce(vk::CommandBuffer) -> R) -> Result<R> {
+        let staging = match self.bytes.is_empty() {
+            true => None,
+            false => {
+                let mut staging = Buffer::new(
+                    ctx,
+                    "staged writes",
+                    self.bytes(),
+                    vk::BufferUsageFlags::empty(),
+                    MemoryLocation::CpuToGpu,
+                )?;
+                staging.write(&self.bytes)?;
+                Some(staging)
+            }
+        };
+        ctx.submit(|cmd| {
+            if let Some(staging) = &staging {
+                memory_barrier(
+                    ctx,
+                    cmd,
+                    (
+                        vk::PipelineStageFlags::ALL_COMMANDS,
+                        vk::AccessFlags::MEMORY_WRITE,
+                    ),
+                    (
+                        vk::PipelineStageFlags::TRANSFER,
+                        vk::AccessFlags::TRANSFER_WRITE,
+                    ),
+                );
+                for run in self.copies.chunk_by(|a, b| a.0.handle == b.0.handle) {
+                    let regions: Vec<vk::BufferCopy> = run.iter().map(|(_, r)| *r).collect();
+                    unsafe {
+                        ctx.device
+                            .cmd_copy_buffer(cmd, staging.handle, run[0].0.handle, &regions)
+                    };
+                }
+                transfer_barrier(ctx, cmd);
+            }
+            then(cmd)
+        })
+    }
+}
