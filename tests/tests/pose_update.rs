@@ -10,8 +10,9 @@
 //!   the geometry keeps its handles.
 //! * [`pose_upload_does_not_grow_with_triangles`]: 27 instances of a sphere, one moved: the
 //!   same bytes whether the sphere has 320 or 20 480 triangles.
-//! * [`pose_update_timing`] (ignored: minutes on lavapipe): milliseconds per pose against a full
-//!   upload, on moving-box and on a generated scene of `GI_POSE_TRIANGLES` triangles (1M).
+//! * [`pose_update_timing`] (ignored: it loads large scenes): milliseconds per pose against a
+//!   full upload (what a pose cost before), on moving-box, on a generated scene of
+//!   `GI_POSE_TRIANGLES` triangles (1M) and on the Bitterli bathroom (or `GI_POSE_SCENE`).
 
 use gi_host::KernelVariant;
 use gi_host::scene::Scene;
@@ -29,7 +30,7 @@ use gi_shared::random::Random;
 use gi_shared::ray::{HitRecord, Ray};
 use gi_shared::sampling::sample_uniform_sphere;
 use gi_shared::scene_data::GpuInstance;
-use gi_tests::{context, finish_without_validation_messages, scene_path};
+use gi_tests::{context, finish_without_validation_messages, scene_path, third_party_scene_path};
 use glam::{Mat4, Vec3};
 use std::time::Instant;
 
@@ -165,7 +166,10 @@ fn set_pose_traces_the_new_pose() {
         .iter()
         .filter(|t| t.instance as usize == cube)
         .count();
-    assert!(cube_lights == 12 && emitters > cube_lights, "{emitters} emitters");
+    assert!(
+        cube_lights == 12 && emitters > cube_lights,
+        "{emitters} emitters"
+    );
     for variant in KernelVariant::ALL {
         let ctx = context(variant);
         scene.set_time(POSES[0]);
@@ -220,7 +224,10 @@ fn set_pose_traces_the_new_pose() {
             let shading = ShadingData::new(&scene).unwrap();
             let cpu: Vec<HitRecord> = rays.iter().map(|r| bvh.closest_hit(&shading, r)).collect();
             let on_cube = cpu.iter().filter(|h| h.instance as usize == cube).count();
-            assert!(on_cube > AIMED_RAYS / 4, "{name}: {on_cube} rays hit the cube");
+            assert!(
+                on_cube > AIMED_RAYS / 4,
+                "{name}: {on_cube} rays hit the cube"
+            );
             let hits = pass.run(&ctx, &gpu, &rays).unwrap().hits;
             let (same, ties, edge) = agreement(&name, &cpu, &hits);
             println!("{name}: {on_cube} on the cube, same {same}, ties {ties}, edge misses {edge}");
@@ -241,7 +248,10 @@ fn set_pose_traces_the_new_pose() {
                     (o.instance, o.primitive) != (h.instance, h.primitive)
                 })
                 .count();
-            assert!(differ > AIMED_RAYS / 4, "{name}: only {differ} rays see the move");
+            assert!(
+                differ > AIMED_RAYS / 4,
+                "{name}: only {differ} rays see the move"
+            );
         }
         // Only the previous transforms were reallocated (to one entry per instance); the
         // geometry, textures and staging are as after the upload.
@@ -273,7 +283,10 @@ fn set_pose_traces_the_new_pose() {
         let e = gpu
             .set_pose(&ctx, &swapped, &lights_for(&scene), &now)
             .unwrap_err();
-        assert!(e.to_string().contains("instance") && e.to_string().contains("mesh"), "{e}");
+        assert!(
+            e.to_string().contains("instance") && e.to_string().contains("mesh"),
+            "{e}"
+        );
         drop((pass, gpu));
         finish_without_validation_messages(ctx);
     }
@@ -381,7 +394,7 @@ fn time_poses(name: &str, ctx: &Context, scene: &mut Scene, moving: usize) {
 }
 
 #[test]
-#[ignore = "minutes on lavapipe: run for the figures"]
+#[ignore = "loads large scenes: run for the figures"]
 fn pose_update_timing() {
     let (mut boxes, cube) = moving_box();
     let triangles = std::env::var("GI_POSE_TRIANGLES")
@@ -393,12 +406,23 @@ fn pose_update_timing() {
         ..SyntheticParams::default()
     };
     write(&params, &path).unwrap();
-    let (mut generated, _) = Scene::load(&path).unwrap();
+    let (generated, _) = Scene::load(&path).unwrap();
+    // A textured interior: what a pose re-uploaded before includes its textures.
+    let interior = std::env::var_os("GI_POSE_SCENE")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| third_party_scene_path("bitterli/bathroom/bathroom.glb"));
+    let mut scenes = vec![("generated", generated)];
+    match Scene::load(&interior) {
+        Ok((scene, _)) => scenes.push(("interior", scene)),
+        Err(e) => println!("no interior ({e}): set GI_POSE_SCENE"),
+    }
     for variant in KernelVariant::ALL {
         let ctx = context(variant);
         time_poses("moving-box", &ctx, &mut boxes, cube);
-        let middle = generated.instances.len() / 2;
-        time_poses("generated", &ctx, &mut generated, middle);
+        for (name, scene) in &mut scenes {
+            let middle = scene.instances.len() / 2;
+            time_poses(name, &ctx, scene, middle);
+        }
         finish_without_validation_messages(ctx);
     }
 }

@@ -387,7 +387,11 @@ impl GpuLights {
     ///
     /// Errors when `set` does not match the uploaded lights in count, environment or table size
     /// (made from another scene or sky: upload it anew).
-    pub fn stage_pose<'a>(&'a mut self, set: &LightSet, writes: &mut StagedWrites<'a>) -> Result<u32> {
+    pub fn stage_pose<'a>(
+        &'a mut self,
+        set: &LightSet,
+        writes: &mut StagedWrites<'a>,
+    ) -> Result<u32> {
         if set.params() != self.params || set.triangle_table.len() != self.triangle_table_len {
             return Err(Error::InvalidArgument {
                 name: "lights",

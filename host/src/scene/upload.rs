@@ -35,8 +35,9 @@ pub enum GeometryData {
     RayQuery {
         /// Bottom levels, indexed like `Scene::meshes`.
         blases: Vec<AccelerationStructure>,
-        /// Top level; instance custom index = instance index.
-        tlas: TopLevel,
+        /// Top level; instance custom index = instance index. Boxed: it is the enum's large
+        /// variant.
+        tlas: Box<TopLevel>,
     },
     /// Software traversal of the two-level BVH.
     Software {
@@ -79,7 +80,7 @@ impl GeometryData {
                         custom_index: i as u32,
                     })
                     .collect();
-                let tlas = TopLevel::new(ctx, &instances)?;
+                let tlas = Box::new(TopLevel::new(ctx, &instances)?);
                 drop(instances);
                 Ok(Self::RayQuery { blases, tlas })
             }
@@ -250,8 +251,7 @@ impl GpuScene {
             return Err(count("scene instances", scene.instances.len()));
         }
         let mut moved = Vec::new();
-        for (i, (inst, &(mesh, transform))) in scene.instances.iter().zip(&self.posed).enumerate()
-        {
+        for (i, (inst, &(mesh, transform))) in scene.instances.iter().zip(&self.posed).enumerate() {
             if inst.mesh != mesh {
                 return Err(Error::InvalidArgument {
                     name: "scene instances",
@@ -320,7 +320,8 @@ impl GpuScene {
             } else {
                 // Motion stopped: every entry of the larger buffer must say so.
                 let still = vec![PreviousTransform::STATIC; capacity];
-                self.previous_transforms.write(bytemuck::cast_slice(&still))?;
+                self.previous_transforms
+                    .write(bytemuck::cast_slice(&still))?;
             }
             parameter_bytes = self.previous_transforms.size;
         }

@@ -242,12 +242,8 @@ impl TopLevel {
                 },
             })
             .collect();
-        let instances = Buffer::device_local(
-            ctx,
-            "tlas instances",
-            record_bytes(&records),
-            BUILD_INPUT,
-        )?;
+        let instances =
+            Buffer::device_local(ctx, "tlas instances", record_bytes(&records), BUILD_INPUT)?;
         let geometry = instance_geometry(ctx, &instances);
         let ty = vk::AccelerationStructureTypeKHR::TOP_LEVEL;
         let count = records.len() as u32;
@@ -270,16 +266,6 @@ impl TopLevel {
     /// Bytes of device memory: the structure, its instance records and its scratch memory.
     pub fn bytes(&self) -> u64 {
         self.structure.bytes() + self.instances.size + self.scratch.buffer.size
-    }
-
-    /// Number of instances.
-    pub fn len(&self) -> usize {
-        self.records.len()
-    }
-
-    /// Whether it has no instances (never: [`TopLevel::new`] refuses that).
-    pub fn is_empty(&self) -> bool {
-        self.records.is_empty()
     }
 
     /// Gives instance `index` the row-major 3x4 object-to-world `transform`, on the host: queue

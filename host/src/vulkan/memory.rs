@@ -455,7 +455,12 @@ impl<'a> StagedWrites<'a> {
     }
 
     /// Queues `data` for `dst` at byte `offset`. Errors, queueing nothing, when it does not fit.
-    pub fn write<T: bytemuck::Pod>(&mut self, dst: &'a Buffer, offset: u64, data: &[T]) -> Result<()> {
+    pub fn write<T: bytemuck::Pod>(
+        &mut self,
+        dst: &'a Buffer,
+        offset: u64,
+        data: &[T],
+    ) -> Result<()> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         let size = bytes.len() as u64;
         if offset.checked_add(size).is_none_or(|end| end > dst.size) {
