@@ -10,6 +10,7 @@
 //!   the geometry keeps its handles.
 //! * [`pose_upload_does_not_grow_with_triangles`]: 27 instances of a sphere, one moved: the
 //!   same bytes whether the sphere has 320 or 20 480 triangles.
+//! * [`staged_writes_land_in_place_and_refuse_what_does_not_fit`]: the batched in-place writes.
 //! * [`pose_update_timing`] (ignored: it loads large scenes): milliseconds per pose against a
 //!   full upload (what a pose cost before), on moving-box, on a generated scene of
 //!   `GI_POSE_TRIANGLES` triangles (1M) and on the Bitterli bathroom (or `GI_POSE_SCENE`).
@@ -23,7 +24,7 @@ use gi_host::scene::procedural::{icosphere, scene as procedural_scene};
 use gi_host::scene::synthetic::{SyntheticParams, parse_count, write};
 use gi_host::scene::upload::{GeometryData, GpuScene, PoseUpdate};
 use gi_host::trace_rays::TraceRays;
-use gi_host::vulkan::{Context, Resource};
+use gi_host::vulkan::{Buffer, Context, Resource, StagedWrites};
 use gi_shared::bvh::BvhNode;
 use gi_shared::lights::GpuLight;
 use gi_shared::random::Random;
@@ -425,4 +426,35 @@ fn pose_update_timing() {
         }
         finish_without_validation_messages(ctx);
     }
+}
+
+#[test]
+fn staged_writes_land_in_place_and_refuse_what_does_not_fit() {
+    let ctx = context(KernelVariant::Software);
+    let target = Buffer::device_local(&ctx, "target", &[0u32; 16], Default::default()).unwrap();
+    let other = Buffer::device_local(&ctx, "other", &[7u32; 4], Default::default()).unwrap();
+    let handle = format!("{:?}", target.handle);
+    let mut writes = StagedWrites::new();
+    // Two neighbouring runs (one copy region), one apart, one in another buffer.
+    writes.write(&target, 4, &[1u32, 2]).unwrap();
+    writes.write(&target, 12, &[3u32]).unwrap();
+    writes.write(&target, 40, &[4u32, 5]).unwrap();
+    writes.write(&other, 0, &[9u32]).unwrap();
+    let e = writes
+        .write(&target, 60, &[6u32, 6])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("\"target\"") && e.contains("offset 60"), "{e}");
+    assert_eq!(writes.bytes(), 24);
+    writes.submit(&ctx, |_| ()).unwrap();
+    let mut expected = [0u32; 16];
+    expected[1..4].copy_from_slice(&[1, 2, 3]);
+    expected[10..12].copy_from_slice(&[4, 5]);
+    assert_eq!(target.read_back::<u32>(&ctx).unwrap(), expected);
+    assert_eq!(other.read_back::<u32>(&ctx).unwrap(), [9, 7, 7, 7]);
+    assert_eq!(format!("{:?}", target.handle), handle);
+    // The staging buffer went with the submission.
+    assert_eq!(ctx.live_buffers().len(), 2);
+    drop((target, other));
+    finish_without_validation_messages(ctx);
 }
