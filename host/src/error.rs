@@ -154,7 +154,11 @@ mod tests {
             result: vk::Result::ERROR_DEVICE_LOST,
         }
         .to_string();
-        assert!(lost.starts_with("Vulkan call vkWaitForFences failed: ERROR_DEVICE_LOST"));
+        let code = vk::Result::ERROR_DEVICE_LOST;
+        assert!(
+            lost.starts_with(&format!("Vulkan call vkWaitForFences failed: {code}")),
+            "{lost}"
+        );
         assert!(lost.contains("the device was lost") && lost.contains("new context"));
         let hung = Error::Vulkan {
             call: "vkWaitForFences",
@@ -172,7 +176,10 @@ mod tests {
         .to_string();
         assert_eq!(
             other,
-            "Vulkan call vkCreateFence failed: ERROR_INITIALIZATION_FAILED"
+            format!(
+                "Vulkan call vkCreateFence failed: {}",
+                vk::Result::ERROR_INITIALIZATION_FAILED
+            )
         );
         for message in [lost, hung] {
             assert!(!message.contains('\n'), "{message}");
