@@ -390,7 +390,7 @@ impl Builder<'_> {
         // In f64, so that a huge scale (refused below, by where it puts the mesh) does not
         // overflow into a NaN that reads as singular.
         let determinant = glam::Mat3::from_mat4(world).as_dmat3().determinant();
-        if !(determinant.abs() >= f64::from(f32::MIN_POSITIVE)) {
+        if determinant.is_nan() || determinant.abs() < f64::from(f32::MIN_POSITIVE) {
             self.ctx.warn(
                 "singular transform",
                 element,
