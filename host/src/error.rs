@@ -40,21 +40,25 @@ pub enum Error {
         "Vulkan validation layer VK_LAYER_KHRONOS_validation is not installed; run scripts/setup.sh (Debian package vulkan-validationlayers) or turn validation off"
     )]
     NoValidationLayer,
-    /// A Vulkan call failed.
-    #[error("Vulkan call {call} failed: {result}")]
+    /// A Vulkan call failed; a lost device, a submission taken for a hang and exhausted memory
+    /// say what that means.
+    #[error("Vulkan call {call} failed: {result}{}", meaning(*result))]
     Vulkan {
         /// The call that failed.
         call: &'static str,
         /// Its result code.
         result: vk::Result,
     },
-    /// The memory allocator failed.
-    #[error("GPU memory allocation of {what:?} failed: {source}")]
+    /// GPU memory for a resource could not be had: the device refused it, the allocator failed,
+    /// or the request exceeds what the device can hold at all.
+    #[error("GPU memory allocation of {what:?}{} failed: {why}", bytes.map(size).unwrap_or_default())]
     Allocation {
         /// The resource being allocated.
         what: String,
-        /// The allocator's error.
-        source: gpu_allocator::AllocationError,
+        /// Its size in bytes, where the failure is of one request.
+        bytes: Option<u64>,
+        /// Why it failed.
+        why: String,
     },
     /// A kernel entry point does not exist in the compiled SPIR-V module.
     #[error("kernel entry point {0:?} is not in the {1} kernel module")]
@@ -96,6 +100,32 @@ pub enum Error {
     },
 }
 
+/// What a result code means for the user, for the few that need saying.
+fn meaning(result: vk::Result) -> &'static str {
+    match result {
+        vk::Result::ERROR_DEVICE_LOST => {
+            " (the device was lost: a driver reset, a GPU fault or a kernel that ran too long; \
+             nothing more is submitted to it, and the program must create a new context)"
+        }
+        vk::Result::TIMEOUT => {
+            " (a submission ran past SUBMIT_TIMEOUT and is taken for a hang: the device is treated \
+             as lost, nothing more is submitted to it)"
+        }
+        vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+            " (out of memory: lower the resolution or the scene's size)"
+        }
+        _ => "",
+    }
+}
+
+/// ` (N bytes, X GiB)`: a request's size as an allocation error gives it.
+fn size(bytes: u64) -> String {
+    format!(
+        " ({bytes} bytes, {:.3} GiB)",
+        bytes as f64 / f64::from(1 << 30)
+    )
+}
+
 /// Result with the host's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
@@ -108,5 +138,64 @@ pub(crate) trait VkContext<T> {
 impl<T> VkContext<T> for std::result::Result<T, vk::Result> {
     fn vk(self, call: &'static str) -> Result<T> {
         self.map_err(|result| Error::Vulkan { call, result })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What cannot be provoked on lavapipe (a lost or hung device) still reads as one line that
+    /// says what happened and what follows.
+    #[test]
+    fn lost_and_hung_devices_explain_themselves() {
+        let lost = Error::Vulkan {
+            call: "vkWaitForFences",
+            result: vk::Result::ERROR_DEVICE_LOST,
+        }
+        .to_string();
+        let code = vk::Result::ERROR_DEVICE_LOST;
+        assert!(
+            lost.starts_with(&format!("Vulkan call vkWaitForFences failed: {code}")),
+            "{lost}"
+        );
+        assert!(lost.contains("the device was lost") && lost.contains("new context"));
+        let hung = Error::Vulkan {
+            call: "vkWaitForFences",
+            result: vk::Result::TIMEOUT,
+        }
+        .to_string();
+        assert!(
+            hung.contains("SUBMIT_TIMEOUT") && hung.contains("hang"),
+            "{hung}"
+        );
+        let other = Error::Vulkan {
+            call: "vkCreateFence",
+            result: vk::Result::ERROR_INITIALIZATION_FAILED,
+        }
+        .to_string();
+        assert_eq!(
+            other,
+            format!(
+                "Vulkan call vkCreateFence failed: {}",
+                vk::Result::ERROR_INITIALIZATION_FAILED
+            )
+        );
+        for message in [lost, hung] {
+            assert!(!message.contains('\n'), "{message}");
+        }
+    }
+
+    #[test]
+    fn allocation_errors_give_the_resource_and_its_size() {
+        let e = Error::Allocation {
+            what: "huge".into(),
+            bytes: Some(1 << 40),
+            why: "too big".into(),
+        };
+        assert_eq!(
+            e.to_string(),
+            "GPU memory allocation of \"huge\" (1099511627776 bytes, 1024.000 GiB) failed: too big"
+        );
     }
 }

@@ -277,9 +277,20 @@ impl HdrImage {
             .map_err(|e| image_error(path, e))
     }
 
-    /// Writes the image as an 8-bit sRGB PNG through `tone`: see [`ToneMap::to_srgb8`].
+    /// Writes the image as an 8-bit sRGB PNG through `tone`: see [`ToneMap::to_srgb8`]. A
+    /// non-finite exposure is an error (it would make every pixel NaN).
     pub fn write_png(&self, path: impl AsRef<Path>, tone: &ToneMap) -> Result<()> {
         let path = path.as_ref();
+        if !tone.exposure.is_finite() {
+            return Err(Error::InvalidArgument {
+                name: "exposure",
+                why: format!(
+                    "{} stops for {}: must be a finite number",
+                    tone.exposure,
+                    path.display()
+                ),
+            });
+        }
         image::save_buffer_with_format(
             path,
             &self.to_srgb8(tone),

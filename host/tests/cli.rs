@@ -192,7 +192,7 @@ fn render_writes_an_exr_and_a_png() {
     let out = gi(&["render", scene, "--sky", "1,2"], &[]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.starts_with("error: ") && err.contains("x,y,z"), "{err}");
+    assert!(err.starts_with("error: ") && err.contains("r,g,b"), "{err}");
 }
 
 #[test]

@@ -205,7 +205,7 @@ enum Command {
         /// The image under test.
         test: PathBuf,
         /// Exposure in stops applied before tone mapping, for PSNR and FLIP.
-        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = parse_finite)]
         exposure: f32,
         /// Write FLIP's error heat map (PNG) here.
         #[arg(long)]
@@ -217,18 +217,18 @@ enum Command {
 #[derive(clap::Args)]
 struct ViewArgs {
     /// Factor on the emission of every surface.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = parse_non_negative)]
     emissive_multiplier: f32,
     /// Constant sky radiance as r,g,b (W/(sr·m²)), sampled as a uniform environment image;
     /// none by default (glTF has no environment).
-    #[arg(long, value_parser = parse_vec3, conflicts_with = "environment")]
+    #[arg(long, value_parser = parse_radiance, conflicts_with = "environment")]
     sky: Option<Vec3>,
     /// Equirectangular environment image lighting the scene instead of --sky: Radiance .hdr
     /// or OpenEXR, linear, +Y up, its middle column looking along -Z.
     #[arg(long)]
     environment: Option<PathBuf>,
     /// Exposure of the PNG in stops.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = parse_finite)]
     exposure: f32,
     /// Seed of the random streams.
     #[arg(long, default_value_t = 0)]
@@ -241,7 +241,7 @@ struct ViewArgs {
     #[arg(long, value_parser = parse_vec3, requires = "camera_position", allow_negative_numbers = true)]
     camera_target: Option<Vec3>,
     /// Vertical field of view in degrees, with --camera-position.
-    #[arg(long, default_value_t = 45.0)]
+    #[arg(long, default_value_t = 45.0, value_parser = parse_fov)]
     fov: f32,
     /// Do not importance-sample the environment image (BSDF sampling alone finds it).
     #[arg(long, requires = "environment")]
@@ -575,6 +575,37 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
         [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => Ok(Vec3::new(x, y, z)),
         _ => Err(format!("{s:?} is not three finite numbers x,y,z")),
     }
+}
+
+/// A radiance r,g,b: three finite numbers ≥ 0.
+fn parse_radiance(s: &str) -> Result<Vec3, String> {
+    parse_vec3(s)
+        .ok()
+        .filter(|v| v.min_element() >= 0.0)
+        .ok_or_else(|| format!("{s:?} is not a radiance r,g,b of three finite numbers ≥ 0"))
+}
+
+fn parse_finite(s: &str) -> Result<f32, String> {
+    s.trim()
+        .parse::<f32>()
+        .ok()
+        .filter(|x| x.is_finite())
+        .ok_or_else(|| format!("{s:?} is not a finite number"))
+}
+
+fn parse_non_negative(s: &str) -> Result<f32, String> {
+    parse_finite(s)
+        .ok()
+        .filter(|&x| x >= 0.0)
+        .ok_or_else(|| format!("{s:?} is not a finite number ≥ 0"))
+}
+
+/// A vertical field of view in degrees, strictly between 0 and 180.
+fn parse_fov(s: &str) -> Result<f32, String> {
+    parse_finite(s)
+        .ok()
+        .filter(|&x| x > 0.0 && x < 180.0)
+        .ok_or_else(|| format!("{s:?} is not a field of view between 0 and 180 degrees"))
 }
 
 fn parse_strategy(s: &str) -> Result<Strategy, String> {

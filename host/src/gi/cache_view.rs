@@ -60,6 +60,12 @@ impl ViewOptions {
                 why: format!("{}: must be finite and ≥ 0", self.emissive_multiplier),
             });
         }
+        if !(self.sky.is_finite() && self.sky.min_element() >= 0.0) {
+            return Err(Error::InvalidArgument {
+                name: "sky",
+                why: format!("{}: each channel must be finite and ≥ 0", self.sky),
+            });
+        }
         Ok(())
     }
 }

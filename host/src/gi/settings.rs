@@ -227,7 +227,11 @@ impl GiSettings {
                 "0: the cache needs at least 2 buckets".into(),
             );
         }
-        if self.buckets_log2 + self.tiles_per_bucket_log2 > MAX_NUM_TILES_LOG2 {
+        if self
+            .buckets_log2
+            .checked_add(self.tiles_per_bucket_log2)
+            .is_none_or(|log2| log2 > MAX_NUM_TILES_LOG2)
+        {
             return bad(
                 "buckets_log2",
                 format!(

@@ -164,6 +164,14 @@ impl Document {
             .unwrap_or(json_bytes);
         let root = json::Root::from_slice(json_bytes)
             .map_err(|e| ctx.error("JSON", format!("malformed glTF JSON: {e}")))?;
+        // A new major version may change what any field means: refuse it rather than guess.
+        let version = &root.asset.version;
+        if version.split('.').next() != Some("2") {
+            return Err(ctx.error(
+                "asset.version",
+                format!("glTF {version:?} is not supported: only glTF 2.x is"),
+            ));
+        }
         for (i, ext) in root.extensions_required.iter().enumerate() {
             if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
                 return Err(ctx.error(
@@ -318,6 +326,16 @@ impl Document {
                 let stride = self.root.buffer_views[view_index.value()]
                     .byte_stride
                     .map_or(elem, |s| s.0);
+                if stride < elem {
+                    return Err(ctx.error(
+                        &element,
+                        format!(
+                            "bufferViews[{}] has byteStride {stride}, less than its {elem}-byte \
+                             elements: they would overlap",
+                            view_index.value()
+                        ),
+                    ));
+                }
                 let offset = accessor.byte_offset.map_or(0, |o| o.0 as usize);
                 if count > 0 {
                     let end = stride
@@ -505,7 +523,7 @@ fn validate(ctx: &mut Ctx, root: &json::Root) -> Result<()> {
     }
     let mut errors = Vec::new();
     root.validate(root, json::Path::new, &mut |path, error| {
-        errors.push((path().to_string(), error))
+        errors.push((json_path(path().to_string()), error))
     });
     let mut fatal = Vec::new();
     for (path, error) in errors {
@@ -545,6 +563,12 @@ fn validate(ctx: &mut Ctx, root: &json::Root) -> Result<()> {
     Err(ctx.error(path.clone(), format!("{what}{more}")))
 }
 
+/// A validation path as the file spells it: the `gltf` crate names `KHR_lights_punctual` (the
+/// only extension it validates references of) by its Rust field, `khrLightsPunctual`.
+fn json_path(path: String) -> String {
+    path.replace("khrLightsPunctual", "KHR_lights_punctual")
+}
+
 /// Loads every buffer: the GLB BIN chunk, `data:` URIs or files next to the scene file.
 fn load_buffers(ctx: &Ctx, root: &json::Root, bin: Option<&[u8]>) -> Result<Vec<Vec<u8>>> {
     root.buffers
@@ -553,9 +577,14 @@ fn load_buffers(ctx: &Ctx, root: &json::Root, bin: Option<&[u8]>) -> Result<Vec<
         .map(|(i, buffer)| {
             let element = label("buffers", i, buffer.name.as_deref());
             let mut data = match (&buffer.uri, bin) {
-                (Some(uri), _) => ctx
-                    .read_uri(uri)
-                    .map_err(|why| ctx.error(format!("{element} (uri {uri:?})"), why))?,
+                (Some(uri), _) => ctx.read_uri(uri).map_err(|why| {
+                    // A data URI can be megabytes of base64: name it, do not quote it.
+                    let source = match uri.starts_with("data:") {
+                        true => "(data URI)".to_owned(),
+                        false => format!("(uri {uri:?})"),
+                    };
+                    ctx.error(format!("{element} {source}"), why)
+                })?,
                 (None, Some(bin)) if i == 0 => bin.to_vec(),
                 (None, _) => {
                     return Err(ctx.error(element, "has no uri and is not the GLB BIN chunk"));

@@ -45,14 +45,37 @@ impl Environment {
     /// The environment of `texels` (RGB and an unused fourth channel, row by row from the top)
     /// of a `size` image. Errors when the count does not match the size, when the image is
     /// empty, or when it does not fit one storage binding (`MAX_STORAGE_BUFFER_BYTES`: up to
-    /// 4096 × 2048 texels). Non-finite and negative texels are kept (the path tracer drops such
-    /// samples) but weigh nothing in the distribution.
+    /// 4096 × 2048 texels), and when an RGB channel is NaN or infinite (every ray that escapes
+    /// would carry it). Negative texels (filtered captures have some) are kept but weigh nothing
+    /// in the distribution.
     pub fn new(size: [u32; 2], texels: Vec<[f32; 4]>) -> Result<Self> {
         let [w, h] = size;
         if w == 0 || h == 0 || w as usize * h as usize != texels.len() {
             return Err(Error::InvalidArgument {
                 name: "environment",
                 why: format!("{} texels for a {w}x{h} image", texels.len()),
+            });
+        }
+        if let Some(i) = texels
+            .iter()
+            .position(|t| !t[..3].iter().all(|c| c.is_finite()))
+        {
+            let bad = texels
+                .iter()
+                .filter(|t| !t[..3].iter().all(|c| c.is_finite()));
+            let kind = match texels[i][..3].iter().any(|c| c.is_nan()) {
+                true => "NaN",
+                false => "infinite",
+            };
+            return Err(Error::InvalidArgument {
+                name: "environment",
+                why: format!(
+                    "texel ({}, {}) is {kind} ({} texels are NaN or infinite): an environment \
+                     must be finite",
+                    i % w as usize,
+                    i / w as usize,
+                    bad.count()
+                ),
             });
         }
         let bytes = std::mem::size_of_val(texels.as_slice());
@@ -122,9 +145,17 @@ impl Environment {
         )
     }
 
-    /// The equirectangular environment image at `path` (OpenEXR or Radiance HDR).
+    /// The equirectangular environment image at `path` (OpenEXR or Radiance HDR); an error
+    /// names the file.
     pub fn read(path: &std::path::Path) -> Result<Self> {
-        HdrImage::read(path).and_then(|i| Self::from_image(&i))
+        let image = HdrImage::read(path)?;
+        Self::from_image(&image).map_err(|e| match e {
+            Error::InvalidArgument { why, .. } => Error::Image {
+                path: path.to_owned(),
+                why,
+            },
+            other => other,
+        })
     }
 
     /// The environment of an equirectangular image.

@@ -23,8 +23,8 @@ use super::document::{Ctx, Document, label};
 use super::geometry::{self, CleanPrimitive, RawPrimitive};
 use super::texture_files;
 use super::{
-    Aabb, Camera, Instance, LUMENS_PER_WATT, Light, LightKind, LoadStage, Material, Mesh, Scene,
-    Texture, Warning, Wrap,
+    Aabb, Camera, Instance, LUMENS_PER_WATT, Light, LightKind, LoadStage, MAX_EMISSION,
+    MAX_WORLD_COORDINATE, Material, Mesh, Scene, Texture, Warning, Wrap,
 };
 use crate::Result;
 
@@ -52,7 +52,9 @@ pub(super) fn load(path: &Path) -> Result<(Scene, Vec<Warning>)> {
         textures: Vec::new(),
         texture_slots: HashMap::new(),
         meshes: Vec::new(),
+        mesh_bounds: Vec::new(),
         mesh_slots: HashMap::new(),
+        reached: vec![false; doc.root.nodes.len()],
         instances: Vec::new(),
         lights: Vec::new(),
         cameras: Vec::new(),
@@ -74,8 +76,12 @@ struct Builder<'d> {
     /// glTF texture index -> index into `textures`, `None` if it cannot be used.
     texture_slots: HashMap<usize, Option<u32>>,
     meshes: Vec<Mesh>,
+    /// Object-space bounds of each of `meshes`.
+    mesh_bounds: Vec<Aabb>,
     /// glTF mesh index -> index into `meshes`, `None` if it has no triangles.
     mesh_slots: HashMap<usize, Option<u32>>,
+    /// Whether each glTF node has been visited: a node reached twice has two parents.
+    reached: Vec<bool>,
     instances: Vec<Instance>,
     lights: Vec<Light>,
     cameras: Vec<Camera>,
@@ -299,6 +305,13 @@ impl Builder<'_> {
                 "the node hierarchy has a cycle: this node is its own ancestor",
             ));
         }
+        if std::mem::replace(&mut self.reached[index], true) {
+            return Err(self.ctx.error(
+                element,
+                "is reached twice (the child of two nodes, or listed twice among the scene's \
+                 roots): glTF node hierarchies must be disjoint trees",
+            ));
+        }
         if path.len() >= MAX_NODE_DEPTH {
             return Err(self.ctx.error(
                 element,
@@ -316,6 +329,15 @@ impl Builder<'_> {
                     "has a transform that is not finite, or a zero rotation quaternion",
                 )
             })?;
+        if let Some(m) = node.matrix
+            && [m[3], m[7], m[11], m[15]] != [0.0, 0.0, 0.0, 1.0]
+        {
+            return Err(self.ctx.error(
+                element,
+                "has a matrix that is not affine (its last row is not 0 0 0 1): glTF node \
+                 matrices must decompose into translation, rotation and scale",
+            ));
+        }
         let visit = self.hierarchy.visits.len() as u32;
         self.hierarchy.visits.push(Visit {
             node: index as u32,
@@ -365,7 +387,10 @@ impl Builder<'_> {
         mesh: usize,
         world: Mat4,
     ) -> Result<()> {
-        if !world.determinant().is_normal() {
+        // In f64, so that a huge scale (refused below, by where it puts the mesh) does not
+        // overflow into a NaN that reads as singular.
+        let determinant = glam::Mat3::from_mat4(world).as_dmat3().determinant();
+        if determinant.is_nan() || determinant.abs() < f64::from(f32::MIN_POSITIVE) {
             self.ctx.warn(
                 "singular transform",
                 element,
@@ -375,6 +400,34 @@ impl Builder<'_> {
             return Ok(());
         }
         if let Some(mesh) = self.mesh(mesh)? {
+            let Aabb { min, max } = self.mesh_bounds[mesh as usize];
+            // The mesh lies inside its box, so its placed vertices lie inside the placed corners'.
+            let reach = (0..8)
+                .map(|c| {
+                    let corner = Vec3::select(
+                        glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0),
+                        max,
+                        min,
+                    );
+                    world.transform_point3(corner).abs().max_element()
+                })
+                .fold(0.0f32, |a, b| match a.is_nan() || b.is_nan() {
+                    true => f32::NAN,
+                    false => a.max(b),
+                });
+            if reach.is_nan() || reach > MAX_WORLD_COORDINATE {
+                self.ctx.warn(
+                    "world overflow",
+                    element,
+                    format!(
+                        "its mesh's world-space positions reach {reach:e}, beyond \
+                         ±{MAX_WORLD_COORDINATE:e} where f32 arithmetic on positions stays \
+                         finite: the instance is skipped"
+                    ),
+                    1,
+                );
+                return Ok(());
+            }
             self.instances.push(Instance {
                 name: name.to_owned(),
                 node: node as u32,
@@ -430,6 +483,11 @@ impl Builder<'_> {
             mesh.normals.extend(part.normals);
         }
         let slot = (!mesh.triangles.is_empty()).then(|| {
+            let bounds = mesh.positions.iter().fold(Aabb::EMPTY, |b, &p| Aabb {
+                min: b.min.min(p),
+                max: b.max.max(p),
+            });
+            self.mesh_bounds.push(bounds);
             self.meshes.push(mesh);
             self.meshes.len() as u32 - 1
         });
@@ -684,7 +742,24 @@ impl Builder<'_> {
             .map_or(1.0, |s| s.emissive_strength.0);
         let [strength] = self.factor([strength], &element, "emissiveStrength");
         let emissive = Vec3::from(self.factor(m.emissive_factor.0, &element, "emissiveFactor"));
-        let emissive = emissive * strength;
+        let mut emissive = emissive * strength;
+        if emissive.max_element() > MAX_EMISSION {
+            let field = match strength == 1.0 {
+                true => "emissiveFactor",
+                false => "emissiveStrength",
+            };
+            self.ctx.warn(
+                "absurd emission",
+                format!("{element}.{field}"),
+                format!(
+                    "emission {:e} is larger than {MAX_EMISSION:e} W/(sr·m²): a unit mistake or \
+                     garbage, replaced by zero",
+                    emissive.max_element()
+                ),
+                1,
+            );
+            emissive = Vec3::ZERO;
+        }
         let base_color =
             Vec4::from(self.factor(pbr.base_color_factor.0, &element, "baseColorFactor"));
         let [metallic] = self.factor([pbr.metallic_factor.0], &element, "metallicFactor");
@@ -791,6 +866,20 @@ impl Builder<'_> {
                 "invalid light",
                 element,
                 "colour or intensity is negative or not finite: the light is skipped",
+                1,
+            );
+            return Ok(());
+        }
+        if light.intensity / LUMENS_PER_WATT * color.max_element() > MAX_EMISSION {
+            self.ctx.warn(
+                "absurd light",
+                element,
+                format!(
+                    "intensity {:e} is larger than {:e} (cd, or lux for a directional light): a \
+                     unit mistake or garbage, the light is skipped",
+                    light.intensity,
+                    MAX_EMISSION * LUMENS_PER_WATT
+                ),
                 1,
             );
             return Ok(());

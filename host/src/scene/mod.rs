@@ -50,7 +50,9 @@
 //! extension in `extensionsRequired`; a buffer whose file is missing, whose `data:` URI is not
 //! base64, or that is shorter than its `byteLength`; a buffer view or accessor that reads outside
 //! its buffer; an accessor of the wrong type for its use; an index past the last vertex; a node with
-//! a non-finite transform or a cycle in the node hierarchy; and a scene without triangles.
+//! a non-finite transform or a matrix that is not affine; a cycle in the node hierarchy, or a node
+//! reached twice (glTF hierarchies are disjoint trees); a major version other than 2; and a scene
+//! without triangles.
 //!
 //! Warnings and their fallback (each kind reported once, with the first element and a count):
 //! triangles with a NaN or infinite vertex position and degenerate (zero-area) triangles are
@@ -61,8 +63,10 @@
 //! in `extensionsUsed` that the loader does not support, UV sets after the first, vertex colours,
 //! tangents, skins, morph targets, normal, occlusion and metallic-roughness textures are ignored;
 //! `MASK` and `BLEND` (taken as `MASK` at 0.5) materials are loaded with their cutoff but render
-//! opaque, since tracing does not test alpha yet; nodes with a singular transform,
-//! and lights and cameras with invalid parameters, are skipped. Animation channels that cannot be
+//! opaque, since tracing does not test alpha yet; nodes with a singular transform (a zero
+//! scale), instances whose world-space positions reach beyond [`MAX_WORLD_COORDINATE`], and lights
+//! and cameras with invalid parameters (lights brighter than [`MAX_EMISSION`] included) are
+//! skipped; emission beyond [`MAX_EMISSION`] is set to zero. Animation channels that cannot be
 //! played are dropped (see [`animation`]).
 
 pub mod animation;
@@ -88,6 +92,16 @@ pub use animation::SceneAnimation;
 
 /// Luminous efficacy (lm/W) that converts glTF's photometric light units to radiometric ones.
 pub const LUMENS_PER_WATT: f32 = 683.0;
+
+/// Largest light intensity (W/sr, or W/m² for a directional light) and emitted radiance
+/// (W/(sr·m²)) the loader keeps: 10^4 times the sun's disc (about 2·10^7 W/(sr·m²)). A larger
+/// value is a unit mistake or garbage; the light is skipped, the emission set to zero.
+pub const MAX_EMISSION: f32 = 1e12;
+
+/// Largest world-space coordinate magnitude (metres) of a placed mesh: squared distances and
+/// cross products of such positions still fit `f32` (whose range ends near 3.4·10^38). An
+/// instance reaching beyond it is skipped.
+pub const MAX_WORLD_COORDINATE: f32 = 1e18;
 
 /// A scene loaded from a glTF file, in world space, ready for acceleration structures.
 #[derive(Clone, Debug)]

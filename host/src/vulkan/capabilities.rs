@@ -63,6 +63,12 @@ pub struct Capabilities {
     pub max_workgroup_invocations: u32,
     /// Largest device-local heap in bytes.
     pub device_local_bytes: u64,
+    /// Largest memory heap of any kind in bytes: no allocation can be larger.
+    pub largest_heap_bytes: u64,
+    /// `maxBufferSize` (`VK_KHR_maintenance4`); `u64::MAX` where the device does not say.
+    pub max_buffer_size: u64,
+    /// `maxImageDimension2D`: the longest side of a 2D image.
+    pub max_image_dimension_2d: u32,
     /// Fewest of `maxPerStageDescriptorSampledImages`, `maxPerStageDescriptorSamplers`,
     /// `maxDescriptorSetSampledImages` and `maxDescriptorSetSamplers`: the longest texture array.
     pub max_sampled_images: u32,
@@ -123,6 +129,8 @@ impl Capabilities {
         let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
         let mut driver = vk::PhysicalDeviceDriverProperties::default();
         let mut accel_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+        let has_maintenance4 = has(ash::khr::maintenance4::NAME);
+        let mut maintenance4 = vk::PhysicalDeviceMaintenance4Properties::default();
         let props = {
             let mut p2 = vk::PhysicalDeviceProperties2::default()
                 .push_next(&mut subgroup)
@@ -130,16 +138,21 @@ impl Capabilities {
             if has_accel {
                 p2 = p2.push_next(&mut accel_props);
             }
+            if has_maintenance4 {
+                p2 = p2.push_next(&mut maintenance4);
+            }
             unsafe { instance.get_physical_device_properties2(pd, &mut p2) };
             p2.properties
         };
         let memory = unsafe { instance.get_physical_device_memory_properties(pd) };
-        let device_local_bytes = memory.memory_heaps[..memory.memory_heap_count as usize]
+        let heaps = &memory.memory_heaps[..memory.memory_heap_count as usize];
+        let device_local_bytes = heaps
             .iter()
             .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
             .map(|h| h.size)
             .max()
             .unwrap_or(0);
+        let largest_heap_bytes = heaps.iter().map(|h| h.size).max().unwrap_or(0);
         let queues = unsafe { instance.get_physical_device_queue_family_properties(pd) };
         let compute_timestamps = queues
             .iter()
@@ -195,6 +208,12 @@ impl Capabilities {
             accel_scratch_alignment: accel_props
                 .min_acceleration_structure_scratch_offset_alignment,
             device_local_bytes,
+            largest_heap_bytes,
+            max_buffer_size: match has_maintenance4 {
+                true => maintenance4.max_buffer_size,
+                false => u64::MAX,
+            },
+            max_image_dimension_2d: props.limits.max_image_dimension2_d,
             max_sampled_images: props
                 .limits
                 .max_per_stage_descriptor_sampled_images
@@ -260,6 +279,9 @@ impl Capabilities {
             accel_scratch_alignment: 128,
             max_workgroup_invocations: 1024,
             device_local_bytes: 1 << 30,
+            largest_heap_bytes: 1 << 30,
+            max_buffer_size: 1 << 32,
+            max_image_dimension_2d: 16384,
             max_sampled_images: 1 << 20,
             bindless_textures: true,
         }

@@ -11,6 +11,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::ffi::{CStr, c_char};
 use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -66,6 +67,9 @@ pub(crate) struct SharedDevice {
     pub(crate) accel: Option<ash::khr::acceleration_structure::Device>,
     pub(crate) buffers: ResourceRegistry<vk::Buffer>,
     pub(crate) images: ResourceRegistry<vk::Image>,
+    /// Set once a wait reported the device lost or timed out: nothing is submitted or waited on
+    /// after that (a hung device may never finish a wait).
+    lost: AtomicBool,
     // Dropped by `drop`, after the device and under the same lock.
     instance: ManuallyDrop<Instance>,
 }
@@ -81,10 +85,23 @@ fn lifetimes() -> std::sync::MutexGuard<'static, ()> {
         .unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
+impl SharedDevice {
+    fn is_lost(&self) -> bool {
+        self.lost.load(Ordering::Acquire)
+    }
+
+    /// Waits until the device is idle, unless it is lost (a hung device might never be).
+    fn wait_idle(&self) {
+        if !self.is_lost() {
+            unsafe { self.device.device_wait_idle() }.ok();
+        }
+    }
+}
+
 impl Drop for SharedDevice {
     fn drop(&mut self) {
+        self.wait_idle();
         unsafe {
-            self.device.device_wait_idle().ok();
             ManuallyDrop::drop(&mut self.allocator);
             let _held = lifetimes();
             self.device.destroy_device(None);
@@ -288,9 +305,10 @@ impl Context {
             buffer_device_address: variant == KernelVariant::RayQuery,
             allocation_sizes: Default::default(),
         })
-        .map_err(|source| Error::Allocation {
+        .map_err(|e| Error::Allocation {
             what: "allocator".into(),
-            source,
+            bytes: None,
+            why: e.to_string(),
         });
         let allocator = match allocator {
             Ok(a) => a,
@@ -308,6 +326,7 @@ impl Context {
             accel: (variant == KernelVariant::RayQuery)
                 .then(|| ash::khr::acceleration_structure::Device::new(&instance, &device)),
             buffers: ResourceRegistry::default(),
+            lost: AtomicBool::new(false),
             images: ResourceRegistry::default(),
             instance: ManuallyDrop::new(owner),
         });
@@ -354,6 +373,14 @@ impl Context {
     /// The kernel variant this context runs (ray queries or software BVH traversal).
     pub fn variant(&self) -> KernelVariant {
         self.variant
+    }
+
+    /// Whether the device was lost: a wait reported `VK_ERROR_DEVICE_LOST`, or a submission ran
+    /// past [`SUBMIT_TIMEOUT`]. Every later submission fails at once with
+    /// `VK_ERROR_DEVICE_LOST`; the context can only be dropped (without waiting for the device)
+    /// and a new one created.
+    pub fn is_lost(&self) -> bool {
+        self.shared.is_lost()
     }
 
     /// The raw `ash` device, for engine teams that record their own commands around ours.
@@ -407,7 +434,10 @@ impl Context {
         let cmd = unsafe { self.device.allocate_command_buffers(&alloc) }
             .vk("vkAllocateCommandBuffers")?[0];
         let result = self.record_and_wait(cmd, record);
-        unsafe { self.device.free_command_buffers(self.command_pool, &[cmd]) };
+        // A lost device's command buffer may still be pending: the pool frees it at the end.
+        if !self.is_lost() {
+            unsafe { self.device.free_command_buffers(self.command_pool, &[cmd]) };
+        }
         result
     }
 
@@ -416,6 +446,12 @@ impl Context {
         cmd: vk::CommandBuffer,
         record: impl FnOnce(vk::CommandBuffer) -> R,
     ) -> Result<R> {
+        if self.is_lost() {
+            return Err(Error::Vulkan {
+                call: "vkQueueSubmit",
+                result: vk::Result::ERROR_DEVICE_LOST,
+            });
+        }
         let begin = vk::CommandBufferBeginInfo::default()
             .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         unsafe { self.device.begin_command_buffer(cmd, &begin) }.vk("vkBeginCommandBuffer")?;
@@ -437,19 +473,30 @@ impl Context {
                 }
                 .vk("vkWaitForFences")
             });
-        if waited.is_err() {
-            // The fence may still be in use by a hung submission: let the device drain first.
-            unsafe { self.device.device_wait_idle() }.ok();
+        match &waited {
+            Err(Error::Vulkan {
+                result: vk::Result::ERROR_DEVICE_LOST | vk::Result::TIMEOUT,
+                ..
+            }) => {
+                // Nothing more goes to the device, and nothing waits on it (a hung one may never
+                // answer): the fence, perhaps still in use, is left to the process's end.
+                self.shared.lost.store(true, Ordering::Release);
+            }
+            Err(_) => {
+                // A failed submit: nothing is pending, unless the driver says otherwise.
+                self.shared.wait_idle();
+                unsafe { self.device.destroy_fence(fence, None) };
+            }
+            Ok(()) => unsafe { self.device.destroy_fence(fence, None) },
         }
-        unsafe { self.device.destroy_fence(fence, None) };
         waited.map(|()| out)
     }
 }
 
 impl Drop for Context {
     fn drop(&mut self) {
+        self.shared.wait_idle();
         unsafe {
-            self.device.device_wait_idle().ok();
             self.device.destroy_command_pool(self.command_pool, None);
             for layout in self.scene_set_layouts {
                 self.device.destroy_descriptor_set_layout(layout, None);

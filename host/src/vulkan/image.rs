@@ -45,6 +45,17 @@ pub(super) fn create_bound_image(
     name: &str,
     info: &vk::ImageCreateInfo<'_>,
 ) -> Result<(vk::Image, Allocation, u64)> {
+    let max = ctx.capabilities().max_image_dimension_2d;
+    let vk::Extent3D { width, height, .. } = info.extent;
+    if width > max || height > max {
+        return Err(Error::InvalidArgument {
+            name: "image size",
+            why: format!(
+                "image {name:?} of {width}×{height}: the device's images are at most {max} texels \
+                 on a side (maxImageDimension2D)"
+            ),
+        });
+    }
     let handle = unsafe { ctx.device.create_image(info, None) }.vk("vkCreateImage")?;
     let requirements = unsafe { ctx.device.get_image_memory_requirements(handle) };
     let allocation = match allocate(ctx, name, requirements, MemoryLocation::GpuOnly, false) {

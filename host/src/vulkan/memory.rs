@@ -38,10 +38,40 @@ pub(crate) fn allocate(
             linear,
             allocation_scheme: AllocationScheme::GpuAllocatorManaged,
         })
-        .map_err(|source| Error::Allocation {
+        .map_err(|e| Error::Allocation {
             what: name.to_string(),
-            source,
+            bytes: Some(requirements.size),
+            why: match e {
+                gpu_allocator::AllocationError::OutOfMemory => {
+                    "the device is out of memory (free other resources, lower the resolution or \
+                     the scene's size)"
+                        .to_owned()
+                }
+                other => other.to_string(),
+            },
         })
+}
+
+/// An error unless the device could ever hold a buffer of `size` bytes: Vulkan forbids creating
+/// a buffer over `maxBufferSize` or allocating more than a heap holds, so a larger request is
+/// refused here, by name, before any call.
+fn check_buffer_size(ctx: &Context, name: &str, size: u64) -> Result<()> {
+    let caps = ctx.capabilities();
+    let over = |limit: &str, bytes: u64| Error::Allocation {
+        what: name.to_string(),
+        bytes: Some(size),
+        why: format!(
+            "larger than the device's {limit} ({bytes} bytes, {:.3} GiB)",
+            bytes as f64 / f64::from(1 << 30)
+        ),
+    };
+    if size > caps.max_buffer_size {
+        return Err(over("largest buffer (maxBufferSize)", caps.max_buffer_size));
+    }
+    if size > caps.largest_heap_bytes {
+        return Err(over("largest memory heap", caps.largest_heap_bytes));
+    }
+    Ok(())
 }
 
 /// One live buffer or image, as listed by [`Context::live_buffers`] and
@@ -126,6 +156,7 @@ impl Buffer {
                 why: format!("buffer {name:?} would be empty"),
             });
         }
+        check_buffer_size(ctx, name, size)?;
         let info = vk::BufferCreateInfo::default()
             .size(size)
             .usage(STORAGE_USAGE | extra)
