@@ -11,9 +11,8 @@
 //! * [`pose_upload_does_not_grow_with_triangles`]: 27 instances of a sphere, one moved: the
 //!   same bytes whether the sphere has 320 or 20 480 triangles.
 //! * [`staged_writes_land_in_place_and_refuse_what_does_not_fit`]: the batched in-place writes.
-//! * [`pose_update_timing`] (ignored: it loads large scenes): milliseconds per pose against a
-//!   full upload (what a pose cost before), on moving-box, on a generated scene of
-//!   `GI_POSE_TRIANGLES` triangles (1M) and on the Bitterli bathroom (or `GI_POSE_SCENE`).
+//!
+//! Milliseconds per pose are the `pose_update` benchmark's (`tests/benches/pose_update.rs`).
 
 use gi_host::KernelVariant;
 use gi_host::scene::Scene;
@@ -21,7 +20,6 @@ use gi_host::scene::bvh::{Bvh, tlas_node_count};
 use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::{Environment, LightSet};
 use gi_host::scene::procedural::{icosphere, scene as procedural_scene};
-use gi_host::scene::synthetic::{SyntheticParams, parse_count, write};
 use gi_host::scene::upload::{GeometryData, GpuScene, PoseUpdate};
 use gi_host::trace_rays::TraceRays;
 use gi_host::vulkan::{Buffer, Context, Resource, StagedWrites};
@@ -31,7 +29,7 @@ use gi_shared::random::Random;
 use gi_shared::ray::{HitRecord, Ray};
 use gi_shared::sampling::sample_uniform_sphere;
 use gi_shared::scene_data::GpuInstance;
-use gi_tests::{context, finish_without_validation_messages, scene_path, third_party_scene_path};
+use gi_tests::{context, finish_without_validation_messages, scene_path};
 use glam::{Mat4, Vec3};
 use std::time::Instant;
 
@@ -351,79 +349,6 @@ fn pose_upload_does_not_grow_with_triangles() {
         }
         println!("{variant}: (world triangles, bytes per pose) {uploads:?}");
         assert_eq!(uploads[0].1, uploads[1].1, "{variant}: {uploads:?}");
-        finish_without_validation_messages(ctx);
-    }
-}
-
-/// Milliseconds of `f`, best of `n` runs.
-fn best_ms(n: u32, mut f: impl FnMut()) -> f64 {
-    (0..n)
-        .map(|_| {
-            let start = Instant::now();
-            f();
-            start.elapsed().as_secs_f64() * 1e3
-        })
-        .fold(f64::INFINITY, f64::min)
-}
-
-/// Milliseconds per pose of one moving instance, against what a pose cost before (the shading
-/// data laid out and the whole scene uploaded again), and bytes per pose.
-fn time_poses(name: &str, ctx: &Context, scene: &mut Scene, moving: usize) {
-    let lights = LightSet::new(scene, None, false);
-    let full = best_ms(3, || {
-        let shading = ShadingData::new(scene).unwrap();
-        drop(GpuScene::upload(ctx, scene, None, &shading, &lights).unwrap());
-    });
-    let shading = ShadingData::new(scene).unwrap();
-    let mut gpu = GpuScene::upload(ctx, scene, None, &shading, &lights).unwrap();
-    let mut step = 0;
-    let pose = best_ms(20, || {
-        let previous: Vec<Mat4> = scene.instances.iter().map(|i| i.transform).collect();
-        step += 1;
-        let offset = Vec3::new(0.01 * step as f32, 0.0, 0.0);
-        scene.instances[moving].transform *= Mat4::from_translation(offset);
-        gpu.set_pose(ctx, scene, &lights, &previous).unwrap();
-    });
-    println!(
-        "{name} {}: {} instances, {} triangles: full upload {full:.1} ms, set_pose {pose:.2} ms, \
-         {:?}",
-        ctx.variant(),
-        scene.instances.len(),
-        scene.triangle_count(),
-        gpu.last_pose()
-    );
-}
-
-#[test]
-#[ignore = "loads large scenes: run for the figures"]
-fn pose_update_timing() {
-    let (mut boxes, cube) = moving_box();
-    let triangles = std::env::var("GI_POSE_TRIANGLES")
-        .map(|t| parse_count(&t).unwrap())
-        .unwrap_or(1_000_000);
-    let path = std::env::temp_dir().join(format!("gi-pose-{triangles}.glb"));
-    let params = SyntheticParams {
-        triangles,
-        ..SyntheticParams::default()
-    };
-    write(&params, &path).unwrap();
-    let (generated, _) = Scene::load(&path).unwrap();
-    // A textured interior: what a pose re-uploaded before includes its textures.
-    let interior = std::env::var_os("GI_POSE_SCENE")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| third_party_scene_path("bitterli/bathroom/bathroom.glb"));
-    let mut scenes = vec![("generated", generated)];
-    match Scene::load(&interior) {
-        Ok((scene, _)) => scenes.push(("interior", scene)),
-        Err(e) => println!("no interior ({e}): set GI_POSE_SCENE"),
-    }
-    for variant in KernelVariant::ALL {
-        let ctx = context(variant);
-        time_poses("moving-box", &ctx, &mut boxes, cube);
-        for (name, scene) in &mut scenes {
-            let middle = scene.instances.len() / 2;
-            time_poses(name, &ctx, scene, middle);
-        }
         finish_without_validation_messages(ctx);
     }
 }
