@@ -171,9 +171,12 @@ pub fn debug_views(
         .flat_map(|y| (0..w).map(move |x| UVec2::new(x, y)))
         .map(|p| pixel_cell(camera, grid, data, p, (keys_before, keys, values)))
         .collect();
-    let (lo, hi) = cells.iter().flatten().fold((MAX_LOD, MIN_LOD), |(lo, hi), c| {
-        (lo.min(c.desc.lod), hi.max(c.desc.lod))
-    });
+    let (lo, hi) = cells
+        .iter()
+        .flatten()
+        .fold((MAX_LOD, MIN_LOD), |(lo, hi), c| {
+            (lo.min(c.desc.lod), hi.max(c.desc.lod))
+        });
     DebugView::ALL
         .iter()
         .map(|&view| {

@@ -726,7 +726,13 @@ mod tests {
             assert!(e.contains("scene transform") && e.contains("scale"), "{e}");
         }
         let mut animated = test_scene("moving-box.gltf");
-        let e = animated.scale_and_offset(2.0, Vec3::ZERO).unwrap_err().to_string();
-        assert!(e.contains("moving-box.gltf") && e.contains("animated"), "{e}");
+        let e = animated
+            .scale_and_offset(2.0, Vec3::ZERO)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("moving-box.gltf") && e.contains("animated"),
+            "{e}"
+        );
     }
 }
