@@ -15,7 +15,9 @@ use gi_shared::camera::CameraParams;
 use gi_shared::hash::pcg_chain;
 use gi_shared::hash_cells::read::filtered_value;
 use gi_shared::hash_cells::storage::{find_tile, slots_per_bucket};
-use gi_shared::hash_cells::{CellDescriptor, DIRECTION_BINS, MAX_LOD, cell_descriptor, tile_slot};
+use gi_shared::hash_cells::{
+    CellDescriptor, DIRECTION_BINS, MAX_LOD, MIN_LOD, cell_descriptor, tile_slot,
+};
 use gi_shared::layout::{HashCellValue, HashGridParams};
 use glam::{UVec2, Vec3};
 use std::path::{Path, PathBuf};
@@ -169,9 +171,12 @@ pub fn debug_views(
         .flat_map(|y| (0..w).map(move |x| UVec2::new(x, y)))
         .map(|p| pixel_cell(camera, grid, data, p, (keys_before, keys, values)))
         .collect();
-    let (lo, hi) = cells.iter().flatten().fold((MAX_LOD, 0), |(lo, hi), c| {
-        (lo.min(c.desc.lod), hi.max(c.desc.lod))
-    });
+    let (lo, hi) = cells
+        .iter()
+        .flatten()
+        .fold((MAX_LOD, MIN_LOD), |(lo, hi), c| {
+            (lo.min(c.desc.lod), hi.max(c.desc.lod))
+        });
     DebugView::ALL
         .iter()
         .map(|&view| {

@@ -45,8 +45,12 @@ pub struct GiSettings {
     /// newest sample weighs 1/cap) and reads coarser mips for longer (more blur); a lower cap
     /// reacts faster and is noisier.
     pub sample_cap: u32,
-    /// Smallest world-space cell, in metres (reference: 0.1). Cost: none. Quality: stops cells
-    /// near the camera from becoming so small that they never gather enough samples.
+    /// Smallest world-space cell, in scene units (reference: 0.1, for scenes in metres). Cost:
+    /// none. Quality: stops cells near the camera from becoming so small that they never gather
+    /// enough samples. It is the one length of the GI frame that does not follow the scene's
+    /// scale (cells are otherwise sized by their angle from the eye, and ray offsets by the
+    /// float spacing at the hit): a scene modelled in other units, or scaled, scales it alike, or
+    /// its cells near the eye are too large (100 × too large for a room modelled in mm).
     pub min_cell_size: f32,
     /// Temporal radiance feedback (reference: on). Cost: a reprojection and a read per secondary
     /// hit, and it saves the shadow ray of every hit that reprojects. Quality: adds the previous

@@ -175,6 +175,11 @@ impl Scene {
                 blas
             })
             .collect();
+        self.derive_bounds_and_emitters();
+    }
+
+    /// Recomputes [`Scene::bounds`] and [`Scene::emissive_triangles`] from the world triangles.
+    fn derive_bounds_and_emitters(&mut self) {
         let mut bounds = Aabb::EMPTY;
         let mut emissive = Vec::new();
         for tri in self.world_triangles() {
@@ -225,6 +230,54 @@ impl Scene {
             Some(animation) => animation.pose_at(seconds, &self.instances),
             None => self.instances.iter().map(|i| i.transform).collect(),
         }
+    }
+
+    /// Moves the whole scene by `p ↦ scale · p + offset` (instances, punctual lights, cameras) so
+    /// that every camera sees the same image: emitting surfaces keep their radiance and
+    /// directional lights their irradiance, while point and spot intensities are multiplied by
+    /// `scale²` (what they give falls off with the squared distance); light ranges and clip planes
+    /// scale with the scene. Meshes stay in object space, so the bottom levels are unchanged.
+    ///
+    /// Errors ([`Error::InvalidArgument`](crate::Error::InvalidArgument)): a scale that is not a
+    /// positive finite number, an offset that is not finite, and an animated scene (its channels
+    /// hold the unmoved transforms).
+    pub fn scale_and_offset(&mut self, scale: f32, offset: Vec3) -> Result<()> {
+        let bad = |why: String| {
+            Err(crate::Error::InvalidArgument {
+                name: "scene transform",
+                why,
+            })
+        };
+        if !(scale.is_finite() && scale > 0.0) || !offset.is_finite() {
+            return bad(format!(
+                "scale {scale}, offset {offset}: the scale must be a positive number and the \
+                 offset finite"
+            ));
+        }
+        if self.animation.is_some() {
+            return bad(format!(
+                "{}: an animated scene cannot be moved (its channels hold the unmoved transforms)",
+                self.source.display()
+            ));
+        }
+        let t = Mat4::from_translation(offset) * Mat4::from_scale(Vec3::splat(scale));
+        for instance in &mut self.instances {
+            instance.transform = t * instance.transform;
+        }
+        for light in &mut self.lights {
+            light.position = t.transform_point3(light.position);
+            if light.kind != LightKind::Directional {
+                light.intensity *= scale * scale;
+            }
+            light.range = light.range.map(|r| r * scale);
+        }
+        for camera in &mut self.cameras {
+            camera.transform = t * camera.transform;
+            camera.znear *= scale;
+            camera.zfar = camera.zfar.map(|z| z * scale);
+        }
+        self.derive_bounds_and_emitters();
+        Ok(())
     }
 
     /// Bytes of all textures with their mips.
@@ -636,4 +689,64 @@ pub(crate) fn test_scene(file: &str) -> Scene {
         .join("../scenes")
         .join(file);
     Scene::load(path).unwrap().0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Moving the indirect room keeps what its camera sees: geometry, camera and lights move
+    /// together, and the spot light's irradiance at a point that moved with it is unchanged.
+    #[test]
+    fn scale_and_offset_keeps_the_view() {
+        let normal = test_scene("indirect-room.gltf");
+        for (scale, offset) in [
+            (1e-3, Vec3::ZERO),
+            (1e3, Vec3::ZERO),
+            (1.0, Vec3::new(1e5, -1e5, 1e5)),
+        ] {
+            let mut moved = normal.clone();
+            moved.scale_and_offset(scale, offset).unwrap();
+            let to = |p: Vec3| scale * p + offset;
+            let size = |b: &Aabb| b.size().length();
+            assert!((size(&moved.bounds) / size(&normal.bounds) - scale).abs() < 1e-3 * scale);
+            assert!(
+                (moved.bounds.center() - to(normal.bounds.center())).length()
+                    < 1e-3 * size(&moved.bounds) + 1e-6 * offset.length()
+            );
+            let (a, b) = (&normal.cameras[0], &moved.cameras[0]);
+            assert!((b.position() - to(a.position())).length() < 1e-6 * offset.length() + 1e-6);
+            assert!((b.forward() - a.forward()).length() < 1e-6);
+            assert_eq!(b.znear, a.znear * scale);
+            for (a, b) in normal.lights.iter().zip(&moved.lights) {
+                assert!((b.direction - a.direction).length() < 1e-6);
+                // Irradiance from the light at a point 1 m (scaled) away.
+                let irradiance = |l: &Light, d: f32| match l.kind {
+                    LightKind::Directional => l.intensity.x,
+                    _ => l.intensity.x / (d * d),
+                };
+                let (ea, eb) = (irradiance(a, 1.0), irradiance(b, scale));
+                assert!((eb - ea).abs() <= 1e-5 * ea, "{}: {ea} → {eb}", a.name);
+            }
+        }
+        let mut bad = normal.clone();
+        for (scale, offset) in [
+            (0.0, Vec3::ZERO),
+            (-1.0, Vec3::ZERO),
+            (f32::NAN, Vec3::ZERO),
+            (1.0, Vec3::splat(f32::INFINITY)),
+        ] {
+            let e = bad.scale_and_offset(scale, offset).unwrap_err().to_string();
+            assert!(e.contains("scene transform") && e.contains("scale"), "{e}");
+        }
+        let mut animated = test_scene("moving-box.gltf");
+        let e = animated
+            .scale_and_offset(2.0, Vec3::ZERO)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("moving-box.gltf") && e.contains("animated"),
+            "{e}"
+        );
+    }
 }

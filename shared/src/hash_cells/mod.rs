@@ -70,8 +70,12 @@ pub const MAX_SAMPLE_COUNT: u32 = 16;
 pub const TILE_DECAY_FRAMES: u32 = 50;
 /// Cell sizes are `2^L` millimetres: the LOD key is `floor(log2(1000 · step))`.
 pub const LOD_STEP_FACTOR: f32 = 1e3;
-/// Smallest LOD: 1 mm cells. Keeps tile coordinates of `|p| ≤ 10⁶` below [`MAX_TILE_COORD`].
-pub const MIN_LOD: i32 = 0;
+/// Smallest LOD: cells of 2^-20 mm ≈ 1 nm, so that a scene modelled a million times smaller
+/// (with [`MIN_CELL_SIZE`] scaled alike) keeps its cells' angular size: a floor of 1 mm made
+/// cells of a millimetre-sized scene cover it whole. Tile coordinates stay below
+/// [`MAX_TILE_COORD`] for `|p|` up to `8.6 · 10⁶ · 2^L` m at LOD `L` (8 m at this one, reached
+/// only by hits within nanometres of the eye).
+pub const MIN_LOD: i32 = -20;
 /// Largest LOD: cells of 2^31 mm ≈ 2147 km, beyond any finite scene distance times the cell constant.
 pub const MAX_LOD: i32 = 31;
 /// Tile coordinates are clamped to `±MAX_TILE_COORD` (reached only for `|p| ≥ 2^30` tiles, about
@@ -442,6 +446,37 @@ mod tests {
                         }
                     }
                 }
+            }
+        }
+    }
+
+    /// Scaling the eye, the hit, its distance and the minimum cell size by `2^k` (exact in
+    /// `f32`) moves the LOD by `k` and keeps every other part of the key: the grid is the same
+    /// relative to the scene from micrometre to kilometre scenes.
+    #[test]
+    fn the_grid_scales_with_the_scene() {
+        let normal = params();
+        let mut rng = Random::new(3, 0);
+        for k in -24..=18 {
+            let s = 2f32.powi(k);
+            let scaled = HashGridParams {
+                min_cell_size: normal.min_cell_size * s,
+                ..normal
+            };
+            for _ in 0..500 {
+                // Hits in a 6 m room seen from inside it.
+                let eye = (rng.next_vec2().extend(rng.next_f32()) - 0.5) * 6.0;
+                let pos = (rng.next_vec2().extend(rng.next_f32()) - 0.5) * 6.0;
+                let dir = sample_uniform_sphere(rng.next_vec2());
+                let hit = 6.0 * rng.next_f32();
+                let a = cell_descriptor(eye, pos, dir, hit, &normal);
+                let b = cell_descriptor(eye * s, pos * s, dir, hit * s, &scaled);
+                assert_eq!(b.lod, a.lod + k, "scale 2^{k}: {pos} from {eye}");
+                assert_eq!(
+                    (b.tile, b.cell, b.dir_bin, b.short_ray),
+                    (a.tile, a.cell, a.dir_bin, a.short_ray),
+                    "scale 2^{k}: {pos} from {eye}"
+                );
             }
         }
     }
