@@ -2,6 +2,8 @@
 
 #[path = "gi/gi_render.rs"]
 mod gi_render;
+#[path = "gi/gi_soak.rs"]
+mod gi_soak;
 #[path = "gi/gi_sweep.rs"]
 mod gi_sweep;
 
@@ -21,6 +23,7 @@ use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
 use gi_render::{GiArgs, Method, render_gi};
+use gi_soak::{SoakArgs, run_soak};
 use gi_shared::camera::CameraParams;
 use gi_sweep::{SweepArgs, run_sweep};
 use glam::Vec3;
@@ -180,6 +183,13 @@ enum Command {
     /// the cost scales with pixels, triangles and lights. Writes CSV, JSON, Markdown tables and
     /// plots (PNG and SVG).
     Sweep(SweepArgs),
+    /// Run the GI frame for many frames (default 10 000) with a moving camera, a moving point
+    /// light and the scene's animated object, with the validation layer on (synchronization
+    /// checks included). Every --check-every frames the GPU counts NaN and infinite floats in
+    /// every float buffer of the frame, and host and device memory are sampled; cache occupancy
+    /// and frame time are recorded every frame. Prints a summary table; exits non-zero when a
+    /// check fails.
+    Soak(SoakArgs),
     /// Write a synthetic instanced scene (GLB) for scaling tests: a closed room lit by an
     /// emissive ceiling panel, a camera, and many instances of a few tessellated meshes (spheres,
     /// tori, boxes) on a seeded grid, up to the requested world triangle count.
@@ -342,7 +352,8 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         return benchmark(cli, scenes, *width, *height, &settings);
     }
     let options = ContextOptions {
-        validation: cli.validation,
+        // A soak proves there are no validation messages: the layer is always on for it.
+        validation: cli.validation || matches!(cli.command, Some(Command::Soak(_))),
         device: cli.device.clone(),
         trace: cli.trace,
     };
@@ -409,6 +420,9 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(Command::Sweep(args)) = &cli.command {
         run_sweep(&ctx, &options, args)?;
+    }
+    if let Some(Command::Soak(args)) = &cli.command {
+        run_soak(&ctx, args)?;
     }
     if let Some(Command::CacheView {
         scene,
