@@ -13,7 +13,9 @@
 //! 32-bit float images ([`GiRenderer::float_images`]) with [`FiniteCheck`]; the host's resident memory (`VmRSS`), the allocator's device memory and the
 //! validation messages are sampled. The cache occupancy (live tiles) and the frame time are
 //! recorded every frame. [`SoakReport::verdicts`] turns the figures into pass/fail against
-//! [`SoakLimits`].
+//! [`SoakLimits`]. The host's resident memory is judged only in a run without the validation
+//! layer, whose own bookkeeping grows with every submission; validation messages only in a run
+//! with it.
 
 use crate::error::{Error, Result};
 use crate::frame::FiniteCheck;
@@ -384,7 +386,21 @@ impl SoakReport {
         });
         let span = self.memory_span();
         let host = span.and_then(|(a, b)| Some((a.frame, a.host_bytes?, b.frame, b.host_bytes?)));
+        let validation = self.samples.last().and_then(|s| s.validation_messages);
         out.push(match host {
+            // The layer keeps bookkeeping per submission and object (about 65 KiB per frame with
+            // layer 1.3.239, measured: `gi render --method gi` grows 16 MiB over 250 frames with
+            // it, 0.8 MiB without), which would hide or fake a leak of ours.
+            Some((fa, a, fb, b)) if validation.is_some() => SoakVerdict {
+                check: "host memory flat",
+                figures: format!(
+                    "not checked: RSS {:.1} MiB at frame {fa}, {:.1} MiB at frame {fb} includes \
+                     the validation layer's own growth (check without validation)",
+                    a as f64 / MIB,
+                    b as f64 / MIB
+                ),
+                passed: true,
+            },
             Some((fa, a, fb, b)) => {
                 let growth = (b as f64 - a as f64) / MIB;
                 SoakVerdict {
@@ -459,14 +475,13 @@ impl SoakReport {
             ),
             passed: drift.abs() <= limits.frame_time_drift,
         });
-        let messages = self.samples.last().and_then(|s| s.validation_messages);
         out.push(SoakVerdict {
             check: "zero validation messages",
-            figures: match messages {
+            figures: match validation {
                 Some(n) => format!("{n} messages (synchronization checks on)"),
-                None => "validation off".into(),
+                None => "not checked: validation off".into(),
             },
-            passed: messages == Some(0),
+            passed: validation.is_none_or(|n| n == 0),
         });
         out
     }
@@ -571,6 +586,11 @@ mod tests {
         assert_eq!(failed(&r), ["no NaN/Inf"]);
         let mut r = clean();
         r.samples[2].host_bytes = Some(200 << 20);
+        // Resident memory is checked without the validation layer only (its bookkeeping grows).
+        assert!(failed(&r).is_empty());
+        for s in &mut r.samples {
+            s.validation_messages = None;
+        }
         assert_eq!(failed(&r), ["host memory flat"]);
         let mut r = clean();
         r.samples[2].device.allocated += 256;

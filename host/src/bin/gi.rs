@@ -185,10 +185,10 @@ enum Command {
     Sweep(SweepArgs),
     /// Run the GI frame for many frames (default 10 000) with a moving camera, a moving point
     /// light and the scene's animated object, with the validation layer on (synchronization
-    /// checks included). Every --check-every frames the GPU counts NaN and infinite floats in
-    /// every float buffer of the frame, and host and device memory are sampled; cache occupancy
-    /// and frame time are recorded every frame. Prints a summary table; exits non-zero when a
-    /// check fails.
+    /// checks included; --no-validation checks the host's memory instead). Every --check-every
+    /// frames the GPU counts NaN and infinite floats in every float buffer and float image of the
+    /// frame, and host and device memory are sampled; cache occupancy and frame time are recorded
+    /// every frame. Prints a summary table; exits non-zero when a check fails.
     Soak(SoakArgs),
     /// Write a synthetic instanced scene (GLB) for scaling tests: a closed room lit by an
     /// emissive ceiling panel, a camera, and many instances of a few tessellated meshes (spheres,
@@ -352,8 +352,10 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         return benchmark(cli, scenes, *width, *height, &settings);
     }
     let options = ContextOptions {
-        // A soak proves there are no validation messages: the layer is always on for it.
-        validation: cli.validation || matches!(cli.command, Some(Command::Soak(_))),
+        // A soak proves there are no validation messages: the layer is on for it unless the
+        // run checks the host's memory instead.
+        validation: cli.validation
+            || matches!(&cli.command, Some(Command::Soak(s)) if !s.no_validation),
         device: cli.device.clone(),
         trace: cli.trace,
     };

@@ -52,6 +52,10 @@ pub struct SoakArgs {
     /// Also write every frame's figures (frame time, wall time, live tiles) as CSV here.
     #[arg(long)]
     pub csv: Option<PathBuf>,
+    /// Run without the validation layer: the host's resident memory is then checked (the
+    /// layer's own bookkeeping grows with every submission), validation messages are not.
+    #[arg(long)]
+    pub no_validation: bool,
 }
 
 impl SoakArgs {
