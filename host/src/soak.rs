@@ -232,7 +232,9 @@ pub fn run(
                 scene.source.display()
             ),
         })?;
-    let loops = (s.period as f32 / (duration * PLAYBACK_FPS)).round().max(1.0);
+    let loops = (s.period as f32 / (duration * PLAYBACK_FPS))
+        .round()
+        .max(1.0);
     let time_at = |frame: u32| (frame % s.period) as f32 / s.period as f32 * loops * duration;
     let rest = scene.bounds;
     let light = scene.lights.len();
@@ -246,7 +248,9 @@ pub fn run(
     });
     scene.set_time(time_at(0));
     let base = scene_camera(&scene, s.width, s.height);
-    let depth = (rest.center() - base.position()).dot(base.forward()).max(0.0);
+    let depth = (rest.center() - base.position())
+        .dot(base.forward())
+        .max(0.0);
     let path = CameraPath::Swing {
         pivot: base.position() + base.forward() * depth,
         amplitude_degrees: s.swing_degrees,
@@ -350,7 +354,8 @@ impl SoakReport {
     /// Peak live tiles in the first and the last window.
     pub fn occupancy_windows(&self) -> (u32, u32) {
         let (first, last) = self.windows();
-        let peak = |r: std::ops::Range<usize>| self.live_tiles[r].iter().copied().max().unwrap_or(0);
+        let peak =
+            |r: std::ops::Range<usize>| self.live_tiles[r].iter().copied().max().unwrap_or(0);
         (peak(first), peak(last))
     }
 
@@ -380,7 +385,12 @@ impl SoakReport {
                     self.samples.len()
                 )
             } else {
-                format!("{} of {} checks failed: {}", bad.len(), self.samples.len(), bad[0])
+                format!(
+                    "{} of {} checks failed: {}",
+                    bad.len(),
+                    self.samples.len(),
+                    bad[0]
+                )
             },
             passed: bad.is_empty() && !self.samples.is_empty(),
         });
@@ -577,7 +587,11 @@ mod tests {
             report(
                 vec![10.0; 6],
                 vec![50, 60, 55, 60, 58, 60],
-                vec![sample(2, 100, 500), sample(4, 101, 500), sample(6, 102, 500)],
+                vec![
+                    sample(2, 100, 500),
+                    sample(4, 101, 500),
+                    sample(6, 102, 500),
+                ],
             )
         };
         assert!(failed(&clean()).is_empty(), "{}", clean());
@@ -620,7 +634,13 @@ mod tests {
         let d = SoakSettings::default();
         assert!(err(SoakSettings { frames: 999, ..d }).contains("frames"));
         assert!(err(SoakSettings { period: 0, ..d }).contains("period"));
-        assert!(err(SoakSettings { check_every: 0, ..d }).contains("check_every"));
+        assert!(
+            err(SoakSettings {
+                check_every: 0,
+                ..d
+            })
+            .contains("check_every")
+        );
         let nan = SoakSettings {
             light_intensity: f32::NAN,
             ..d
@@ -638,7 +658,10 @@ mod tests {
         for i in 0..16 {
             let p = light_position(&bounds, i as f32 / 16.0);
             assert!((p.y - 1.7).abs() < 1e-6, "{p}");
-            assert!(((p - Vec3::new(0.0, 1.7, 0.0)).length() - 0.5).abs() < 1e-5, "{p}");
+            assert!(
+                ((p - Vec3::new(0.0, 1.7, 0.0)).length() - 0.5).abs() < 1e-5,
+                "{p}"
+            );
         }
         assert!((light_position(&bounds, 1.0) - light_position(&bounds, 0.0)).length() < 1e-5);
     }

@@ -34,7 +34,11 @@ fn two_hundred_moving_frames_stay_clean_and_flat() {
     assert!(failed.is_empty(), "{failed:#?}");
     // The checks saw what they claim: 8 checks of every float buffer, a cache in use.
     assert_eq!(report.samples.len(), 8);
-    assert!(report.samples[0].words_checked > 10_000, "{:?}", report.samples[0]);
+    assert!(
+        report.samples[0].words_checked > 10_000,
+        "{:?}",
+        report.samples[0]
+    );
     assert!(report.samples.iter().all(|s| s.host_bytes.is_some()));
     let (first, last) = report.occupancy_windows();
     assert!(first > 0 && last > 0, "occupancy {first}, {last}");

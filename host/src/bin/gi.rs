@@ -23,8 +23,8 @@ use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
 use gi_render::{GiArgs, Method, render_gi};
-use gi_soak::{SoakArgs, run_soak};
 use gi_shared::camera::CameraParams;
+use gi_soak::{SoakArgs, run_soak};
 use gi_sweep::{SweepArgs, run_sweep};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -44,7 +44,8 @@ struct Cli {
     /// software BVH traversal that runs everywhere.
     #[arg(long, value_enum, default_value_t = TraceMode::Auto, global = true)]
     trace: TraceMode,
-    /// Turn the Vulkan validation layer on and fail on any message it prints.
+    /// Turn the Vulkan validation layer on, with its synchronization checks, and fail on any
+    /// message it prints.
     #[arg(long, global = true)]
     validation: bool,
     #[command(subcommand)]

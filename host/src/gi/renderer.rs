@@ -508,7 +508,12 @@ impl GiRenderer {
         self.gbuffer
             .images
             .iter()
-            .filter(|i| matches!(i.format, vk::Format::R32_SFLOAT | vk::Format::R32G32B32A32_SFLOAT))
+            .filter(|i| {
+                matches!(
+                    i.format,
+                    vk::Format::R32_SFLOAT | vk::Format::R32G32B32A32_SFLOAT
+                )
+            })
             .collect()
     }
 

@@ -126,7 +126,11 @@ pub fn run_soak(ctx: &Context, args: &SoakArgs) -> Result<(), Box<dyn std::error
 fn write_csv(path: &Path, report: &SoakReport) -> Result<(), Box<dyn std::error::Error>> {
     let io = |e: std::io::Error| format!("--csv {}: {e}", path.display());
     let mut out = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
-    let time = if report.gpu_timed { "gpu_ms" } else { "render_ms" };
+    let time = if report.gpu_timed {
+        "gpu_ms"
+    } else {
+        "render_ms"
+    };
     writeln!(out, "frame,{time},wall_ms,live_tiles").map_err(io)?;
     for (f, ((ms, wall), tiles)) in report
         .frame_ms
