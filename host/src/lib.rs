@@ -16,6 +16,7 @@ pub mod metrics;
 pub mod path_tracer;
 pub mod scene;
 pub mod smoke;
+pub mod soak;
 pub mod trace_rays;
 pub mod vulkan;
 

@@ -7,6 +7,7 @@ use gi_host::vulkan::{
     Resource, SHADING_BINDINGS, SceneSet, SceneSets, TEXTURES_BINDING, TopLevel,
 };
 use gi_shared::abi::WORKGROUP_SIZE;
+use gi_shared::finite_check::FiniteCheckPush;
 use gi_shared::ray::{HitRecord, Ray};
 use gi_tests::{context, finish_without_validation_messages};
 
@@ -226,4 +227,48 @@ fn ray_queries_hit_the_expected_triangles() {
     drop(tlas);
     drop(blas);
     finish_without_validation_messages(ctx);
+}
+
+/// The validation layer's synchronization checks are on: a kernel that reads a buffer right
+/// after a fill, with no barrier between them, is reported as a hazard (the rest of the GPU
+/// suite runs with the same checks, and must stay silent).
+#[test]
+fn a_missing_barrier_is_reported() {
+    let ctx = context(KernelVariant::Software);
+    let module = KernelModule::new(&ctx).unwrap();
+    let kernel = Kernel::new(
+        &ctx,
+        &module,
+        gi_host::frame::FiniteCheck::ENTRY,
+        &[BindingKind::StorageBuffer, BindingKind::StorageBuffer],
+        std::mem::size_of::<FiniteCheckPush>() as u32,
+    )
+    .unwrap();
+    let words = Buffer::device_zeroed::<f32>(&ctx, "filled words", 64).unwrap();
+    let counts = Buffer::device_zeroed::<u32>(&ctx, "counts", 1).unwrap();
+    let push = FiniteCheckPush {
+        word_count: 64,
+        record_words: 1,
+        float_mask: 1,
+        slot: 0,
+    };
+    ctx.submit(|cmd| {
+        words.record_fill_zero(&ctx, cmd);
+        // No transfer barrier here: the read-after-write hazard under test.
+        kernel.dispatch(
+            &ctx,
+            cmd,
+            &[Resource::Buffer(&words), Resource::Buffer(&counts)],
+            bytemuck::bytes_of(&push),
+            [1, 1, 1],
+        )
+    })
+    .unwrap()
+    .unwrap();
+    drop((kernel, module, words, counts));
+    let messages = ctx.finish().unwrap();
+    assert!(
+        messages.iter().any(|m| m.contains("SYNC-HAZARD-READ")),
+        "no hazard reported: {messages:?}"
+    );
 }

@@ -13,7 +13,7 @@
 //!   [`both_tracing_variants_render_the_same_frame_cleanly`].
 
 use gi_host::KernelVariant;
-use gi_host::frame::{FiniteCheck, FloatWords};
+use gi_host::frame::FiniteCheck;
 use gi_host::gbuffer::scene_camera;
 use gi_host::gi::renderer::{GiFrameStats, GiRenderer};
 use gi_host::gi::{GiSettings, ViewOptions};
@@ -23,7 +23,7 @@ use gi_host::scene::Scene;
 use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
-use gi_host::vulkan::{Buffer, Context, KernelModule};
+use gi_host::vulkan::{Context, KernelModule};
 use gi_shared::cache_view::PASS_LIGHT_GRID;
 use gi_shared::camera::CameraParams;
 use gi_shared::hash::pcg_chain;
@@ -386,42 +386,6 @@ fn a_slow_orbit_stays_temporally_stable() {
     gpu.finish();
 }
 
-/// The GI frame's float buffers by name, with their float words.
-fn float_words() -> Vec<(&'static str, FloatWords)> {
-    let f = |words, floats: &[u32]| FloatWords::new(words, floats).unwrap();
-    let all = FloatWords::ALL;
-    vec![
-        ("probe atlas (a)", all),
-        ("probe atlas (b)", all),
-        ("probe history", all),
-        ("filtered probes (horizontal)", all),
-        ("filtered probes (vertical)", all),
-        ("probe SH", all),
-        // position, depth.
-        ("probe records (a)", f(8, &[0, 1, 2, 5])),
-        ("probe records (b)", f(8, &[0, 1, 2, 5])),
-        // direction, hit distance.
-        ("probe rays", f(8, &[0, 1, 2, 4])),
-        ("interpolated irradiance", all),
-        ("GI history (a)", all),
-        ("GI history (b)", all),
-        ("GI luma delta (a)", all),
-        ("GI luma delta (b)", all),
-        ("blur mask", all),
-        ("blur radius", all),
-        ("filtered GI (horizontal)", all),
-        ("filtered GI (vertical)", all),
-        // emission, direct.
-        ("primary lighting", f(8, &[0, 1, 2, 4, 5, 6])),
-        ("GI image", all),
-        ("hash grid values", all),
-        // ray_radiance, base.
-        ("ray records", f(8, &[0, 1, 2, 4, 5, 6])),
-        // radiance, depth, normal.
-        ("feedback history", f(8, &[0, 1, 2, 3, 4, 5, 6])),
-    ]
-}
-
 #[test]
 fn no_gi_buffer_holds_nan_or_inf_after_1000_moving_frames() {
     const SIDE_SMALL: u32 = 32;
@@ -444,22 +408,16 @@ fn no_gi_buffer_holds_nan_or_inf_after_1000_moving_frames() {
         ViewOptions::default(),
     )
     .unwrap();
-    let layouts = float_words();
     let mut checked = 0u64;
+    let mut buffer_count = 0;
     for f in 0..1000 {
         gi.render_frame(&gpu.ctx, &gpu.scene, &camera_at(f))
             .unwrap();
         if (f + 1) % 100 != 0 {
             continue;
         }
-        let named: Vec<(String, &Buffer)> = all_buffers(&gi);
-        let buffers: Vec<(&Buffer, FloatWords)> = layouts
-            .iter()
-            .map(|&(name, words)| {
-                let found = named.iter().find(|(n, _)| n == name);
-                (found.unwrap_or_else(|| panic!("no buffer {name}")).1, words)
-            })
-            .collect();
+        let buffers = gi.float_buffers().unwrap();
+        buffer_count = buffers.len();
         checked += buffers.iter().map(|(b, _)| b.size / 4).sum::<u64>();
         let counts = check.count(&gpu.ctx, &buffers).unwrap();
         assert!(
@@ -470,41 +428,11 @@ fn no_gi_buffer_holds_nan_or_inf_after_1000_moving_frames() {
     println!(
         "1000 moving frames: 0 non-finite floats in {checked} words checked ({} buffers every \
          100 frames)",
-        layouts.len()
+        buffer_count
     );
     drop(check);
     drop(gi);
     gpu.finish();
-}
-
-/// Every buffer of the renderer, by name.
-fn all_buffers(gi: &GiRenderer) -> Vec<(String, &Buffer)> {
-    let p = gi.probes();
-    let d = gi.denoiser();
-    let mut all: Vec<&Buffer> = vec![
-        p.atlas.current(),
-        p.atlas.previous(),
-        p.records.current(),
-        p.records.previous(),
-        &p.history,
-        &p.rays,
-        &p.filtered[0],
-        &p.filtered[1],
-        &p.sh,
-        &d.irradiance,
-        d.history.current(),
-        d.history.previous(),
-        d.luma_delta.current(),
-        d.luma_delta.previous(),
-        &d.blur_mask,
-        &d.blur_radius,
-        &d.filtered[0],
-        &d.filtered[1],
-        &gi.primary().primary,
-        &gi.primary().color,
-    ];
-    all.extend(gi.cache_resources().buffers());
-    all.into_iter().map(|b| (b.name().to_string(), b)).collect()
 }
 
 #[test]

@@ -2,6 +2,8 @@
 
 #[path = "gi/gi_render.rs"]
 mod gi_render;
+#[path = "gi/gi_soak.rs"]
+mod gi_soak;
 #[path = "gi/gi_sweep.rs"]
 mod gi_sweep;
 
@@ -22,6 +24,7 @@ use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
 use gi_render::{GiArgs, Method, render_gi};
 use gi_shared::camera::CameraParams;
+use gi_soak::{SoakArgs, run_soak};
 use gi_sweep::{SweepArgs, run_sweep};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -41,7 +44,8 @@ struct Cli {
     /// software BVH traversal that runs everywhere.
     #[arg(long, value_enum, default_value_t = TraceMode::Auto, global = true)]
     trace: TraceMode,
-    /// Turn the Vulkan validation layer on and fail on any message it prints.
+    /// Turn the Vulkan validation layer on, with its synchronization checks, and fail on any
+    /// message it prints.
     #[arg(long, global = true)]
     validation: bool,
     #[command(subcommand)]
@@ -180,6 +184,13 @@ enum Command {
     /// the cost scales with pixels, triangles and lights. Writes CSV, JSON, Markdown tables and
     /// plots (PNG and SVG).
     Sweep(SweepArgs),
+    /// Run the GI frame for many frames (default 10 000) with a moving camera, a moving point
+    /// light and the scene's animated object, with the validation layer on (synchronization
+    /// checks included; --no-validation checks the host's memory instead). Every --check-every
+    /// frames the GPU counts NaN and infinite floats in every float buffer and float image of the
+    /// frame, and host and device memory are sampled; cache occupancy and frame time are recorded
+    /// every frame. Prints a summary table; exits non-zero when a check fails.
+    Soak(SoakArgs),
     /// Write a synthetic instanced scene (GLB) for scaling tests: a closed room lit by an
     /// emissive ceiling panel, a camera, and many instances of a few tessellated meshes (spheres,
     /// tori, boxes) on a seeded grid, up to the requested world triangle count.
@@ -342,7 +353,10 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         return benchmark(cli, scenes, *width, *height, &settings);
     }
     let options = ContextOptions {
-        validation: cli.validation,
+        // A soak proves there are no validation messages: the layer is on for it unless the
+        // run checks the host's memory instead.
+        validation: cli.validation
+            || matches!(&cli.command, Some(Command::Soak(s)) if !s.no_validation),
         device: cli.device.clone(),
         trace: cli.trace,
     };
@@ -409,6 +423,9 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(Command::Sweep(args)) = &cli.command {
         run_sweep(&ctx, &options, args)?;
+    }
+    if let Some(Command::Soak(args)) = &cli.command {
+        run_soak(&ctx, args)?;
     }
     if let Some(Command::CacheView {
         scene,

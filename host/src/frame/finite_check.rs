@@ -1,11 +1,13 @@
 //! Host side of the `finite_check::count_non_finite` kernel (`gi_shared::finite_check`): counts
 //! the NaN and infinite `f32` words of a list of buffers on the GPU, by buffer name, in one
-//! submission.
+//! submission; 32-bit float images are copied into buffers first.
 
 use crate::error::{Error, Result};
 use crate::vulkan::{
-    BindingKind, Buffer, Context, Kernel, KernelModule, Resource, compute_barrier,
+    BindingKind, Buffer, Context, Image, Kernel, KernelModule, MemoryLocation, Resource,
+    compute_barrier,
 };
+use ash::vk;
 use gi_shared::finite_check::{FINITE_CHECK_GROUP, FiniteCheckPush, MAX_RECORD_WORDS};
 
 /// Most workgroups one dispatch runs (65 536 invocations, enough to fill any GPU): a larger
@@ -117,6 +119,54 @@ impl FiniteCheck {
             .iter()
             .zip(found)
             .map(|((b, _), n)| (b.name().to_owned(), n))
+            .collect())
+    }
+
+    /// The number of non-finite texels' channels in each of `images` (whatever wrote them must
+    /// have been submitted before), with the image's name, in the order given. Each image is
+    /// copied on the GPU into a scratch buffer that is then counted like a buffer. Only 32-bit
+    /// float formats can be read this way: another format is an error naming the image.
+    pub fn count_images(&self, ctx: &Context, images: &[&Image]) -> Result<Vec<(String, u32)>> {
+        for image in images {
+            if !matches!(
+                image.format,
+                vk::Format::R32_SFLOAT | vk::Format::R32G32B32A32_SFLOAT
+            ) {
+                return Err(Error::InvalidArgument {
+                    name: "image",
+                    why: format!(
+                        "{:?} is {:?}: the finite check reads 32-bit float texels only",
+                        image.name(),
+                        image.format
+                    ),
+                });
+            }
+        }
+        let copies = images
+            .iter()
+            .map(|i| {
+                let name = format!("{} (finite check)", i.name());
+                Buffer::new(
+                    ctx,
+                    &name,
+                    i.byte_size(),
+                    vk::BufferUsageFlags::empty(),
+                    MemoryLocation::GpuOnly,
+                )
+            })
+            .collect::<Result<Vec<_>>>()?;
+        ctx.submit(|cmd| {
+            for (image, copy) in images.iter().zip(&copies) {
+                image.record_copy_to(ctx, cmd, copy);
+            }
+        })?;
+        let buffers: Vec<(&Buffer, FloatWords)> =
+            copies.iter().map(|b| (b, FloatWords::ALL)).collect();
+        let counts = self.count(ctx, &buffers)?;
+        Ok(images
+            .iter()
+            .zip(counts)
+            .map(|(i, (_, n))| (i.name().to_owned(), n))
             .collect())
     }
 }

@@ -1,5 +1,5 @@
-//! Camera paths for multi-frame renders: a static camera, an orbit, or one camera per frame from
-//! a text file.
+//! Camera paths for multi-frame renders: a static camera, an orbit, a periodic swing, or one camera
+//! per frame from a text file.
 
 use crate::error::{Error, Result};
 use gi_shared::camera::CameraParams;
@@ -21,6 +21,17 @@ pub enum CameraPath {
     },
     /// One camera per frame, the last one held after the list ends.
     Keyframes(Vec<Keyframe>),
+    /// The base camera turned about the vertical axis through `pivot` by
+    /// `amplitude_degrees · sin(2π · frame / period)`: back and forth, the same every `period`
+    /// frames (frame 0 is the base camera).
+    Swing {
+        /// A point on the axis.
+        pivot: Vec3,
+        /// Largest turn either way, in degrees.
+        amplitude_degrees: f32,
+        /// Frames of one swing there and back (at least 1).
+        period: u32,
+    },
 }
 
 /// One camera of a [`CameraPath::Keyframes`] path.
@@ -108,7 +119,7 @@ impl CameraPath {
     }
 
     /// The camera of frame `frame`, from `base` (which gives the image size and, for static and
-    /// orbit paths, the view).
+    /// orbit and swing paths, the view).
     pub fn camera(&self, base: &CameraParams, frame: u32) -> CameraParams {
         let [width, height] = base.image_size;
         let fov = 2.0 * base.tan_half_fov_y.atan();
@@ -117,11 +128,16 @@ impl CameraPath {
             Self::Orbit {
                 pivot,
                 degrees_per_frame,
+            } => turned(base, *pivot, degrees_per_frame * frame as f32),
+            Self::Swing {
+                pivot,
+                amplitude_degrees,
+                period,
             } => {
-                let turn = Quat::from_rotation_y((degrees_per_frame * frame as f32).to_radians());
-                let position = *pivot + turn * (base.position() - *pivot);
-                let forward = turn * base.forward();
-                CameraParams::new(position, forward, Vec3::Y, fov, width, height)
+                let period = (*period).max(1);
+                let phase = (frame % period) as f32 / period as f32;
+                let degrees = amplitude_degrees * (std::f32::consts::TAU * phase).sin();
+                turned(base, *pivot, degrees)
             }
             Self::Keyframes(frames) => {
                 let k = frames[(frame as usize).min(frames.len() - 1)];
@@ -146,8 +162,22 @@ impl CameraPath {
                 degrees_per_frame, ..
             } => *degrees_per_frame != 0.0,
             Self::Keyframes(k) => k.windows(2).any(|w| w[0] != w[1]),
+            Self::Swing {
+                amplitude_degrees,
+                period,
+                ..
+            } => *amplitude_degrees != 0.0 && *period > 1,
         }
     }
+}
+
+/// `base` turned by `degrees` about the vertical axis through `pivot`.
+fn turned(base: &CameraParams, pivot: Vec3, degrees: f32) -> CameraParams {
+    let [width, height] = base.image_size;
+    let fov = 2.0 * base.tan_half_fov_y.atan();
+    let turn = Quat::from_rotation_y(degrees.to_radians());
+    let position = pivot + turn * (base.position() - pivot);
+    CameraParams::new(position, turn * base.forward(), Vec3::Y, fov, width, height)
 }
 
 #[cfg(test)]
@@ -174,6 +204,22 @@ mod tests {
         );
         assert!((c1.forward() - (-Vec3::X)).length() < 1e-4);
         assert!(path.moves() && !CameraPath::Static.moves());
+    }
+
+    #[test]
+    fn a_swing_repeats_every_period_and_turns_both_ways() {
+        let path = CameraPath::Swing {
+            pivot: Vec3::new(0.0, 1.0, 0.0),
+            amplitude_degrees: 30.0,
+            period: 8,
+        };
+        let at = |f| path.camera(&base(), f).position();
+        assert!((at(0) - base().position()).length() < 1e-5);
+        assert!((at(8) - at(0)).length() < 1e-5 && (at(11) - at(3)).length() < 1e-5);
+        // A quarter period: the full 30° one way (x = 5 sin 30°), three quarters the other way.
+        assert!((at(2).x - 2.5).abs() < 1e-4, "{}", at(2));
+        assert!((at(6).x + 2.5).abs() < 1e-4, "{}", at(6));
+        assert!(path.moves());
     }
 
     #[test]

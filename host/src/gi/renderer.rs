@@ -18,24 +18,29 @@ use super::screen_probes::{ProbeLayout, ScreenProbePasses, ScreenProbeResources,
 use super::settings::GiSettings;
 use super::world_cache::{CacheFrame, PassTimer, SceneLighting, WorldCache};
 use crate::error::Result;
+use crate::frame::FloatWords;
 use crate::gbuffer::GBufferImages;
 use crate::image_io::HdrImage;
 use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
 use crate::vulkan::{
-    BindingKind, Context, FrameTimings, GpuTimer, Kernel, KernelModule, Resource, compute_barrier,
-    transfer_barrier,
+    BindingKind, Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule, Resource,
+    compute_barrier, transfer_barrier,
 };
 use ash::vk;
-use gi_shared::cache_view::{CachePassParams, FLAG_PROBE_RAYS};
+use gi_shared::cache_view::{
+    CachePassParams, CacheQuery, CacheViewPixel, FLAG_PROBE_RAYS, FeedbackTexel, ShadowRay,
+};
 use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::cell_size_const;
-use gi_shared::primary_lighting::EXACT_DIRECT_LIGHTS;
+use gi_shared::light_grid::{LightGridEntry, LightGridParams};
+use gi_shared::primary_lighting::{EXACT_DIRECT_LIGHTS, PrimaryLighting};
 use gi_shared::screen_probes::{
     BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_HYSTERESIS, FLAG_SAMPLED_DIRECT, GiFrameParams,
-    OVERRIDE_COUNT, PATCHED_COUNT, PROBE_CELL_PIXELS, RELAXED_COUNT, REPROJECTED_COUNT,
-    SPAWN_COUNT,
+    OVERRIDE_COUNT, PATCHED_COUNT, PROBE_CELL_PIXELS, ProbeRay, ProbeRecord, RELAXED_COUNT,
+    REPROJECTED_COUNT, SPAWN_COUNT,
 };
+use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
 
 /// Timestamp spans per frame: one per pass.
 const PASSES_PER_FRAME: u32 = 32;
@@ -429,6 +434,87 @@ impl GiRenderer {
                 &cache.history,
             )
         })
+    }
+
+    /// Every buffer of the frame that holds floats, with which of its words are floats: what
+    /// [`FiniteCheck`](crate::frame::FiniteCheck) reads to prove a frame clean. Parameters the
+    /// host writes, counters, keys, lists and packed integers are left out.
+    pub fn float_buffers(&self) -> Result<Vec<(&Buffer, FloatWords)>> {
+        // The float words of a `gi_shared` record `T`, by index.
+        fn f<T>(floats: &[u32]) -> Result<FloatWords> {
+            FloatWords::new((std::mem::size_of::<T>() / 4) as u32, floats)
+        }
+        let all = FloatWords::ALL;
+        let (p, d, c) = (&self.probes, &self.denoiser, &self.cache_res);
+        // Word layouts of the `gi_shared` records, floats by index.
+        let probe_record = f::<ProbeRecord>(&[0, 1, 2, 5])?; // position, depth
+        let probe_ray = f::<ProbeRay>(&[0, 1, 2, 4])?; // direction, hit distance
+        let surface = f::<[f32; 4]>(&[0, 1, 2])?; // position, packed normal
+        let primary = f::<PrimaryLighting>(&[0, 1, 2, 4, 5, 6])?; // emission, direct
+        // Hit position, direction, hit distance, normal, albedo.
+        let query = f::<CacheQuery>(&[0, 1, 2, 4, 5, 6, 7, 8, 9, 10, 12, 13, 14])?;
+        // Origin, direction, t_max, contribution.
+        let shadow_ray = f::<ShadowRay>(&[0, 1, 2, 4, 5, 6, 7, 8, 9, 10])?;
+        let ray_record = f::<CacheViewPixel>(&[0, 1, 2, 4, 5, 6])?; // ray_radiance, base
+        let feedback = f::<FeedbackTexel>(&[0, 1, 2, 3, 4, 5, 6])?; // radiance, depth, normal
+        // Origin, cell size, environment irradiance, emissive multiplier.
+        let light_grid = f::<LightGridParams>(&[0, 1, 2, 3, 10, 11])?;
+        let light_entry = f::<LightGridEntry>(&[1])?; // pmf
+        let reservoir = f::<PackedReservoir>(&[2, 3])?; // W, M
+        let hit = f::<ReservoirHit>(&[0, 1, 2])?; // position
+        let mut buffers = vec![
+            (p.atlas.current(), all),
+            (p.atlas.previous(), all),
+            (p.records.current(), probe_record),
+            (p.records.previous(), probe_record),
+            (&p.history, all),
+            (&p.rays, probe_ray),
+            (&p.filtered[0], all),
+            (&p.filtered[1], all),
+            (&p.sh, all),
+            (&d.irradiance, all),
+            (d.history.current(), all),
+            (d.history.previous(), all),
+            (d.surface.current(), surface),
+            (d.surface.previous(), surface),
+            (d.luma_delta.current(), all),
+            (d.luma_delta.previous(), all),
+            (&d.blur_mask, all),
+            (&d.blur_radius, all),
+            (&d.filtered[0], all),
+            (&d.filtered[1], all),
+            (&self.primary.primary, primary),
+            (&self.primary.color, all),
+            (&c.values, all),
+            (&c.queries, query),
+            (&c.shadow_rays, shadow_ray),
+            (&c.ray_records, ray_record),
+            (&c.history, feedback),
+            (&c.accumulation, all),
+            (&c.light_grid, light_grid),
+            (&c.light_grid_entries, light_entry),
+        ];
+        for grid in [self.restir.grids.current(), self.restir.grids.previous()] {
+            buffers.push((&grid.reservoirs, reservoir));
+            buffers.push((&grid.hits, hit));
+        }
+        Ok(buffers)
+    }
+
+    /// The images of the frame with 32-bit float texels (the G-buffer's depth and motion), for
+    /// [`FiniteCheck::count_images`](crate::frame::FiniteCheck::count_images). The half-float
+    /// G-buffer images (normals, emission) are not among them: the check reads 32-bit floats.
+    pub fn float_images(&self) -> Vec<&Image> {
+        self.gbuffer
+            .images
+            .iter()
+            .filter(|i| {
+                matches!(
+                    i.format,
+                    vk::Format::R32_SFLOAT | vk::Format::R32G32B32A32_SFLOAT
+                )
+            })
+            .collect()
     }
 
     /// The last frame's image (linear HDR).

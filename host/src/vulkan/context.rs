@@ -2,7 +2,7 @@
 //! the memory allocator and one-shot submissions.
 
 use super::capabilities::{Capabilities, FeatureChain};
-use super::memory::{BufferInfo, ResourceRegistry};
+use super::memory::{BufferInfo, DeviceMemoryUse, ResourceRegistry};
 use super::pipeline::{SceneSet, create_set_layout};
 use super::validation::ValidationLog;
 use crate::error::{Error, Result, VkContext};
@@ -30,7 +30,8 @@ const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 /// How to create a [`Context`].
 #[derive(Clone, Debug, Default)]
 pub struct ContextOptions {
-    /// Enable the Khronos validation layer and count its messages (always on in tests).
+    /// Enable the Khronos validation layer, with its synchronization checks (missing or wrong
+    /// barriers between the passes), and count its messages (always on in tests).
     pub validation: bool,
     /// Device index or a case-insensitive part of its name; `None` uses [`DEVICE_ENV`], then the
     /// best device (discrete > integrated > virtual > CPU).
@@ -177,14 +178,26 @@ impl Context {
             vec![]
         };
         let ext_ptrs: Vec<*const c_char> = if validation.is_some() {
-            vec![ash::ext::debug_utils::NAME.as_ptr()]
+            vec![
+                ash::ext::debug_utils::NAME.as_ptr(),
+                ash::ext::validation_features::NAME.as_ptr(),
+            ]
         } else {
             vec![]
         };
-        let instance_info = vk::InstanceCreateInfo::default()
+        // VK_EXT_validation_features rather than VK_EXT_layer_settings: the layer of Debian
+        // bookworm (1.3.239, what scripts/setup.sh installs) predates the latter, and later
+        // layers still honour the former.
+        let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut features =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
+        let mut instance_info = vk::InstanceCreateInfo::default()
             .application_info(&app)
             .enabled_layer_names(&layer_ptrs)
             .enabled_extension_names(&ext_ptrs);
+        if validation.is_some() {
+            instance_info = instance_info.push_next(&mut features);
+        }
         let instance = match unsafe { entry.create_instance(&instance_info, None) } {
             Ok(i) => i,
             Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
@@ -398,6 +411,21 @@ impl Context {
     /// and the location it asked for.
     pub fn live_images(&self) -> Vec<BufferInfo> {
         self.shared.images.snapshot()
+    }
+
+    /// The device memory the allocator holds now, from its report.
+    pub fn device_memory(&self) -> DeviceMemoryUse {
+        let report = match self.shared.allocator.lock() {
+            Ok(a) => a.generate_report(),
+            // Every allocator call is one step: its state is whole even after a panic elsewhere.
+            Err(poisoned) => poisoned.into_inner().generate_report(),
+        };
+        DeviceMemoryUse {
+            allocated: report.total_allocated_bytes,
+            reserved: report.total_capacity_bytes,
+            allocations: report.allocations.len(),
+            blocks: report.blocks.len(),
+        }
     }
 
     /// Validation messages (warnings and errors) seen so far; `None` when validation is off.

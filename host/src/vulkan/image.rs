@@ -217,15 +217,16 @@ impl Image {
             .image_layout(vk::ImageLayout::GENERAL)
     }
 
-    /// Copies the image to the host: texels row by row from the top, tightly packed, in the
-    /// image's format. Waits for all earlier submitted work that wrote it from a compute shader.
-    pub fn read_back(&self, ctx: &Context) -> Result<Vec<u8>> {
-        let mut staging = Buffer::readback::<u8>(
-            ctx,
-            &format!("{} read-back", self.name),
-            self.byte_size() as usize,
-        )?;
-        let copied = ctx.submit(|cmd| unsafe {
+    /// The name it was created with.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Records a copy of the whole image into `buffer` (at least [`Image::byte_size`] bytes):
+    /// texels row by row from the top, tightly packed. Waits for earlier compute writes of the
+    /// image; the copy is visible to later compute shaders and host reads of `buffer`.
+    pub fn record_copy_to(&self, ctx: &Context, cmd: vk::CommandBuffer, buffer: &Buffer) {
+        unsafe {
             // Earlier submissions are in this barrier's first scope (submission order). Copies
             // from GENERAL are slow on some devices: move to TRANSFER_SRC_OPTIMAL and back.
             let to_transfer = [self.layout_barrier(
@@ -259,12 +260,12 @@ impl Image {
                 cmd,
                 self.handle,
                 vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                staging.handle,
+                buffer.handle,
                 &region,
             );
             let after = [vk::MemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ)];
+                .dst_access_mask(vk::AccessFlags::HOST_READ | vk::AccessFlags::SHADER_READ)];
             let to_general = [self.layout_barrier(
                 vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                 vk::ImageLayout::GENERAL,
@@ -280,8 +281,18 @@ impl Image {
                 &[],
                 &to_general,
             );
-        });
-        copied?;
+        }
+    }
+
+    /// Copies the image to the host: texels row by row from the top, tightly packed, in the
+    /// image's format. Waits for all earlier submitted work that wrote it from a compute shader.
+    pub fn read_back(&self, ctx: &Context) -> Result<Vec<u8>> {
+        let mut staging = Buffer::readback::<u8>(
+            ctx,
+            &format!("{} read-back", self.name),
+            self.byte_size() as usize,
+        )?;
+        ctx.submit(|cmd| self.record_copy_to(ctx, cmd, &staging))?;
         staging.read::<u8>()
     }
 }

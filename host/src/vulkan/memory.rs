@@ -87,6 +87,19 @@ pub struct BufferInfo {
     pub location: MemoryLocation,
 }
 
+/// What a context's allocator holds from the device ([`Context::device_memory`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DeviceMemoryUse {
+    /// Bytes in live allocations (buffers, images, acceleration structures).
+    pub allocated: u64,
+    /// Bytes of the memory blocks the allocator holds from the driver, used or not.
+    pub reserved: u64,
+    /// Live allocations.
+    pub allocations: usize,
+    /// Memory blocks.
+    pub blocks: usize,
+}
+
 /// The resources (buffers or images) alive on a context, in creation order, keyed by their
 /// handle.
 pub(crate) struct ResourceRegistry<H>(Mutex<Vec<(H, BufferInfo)>>);

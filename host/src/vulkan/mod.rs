@@ -17,7 +17,9 @@ pub use capabilities::Capabilities;
 pub use context::{Context, ContextOptions, DEVICE_ENV, LOADER_ENV, SUBMIT_TIMEOUT, select_device};
 pub use image::Image;
 pub(crate) use memory::memory_barrier;
-pub use memory::{Buffer, BufferInfo, MemoryLocation, StagedWrites, transfer_barrier};
+pub use memory::{
+    Buffer, BufferInfo, DeviceMemoryUse, MemoryLocation, StagedWrites, transfer_barrier,
+};
 pub use ping_pong::PingPong;
 pub use pipeline::{
     BindingKind, DescriptorSet, Kernel, KernelModule, MAX_PUSH_BINDINGS, MAX_SCENE_TEXTURES,

@@ -395,8 +395,9 @@ impl Drop for Kernel {
     }
 }
 
-/// Makes every shader write before this point visible to later shaders, transfers and host reads
-/// (a fence alone does not make device writes visible to the host).
+/// Makes every shader write before this point visible to later shaders, transfers (copies from
+/// it, and fills, updates and copies over it) and host reads (a fence alone does not make device
+/// writes visible to the host).
 pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
     memory_barrier(
         ctx,
@@ -409,9 +410,13 @@ pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
             vk::PipelineStageFlags::COMPUTE_SHADER
                 | vk::PipelineStageFlags::TRANSFER
                 | vk::PipelineStageFlags::HOST,
+            // TRANSFER_WRITE: a transfer overwriting what a kernel wrote (a counter reset by
+            // vkCmdUpdateBuffer after the pass that wrote it) is a write-after-write hazard
+            // without it (synchronization validation reports it).
             vk::AccessFlags::SHADER_READ
                 | vk::AccessFlags::SHADER_WRITE
                 | vk::AccessFlags::TRANSFER_READ
+                | vk::AccessFlags::TRANSFER_WRITE
                 | vk::AccessFlags::HOST_READ,
         ),
     );
