@@ -36,10 +36,19 @@ const TEXTURE_EXTENSIONS: [&str; 2] = ["KHR_texture_basisu", "MSFT_texture_dds"]
 
 pub(super) fn load(path: &Path) -> Result<(Scene, Vec<Warning>)> {
     let start = Instant::now();
+    let bytes = std::fs::read(path)
+        .map_err(|e| Ctx::new(path).error("file", format!("cannot read it: {e}")))?;
+    load_bytes(path, &bytes, start)
+}
+
+/// Loads the file `path` whose bytes are `bytes`; `start` is when reading it began.
+pub(super) fn load_bytes(
+    path: &Path,
+    bytes: &[u8],
+    start: Instant,
+) -> Result<(Scene, Vec<Warning>)> {
     let mut ctx = Ctx::new(path);
-    let bytes =
-        std::fs::read(path).map_err(|e| ctx.error("file", format!("cannot read it: {e}")))?;
-    let doc = Document::parse(&mut ctx, &bytes)?;
+    let doc = Document::parse(&mut ctx, bytes)?;
     let builder = Builder {
         stages: vec![LoadStage {
             name: "parse",
