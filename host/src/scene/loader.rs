@@ -31,6 +31,9 @@ use crate::Result;
 /// Deepest node hierarchy followed: deeper is taken for garbage (and would exhaust the stack).
 const MAX_NODE_DEPTH: usize = 1024;
 
+/// Largest image file read: bounds what a URI naming a huge file makes the loader read.
+const MAX_IMAGE_FILE_BYTES: u64 = 1 << 30;
+
 /// Texture extensions whose image a texture prefers to its `source`, in order of preference.
 const TEXTURE_EXTENSIONS: [&str; 2] = ["KHR_texture_basisu", "MSFT_texture_dds"];
 
@@ -971,7 +974,15 @@ fn decode_texture(ctx: &Ctx, doc: &Document, index: usize) -> DecodedTexture {
             None => label("images", image_index, image.name.as_deref()),
         };
         let bytes = match (&image.uri, image.buffer_view) {
-            (Some(uri), _) => ctx.read_uri(uri),
+            (Some(uri), _) => ctx
+                .read_uri(uri, MAX_IMAGE_FILE_BYTES + 1)
+                .and_then(|bytes| match bytes.len() as u64 > MAX_IMAGE_FILE_BYTES {
+                    true => Err(format!(
+                        "the file is larger than the {} MiB an image file may have",
+                        MAX_IMAGE_FILE_BYTES >> 20
+                    )),
+                    false => Ok(bytes),
+                }),
             (None, Some(view)) => doc
                 .view(ctx, view.value())
                 .map(<[u8]>::to_vec)
