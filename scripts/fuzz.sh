@@ -15,6 +15,16 @@ targets=("$@")
 
 command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
 
+# Build products: in the machine's persistent target directory when one is set (scripts/env.sh),
+# under fuzz/ otherwise. Every crate is built with sanitizer flags, so none is shared with the
+# workspace's own builds.
+target_dir=${CARGO_TARGET_DIR:+$CARGO_TARGET_DIR/fuzz}
+target_dir=${target_dir:-fuzz/target}
+# One build of every target, then the binaries themselves: `cargo fuzz run` builds again on each
+# call (twice), and gi-host's build script reruns whenever ../shared/scenes/third-party is absent.
+cargo fuzz build --fuzz-dir fuzz --target-dir "$target_dir"
+bin="$target_dir/$(rustc -vV | sed -n 's/^host: //p')/release"
+
 for target in "${targets[@]}"; do
     case $target in
     scene) seeds=(scenes tests/data tests/data/bad) ;;
@@ -24,9 +34,9 @@ for target in "${targets[@]}"; do
         exit 2
         ;;
     esac
-    mkdir -p "fuzz/corpus/$target"
+    mkdir -p "fuzz/corpus/$target" "fuzz/artifacts/$target"
     echo "fuzz target $target: ${seconds} s"
-    # Paths as seen from fuzz/, where cargo-fuzz runs the target.
-    cargo fuzz run --fuzz-dir fuzz "$target" "fuzz/corpus/$target" "${seeds[@]}" -- \
-        -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -print_final_stats=1
+    "$bin/$target" -artifact_prefix="fuzz/artifacts/$target/" -max_total_time="$seconds" \
+        -timeout=10 -rss_limit_mb=4096 -print_final_stats=1 \
+        "fuzz/corpus/$target" "${seeds[@]}"
 done

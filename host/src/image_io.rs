@@ -307,8 +307,28 @@ fn decode_image(path: &Path, bytes: &[u8], transfer: fn(f32) -> f32) -> Result<H
     HdrImage::from_pixels(width, height, pixels).map_err(|e| image_error(path, e))
 }
 
+/// Largest OpenEXR layer read, in pixels (8192 × 8192, 768 MiB as `f32` RGB): the header alone
+/// sizes the pixel buffer, so a corrupt one could ask for any amount of memory.
+const MAX_EXR_PIXELS: usize = 1 << 26;
+
 /// Decodes the first RGB layer of an OpenEXR file at its largest resolution level.
 fn decode_exr(path: &Path, bytes: &[u8]) -> Result<HdrImage> {
+    let cannot_read =
+        |e: exr::error::Error| image_error(path, format_args!("cannot read OpenEXR: {e}"));
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(cannot_read)?;
+    for (i, header) in meta.headers.iter().enumerate() {
+        let (width, height) = (header.layer_size.width(), header.layer_size.height());
+        if width.checked_mul(height).is_none_or(|n| n > MAX_EXR_PIXELS) {
+            return Err(image_error(
+                path,
+                format_args!(
+                    "OpenEXR layer {i} of {width}x{height} pixels is larger than the \
+                     {MAX_EXR_PIXELS} pixels an image may have"
+                ),
+            ));
+        }
+    }
     let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -321,7 +341,7 @@ fn decode_exr(path: &Path, bytes: &[u8]) -> Result<HdrImage> {
         .first_valid_layer()
         .all_attributes()
         .from_buffered(std::io::Cursor::new(bytes))
-        .map_err(|e| image_error(path, format_args!("cannot read OpenEXR: {e}")))?;
+        .map_err(cannot_read)?;
     let size = image.layer_data.size;
     let (_, pixels) = image.layer_data.channel_data.pixels;
     let dimension = |n: usize| {

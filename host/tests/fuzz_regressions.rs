@@ -2,6 +2,7 @@
 //! `tests/data/bad/fuzz-*` with the exact error or warning it must now give. CPU only.
 
 use gi_host::Error;
+use gi_host::image_io::HdrImage;
 use gi_host::scene::{Scene, Warning};
 use std::path::{Path, PathBuf};
 
@@ -42,4 +43,23 @@ fn an_image_uri_naming_a_device_is_a_warning_and_the_factor_is_used() {
     assert!(w.message.contains("/dev/zero is not a regular file"), "{w}");
     assert!(scene.textures.is_empty());
     assert_eq!(scene.materials[0].base_color_texture, None);
+}
+
+// The header alone sized the pixel buffer: this 369-byte file asked for over a petabyte
+// (796262404 × 131378 pixels) and the allocation aborted the process.
+#[test]
+fn an_exr_whose_header_declares_a_huge_image_is_an_error() {
+    let file = repo("tests/data/bad/fuzz-exr-huge-data-window.exr");
+    match HdrImage::read(&file) {
+        Ok(image) => panic!("decoded a {}x{} image", image.width(), image.height()),
+        Err(Error::Image { path, why }) => {
+            assert_eq!(path, file);
+            assert_eq!(
+                why,
+                "OpenEXR layer 0 of 796262404x131378 pixels is larger than the 67108864 pixels an \
+             image may have"
+            );
+        }
+        Err(e) => panic!("not an image error: {e}"),
+    }
 }
