@@ -207,29 +207,27 @@ impl HdrImage {
     /// RGBE (linear, as it is), anything else as PNG/JPEG through [`HdrImage::read_ldr`].
     pub fn read(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
+        Self::decode(path, &read_file(path)?)
+    }
+
+    /// Decodes the bytes of an image file as [`HdrImage::read`] reads the file at `path` (the
+    /// format by `path`'s extension, errors naming `path`), for images already in memory.
+    pub fn decode(path: impl AsRef<Path>, bytes: &[u8]) -> Result<Self> {
+        let path = path.as_ref();
         let extension = |x: &str| path.extension().is_some_and(|e| e.eq_ignore_ascii_case(x));
         if extension("exr") {
-            Self::read_exr(path)
+            decode_exr(path, bytes)
         } else if extension("hdr") {
-            Self::read_radiance_hdr(path)
+            decode_image(path, bytes, |v| v)
         } else {
-            Self::read_ldr(path)
+            decode_image(path, bytes, srgb_decode)
         }
     }
 
     /// Reads a Radiance RGBE (`.hdr`) image; its values are linear already.
     pub fn read_radiance_hdr(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let decoded = image::ImageReader::open(path)
-            .map_err(|e| image_error(path, format_args!("cannot open: {e}")))?
-            .with_guessed_format()
-            .map_err(|e| image_error(path, format_args!("cannot read: {e}")))?
-            .decode()
-            .map_err(|e| image_error(path, format_args!("cannot decode: {e}")))?
-            .into_rgb32f();
-        let (width, height) = decoded.dimensions();
-        let pixels = decoded.pixels().map(|p| p.0).collect();
-        Self::from_pixels(width, height, pixels).map_err(|e| image_error(path, e))
+        decode_image(path, &read_file(path)?, |v| v)
     }
 
     /// Writes the image as OpenEXR: channels R, G, B in `f32`, lossless ZIP compression, every
@@ -255,26 +253,7 @@ impl HdrImage {
     /// uint samples, converted to `f32`), at its largest resolution level.
     pub fn read_exr(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let image = exr::prelude::read()
-            .no_deep_data()
-            .largest_resolution_level()
-            .rgb_channels(
-                |size, _| (size.width(), vec![[0.0f32; 3]; size.area()]),
-                |(width, pixels): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b): (f32, f32, f32)| {
-                    pixels[pos.y() * *width + pos.x()] = [r, g, b];
-                },
-            )
-            .first_valid_layer()
-            .all_attributes()
-            .from_file(path)
-            .map_err(|e| image_error(path, format_args!("cannot read OpenEXR: {e}")))?;
-        let size = image.layer_data.size;
-        let (_, pixels) = image.layer_data.channel_data.pixels;
-        let dimension = |n: usize| {
-            u32::try_from(n).map_err(|_| image_error(path, format_args!("{n} pixels is too large")))
-        };
-        Self::from_pixels(dimension(size.width())?, dimension(size.height())?, pixels)
-            .map_err(|e| image_error(path, e))
+        decode_exr(path, &read_file(path)?)
     }
 
     /// Writes the image as an 8-bit sRGB PNG through `tone`: see [`ToneMap::to_srgb8`]. A
@@ -313,15 +292,72 @@ impl HdrImage {
     /// PNGs keep their precision and alpha is dropped.
     pub fn read_ldr(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let decoded = image::ImageReader::open(path)
-            .map_err(|e| image_error(path, format_args!("cannot open: {e}")))?
-            .with_guessed_format()
-            .map_err(|e| image_error(path, format_args!("cannot read: {e}")))?
-            .decode()
-            .map_err(|e| image_error(path, format_args!("cannot decode: {e}")))?
-            .into_rgb32f();
-        let (width, height) = decoded.dimensions();
-        let pixels = decoded.pixels().map(|p| p.0.map(srgb_decode)).collect();
-        Self::from_pixels(width, height, pixels).map_err(|e| image_error(path, e))
+        decode_image(path, &read_file(path)?, srgb_decode)
     }
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| image_error(path, format_args!("cannot read: {e}")))
+}
+
+/// Decodes an image the `image` crate reads (format from the content, else from `path`'s
+/// extension), each channel through `transfer`.
+fn decode_image(path: &Path, bytes: &[u8], transfer: fn(f32) -> f32) -> Result<HdrImage> {
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
+    if let Ok(format) = image::ImageFormat::from_path(path) {
+        reader.set_format(format);
+    }
+    let decoded = reader
+        .with_guessed_format()
+        .map_err(|e| image_error(path, format_args!("cannot read: {e}")))?
+        .decode()
+        .map_err(|e| image_error(path, format_args!("cannot decode: {e}")))?
+        .into_rgb32f();
+    let (width, height) = decoded.dimensions();
+    let pixels = decoded.pixels().map(|p| p.0.map(transfer)).collect();
+    HdrImage::from_pixels(width, height, pixels).map_err(|e| image_error(path, e))
+}
+
+/// Largest OpenEXR layer read, in pixels (8192 × 8192, 768 MiB as `f32` RGB): the header alone
+/// sizes the pixel buffer, so a corrupt one could ask for any amount of memory.
+const MAX_EXR_PIXELS: usize = 1 << 26;
+
+/// Decodes the first RGB layer of an OpenEXR file at its largest resolution level.
+fn decode_exr(path: &Path, bytes: &[u8]) -> Result<HdrImage> {
+    let cannot_read =
+        |e: exr::error::Error| image_error(path, format_args!("cannot read OpenEXR: {e}"));
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(cannot_read)?;
+    for (i, header) in meta.headers.iter().enumerate() {
+        let (width, height) = (header.layer_size.width(), header.layer_size.height());
+        if width.checked_mul(height).is_none_or(|n| n > MAX_EXR_PIXELS) {
+            return Err(image_error(
+                path,
+                format_args!(
+                    "OpenEXR layer {i} of {width}x{height} pixels is larger than the \
+                     {MAX_EXR_PIXELS} pixels an image may have"
+                ),
+            ));
+        }
+    }
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgb_channels(
+            |size, _| (size.width(), vec![[0.0f32; 3]; size.area()]),
+            |(width, pixels): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b): (f32, f32, f32)| {
+                pixels[pos.y() * *width + pos.x()] = [r, g, b];
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(cannot_read)?;
+    let size = image.layer_data.size;
+    let (_, pixels) = image.layer_data.channel_data.pixels;
+    let dimension = |n: usize| {
+        u32::try_from(n).map_err(|_| image_error(path, format_args!("{n} pixels is too large")))
+    };
+    HdrImage::from_pixels(dimension(size.width())?, dimension(size.height())?, pixels)
+        .map_err(|e| image_error(path, e))
 }

@@ -30,8 +30,17 @@ pub enum KernelVariant {
     Software,
 }
 
+/// Whether this build has the kernels (the `kernels` feature): without them no context opens.
+pub const BUILT: bool = cfg!(feature = "kernels");
+
+#[cfg(feature = "kernels")]
 const SOFTWARE_SPV: &[u8] = include_bytes!(env!("GI_KERNELS_SOFTWARE_SPV"));
+#[cfg(feature = "kernels")]
 const RAY_QUERY_SPV: &[u8] = include_bytes!(env!("GI_KERNELS_RAY_QUERY_SPV"));
+#[cfg(not(feature = "kernels"))]
+const SOFTWARE_SPV: &[u8] = &[];
+#[cfg(not(feature = "kernels"))]
+const RAY_QUERY_SPV: &[u8] = &[];
 
 impl KernelVariant {
     /// Both variants, software first.

@@ -9,6 +9,7 @@ use gltf::json::{
     validation::{Checked, Error as ValidationError, Validate},
 };
 use std::collections::HashMap;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use super::Warning;
@@ -88,9 +89,10 @@ impl Ctx {
         self.warnings
     }
 
-    /// The bytes a URI names: a base64 `data:` URI, or a path relative to the scene file. The
-    /// error says why, naming the file it tried.
-    pub fn read_uri(&self, uri: &str) -> std::result::Result<Vec<u8>, String> {
+    /// The bytes a URI names, at most `at_most` of them: a base64 `data:` URI (all of it), or a
+    /// path relative to the scene file, which must be a regular file (a device such as
+    /// `/dev/zero`, or a pipe, may never end). The error says why, naming the file it tried.
+    pub fn read_uri(&self, uri: &str, at_most: u64) -> std::result::Result<Vec<u8>, String> {
         if let Some(data) = uri.strip_prefix("data:") {
             let Some((header, payload)) = data.split_once(',') else {
                 return Err("data URI without a ',' before its payload".to_owned());
@@ -108,7 +110,16 @@ impl Ctx {
             ));
         }
         let path = self.dir.join(percent_decode(uri));
-        std::fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+        let cannot_read = |e: std::io::Error| format!("cannot read {}: {e}", path.display());
+        let file = std::fs::File::open(&path).map_err(cannot_read)?;
+        if !file.metadata().map_err(cannot_read)?.is_file() {
+            return Err(format!("{} is not a regular file", path.display()));
+        }
+        let mut data = Vec::new();
+        file.take(at_most)
+            .read_to_end(&mut data)
+            .map_err(cannot_read)?;
+        Ok(data)
     }
 }
 
@@ -577,7 +588,8 @@ fn load_buffers(ctx: &Ctx, root: &json::Root, bin: Option<&[u8]>) -> Result<Vec<
         .map(|(i, buffer)| {
             let element = label("buffers", i, buffer.name.as_deref());
             let mut data = match (&buffer.uri, bin) {
-                (Some(uri), _) => ctx.read_uri(uri).map_err(|why| {
+                // A longer file is fine: bytes past byteLength are never read.
+                (Some(uri), _) => ctx.read_uri(uri, buffer.byte_length.0).map_err(|why| {
                     // A data URI can be megabytes of base64: name it, do not quote it.
                     let source = match uri.starts_with("data:") {
                         true => "(data URI)".to_owned(),

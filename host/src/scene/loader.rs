@@ -31,15 +31,27 @@ use crate::Result;
 /// Deepest node hierarchy followed: deeper is taken for garbage (and would exhaust the stack).
 const MAX_NODE_DEPTH: usize = 1024;
 
+/// Largest image file read: bounds what a URI naming a huge file makes the loader read.
+const MAX_IMAGE_FILE_BYTES: u64 = 1 << 30;
+
 /// Texture extensions whose image a texture prefers to its `source`, in order of preference.
 const TEXTURE_EXTENSIONS: [&str; 2] = ["KHR_texture_basisu", "MSFT_texture_dds"];
 
 pub(super) fn load(path: &Path) -> Result<(Scene, Vec<Warning>)> {
     let start = Instant::now();
+    let bytes = std::fs::read(path)
+        .map_err(|e| Ctx::new(path).error("file", format!("cannot read it: {e}")))?;
+    load_bytes(path, &bytes, start)
+}
+
+/// Loads the file `path` whose bytes are `bytes`; `start` is when reading it began.
+pub(super) fn load_bytes(
+    path: &Path,
+    bytes: &[u8],
+    start: Instant,
+) -> Result<(Scene, Vec<Warning>)> {
     let mut ctx = Ctx::new(path);
-    let bytes =
-        std::fs::read(path).map_err(|e| ctx.error("file", format!("cannot read it: {e}")))?;
-    let doc = Document::parse(&mut ctx, &bytes)?;
+    let doc = Document::parse(&mut ctx, bytes)?;
     let builder = Builder {
         stages: vec![LoadStage {
             name: "parse",
@@ -1051,7 +1063,15 @@ fn decode_texture(ctx: &Ctx, doc: &Document, index: usize) -> DecodedTexture {
             None => label("images", image_index, image.name.as_deref()),
         };
         let bytes = match (&image.uri, image.buffer_view) {
-            (Some(uri), _) => ctx.read_uri(uri),
+            (Some(uri), _) => ctx
+                .read_uri(uri, MAX_IMAGE_FILE_BYTES + 1)
+                .and_then(|bytes| match bytes.len() as u64 > MAX_IMAGE_FILE_BYTES {
+                    true => Err(format!(
+                        "the file is larger than the {} MiB an image file may have",
+                        MAX_IMAGE_FILE_BYTES >> 20
+                    )),
+                    false => Ok(bytes),
+                }),
             (None, Some(view)) => doc
                 .view(ctx, view.value())
                 .map(<[u8]>::to_vec)

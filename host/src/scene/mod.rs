@@ -80,7 +80,7 @@ pub mod memory_report;
 pub mod mip_chain;
 pub mod procedural;
 pub mod synthetic;
-mod texture_files;
+pub mod texture_files;
 pub mod upload;
 
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -157,6 +157,13 @@ impl Scene {
     /// input is an error and which a warning.
     pub fn load(path: impl AsRef<Path>) -> Result<(Scene, Vec<Warning>)> {
         loader::load(path.as_ref())
+    }
+
+    /// Loads a `.gltf` or `.glb` file from its bytes, as [`Scene::load`] loads the file at
+    /// `path`: relative URIs resolve beside `path` and messages name it (the file itself is not
+    /// read). For scenes that are already in memory.
+    pub fn from_bytes(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(Scene, Vec<Warning>)> {
+        loader::load_bytes(path.as_ref(), bytes, std::time::Instant::now())
     }
 
     /// Recomputes [`Scene::blases`] (reordering each mesh's triangles and their materials into

@@ -35,8 +35,10 @@ use super::mip_chain::{level_count, level_size, mip_chain};
 
 /// A decoded texture: its size and complete RGBA8 mip chain.
 #[derive(Debug)]
-pub(super) struct Decoded {
+pub struct Decoded {
+    /// Width of level 0 in texels.
     pub width: u32,
+    /// Height of level 0 in texels.
     pub height: u32,
     /// Level 0 first, down to 1×1.
     pub levels: Vec<Vec<u8>>,
@@ -53,7 +55,7 @@ const MAX_SIDE: u32 = 16_384;
 
 /// Decodes a texture file (PNG, JPEG, KTX2 or DDS) whose colour channels are sRGB-encoded if
 /// `srgb`; the error says why it cannot be used.
-pub(super) fn decode(bytes: &[u8], srgb: bool) -> Result<Decoded, String> {
+pub fn decode(bytes: &[u8], srgb: bool) -> Result<Decoded, String> {
     let (width, height, levels, note) = if bytes.starts_with(&KTX2_MAGIC) {
         ktx2_levels(bytes, srgb).map_err(|e| format!("KTX2: {e}"))?
     } else if bytes.starts_with(b"DDS ") {
