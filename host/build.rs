@@ -16,7 +16,13 @@ fn main() {
     // read them are ignored, saying why, where it is absent (a user's clone).
     let third_party = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(THIRD_PARTY_SCENES);
     println!("cargo::rustc-check-cfg=cfg(third_party_scenes)");
-    println!("cargo::rerun-if-changed={}", third_party.display());
+    // Cargo reruns a build script on every build that watches a path which does not exist (and
+    // rebuilds the crate): watch the deepest ancestor that does, which changes when it appears.
+    let watched = third_party
+        .ancestors()
+        .find(|p| p.exists())
+        .unwrap_or(&third_party);
+    println!("cargo::rerun-if-changed={}", watched.display());
     if third_party.is_dir() {
         println!("cargo::rustc-cfg=third_party_scenes");
     }
