@@ -16,6 +16,7 @@
 //! buffers indexed `y × W + x`.
 
 use crate::gbuffer::{DepthImage, HalfImage, IdImage};
+use crate::texture_images::Bindless;
 use gi_shared::cache_view::{pass_random, primary_emission, primary_surface};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
@@ -75,7 +76,8 @@ traced_kernel! {
             emission,
             lights,
             &mut rng,
-            move |ray: &Ray| tracer.any_hit(ray, texture_images),
+            &Bindless(texture_images),
+            move |ray: &Ray, images: &Bindless<'_>| tracer.any_hit(ray, images),
         );
     }
 }

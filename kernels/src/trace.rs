@@ -10,9 +10,10 @@
 //! texture images: the alpha test of meshes flagged `MESH_ALPHA_TESTED` reads them), and handing
 //! the body a [`Scene`] that traces and holds the six buffers, and the texture images beside it.
 //!
-//! The texture images stay out of [`Scene`] and [`Tracer`]: a composite holding the bindless
-//! array made the ray-query module fail SPIR-V validation. Every trace takes them as an argument
-//! instead, the way shading reads them ([`Bindless`] built where it is passed).
+//! The texture images stay out of [`Scene`] and [`Tracer`], and out of closures: a composite
+//! holding the bindless array fails SPIR-V validation (VUID-StandaloneSpirv-None-04667) unless
+//! every function that sees it is inlined. Every trace takes them as an argument instead, the
+//! way shading reads them ([`Bindless`], a bare reference).
 
 use crate::texture_images::Bindless;
 pub use crate::texture_images::SceneTextures;
@@ -245,14 +246,14 @@ impl Scene<'_> {
     /// the alpha test.
     #[inline(always)]
     pub fn closest_hit(&self, ray: &Ray, images: &SceneTextures) -> HitRecord {
-        self.tracer().closest_hit(ray, images)
+        self.tracer().closest_hit(ray, &Bindless(images))
     }
 
     /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays); `images` as for
     /// [`Self::closest_hit`].
     #[inline(always)]
     pub fn any_hit(&self, ray: &Ray, images: &SceneTextures) -> bool {
-        self.tracer().any_hit(ray, images)
+        self.tracer().any_hit(ray, &Bindless(images))
     }
 }
 
@@ -261,15 +262,15 @@ impl Tracer<'_> {
     /// The closest hit of `ray`, or [`HitRecord::miss`]; `images` are the scene's textures, for
     /// the alpha test.
     #[inline(always)]
-    pub fn closest_hit(self, ray: &Ray, images: &SceneTextures) -> HitRecord {
-        gi_shared::bvh::closest_hit(self.bvh, &Bindless(images), ray)
+    pub fn closest_hit(self, ray: &Ray, images: &Bindless<'_>) -> HitRecord {
+        gi_shared::bvh::closest_hit(self.bvh, images, ray)
     }
 
     /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays); `images` as for
     /// [`Self::closest_hit`].
     #[inline(always)]
-    pub fn any_hit(self, ray: &Ray, images: &SceneTextures) -> bool {
-        gi_shared::bvh::any_hit(self.bvh, &Bindless(images), ray)
+    pub fn any_hit(self, ray: &Ray, images: &Bindless<'_>) -> bool {
+        gi_shared::bvh::any_hit(self.bvh, images, ray)
     }
 }
 
@@ -278,15 +279,15 @@ impl Tracer<'_> {
     /// The closest hit of `ray`, or [`HitRecord::miss`]; `images` are the scene's textures, for
     /// the alpha test.
     #[inline(always)]
-    pub fn closest_hit(self, ray: &Ray, images: &SceneTextures) -> HitRecord {
-        closest_hit(&self.tlas[0], self.surfaces, &Bindless(images), ray)
+    pub fn closest_hit(self, ray: &Ray, images: &Bindless<'_>) -> HitRecord {
+        closest_hit(&self.tlas[0], self.surfaces, images, ray)
     }
 
     /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays); `images` as for
     /// [`Self::closest_hit`].
     #[inline(always)]
-    pub fn any_hit(self, ray: &Ray, images: &SceneTextures) -> bool {
-        any_hit(&self.tlas[0], self.surfaces, &Bindless(images), ray)
+    pub fn any_hit(self, ray: &Ray, images: &Bindless<'_>) -> bool {
+        any_hit(&self.tlas[0], self.surfaces, images, ray)
     }
 }
 

@@ -1067,7 +1067,11 @@ mod tests {
     fn assert_agree(s: &TestScene, ray: &Ray) {
         let bvh = closest_hit(s.view(), &s.texels[..], ray);
         let brute = closest_hit_brute_force(s.view(), &s.texels[..], ray);
-        assert_eq!(any_hit(s.view(), &s.texels[..], ray), brute.is_hit(), "{ray:?}");
+        assert_eq!(
+            any_hit(s.view(), &s.texels[..], ray),
+            brute.is_hit(),
+            "{ray:?}"
+        );
         if (bvh.instance, bvh.primitive) != (brute.instance, brute.primitive) && bvh.t == brute.t {
             return;
         }
@@ -1304,7 +1308,10 @@ mod tests {
                 direction,
                 t_max: f32::INFINITY,
             };
-            assert!(!closest_hit(s.view(), &s.texels[..], &ray).is_hit(), "{ray:?}");
+            assert!(
+                !closest_hit(s.view(), &s.texels[..], &ray).is_hit(),
+                "{ray:?}"
+            );
             assert!(!any_hit(s.view(), &s.texels[..], &ray), "{ray:?}");
         }
     }
@@ -1435,8 +1442,15 @@ mod tests {
             Ray { t_min: nan, ..good },
             Ray { t_max: nan, ..good },
         ] {
-            assert_eq!(closest_hit(s.view(), &s.texels[..], &ray), HitRecord::miss(), "{ray:?}");
-            assert_eq!(closest_hit_brute_force(s.view(), &s.texels[..], &ray), HitRecord::miss());
+            assert_eq!(
+                closest_hit(s.view(), &s.texels[..], &ray),
+                HitRecord::miss(),
+                "{ray:?}"
+            );
+            assert_eq!(
+                closest_hit_brute_force(s.view(), &s.texels[..], &ray),
+                HitRecord::miss()
+            );
             assert!(!any_hit(s.view(), &s.texels[..], &ray), "{ray:?}");
         }
     }
@@ -1532,8 +1546,10 @@ mod tests {
         let mut s = bare(&grid());
         // The triangle the ray hits, wherever the builder put it.
         let target = s.triangles.iter().position(|t| t.material == 0).unwrap() as u32;
-        let miss =
-            |s: &TestScene| !closest_hit(s.view(), &s.texels[..], &ray).is_hit() && !any_hit(s.view(), &s.texels[..], &ray);
+        let miss = |s: &TestScene| {
+            !closest_hit(s.view(), &s.texels[..], &ray).is_hit()
+                && !any_hit(s.view(), &s.texels[..], &ray)
+        };
         assert!(miss(&s));
         assert!(miss(&TestScene::default()));
         let node = |left: BvhChild, right: BvhChild| BvhNode { left, right };
@@ -1608,7 +1624,10 @@ mod tests {
         for (i, b) in broken.iter().enumerate() {
             assert!(miss(b));
             // Brute force does not use the mesh's root.
-            assert_eq!(closest_hit_brute_force(b.view(), &b.texels[..], &ray).is_hit(), i == 0);
+            assert_eq!(
+                closest_hit_brute_force(b.view(), &b.texels[..], &ray).is_hit(),
+                i == 0
+            );
         }
         // A chain deeper than both stacks, whose side leaves miss: both walks drop entries
         // without a panic, and the hit at the chain's end is still found.
@@ -1671,7 +1690,10 @@ mod tests {
             hide(depth - k);
         }
         let h = closest_hit(far.view(), &far.texels[..], &ray);
-        assert_eq!(h, closest_hit_brute_force(far.view(), &far.texels[..], &ray));
+        assert_eq!(
+            h,
+            closest_hit_brute_force(far.view(), &far.texels[..], &ray)
+        );
         assert!(h.is_hit());
         assert!(any_hit(far.view(), &far.texels[..], &ray));
     }
@@ -1686,7 +1708,11 @@ mod tests {
             ]
         };
         let soup: Vec<Tri> = quad(1.0).into_iter().chain(quad(2.0)).collect();
-        let identity = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]];
+        let identity = [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ];
         let mut s = scene(&soup, &[identity]);
         for v in &mut s.vertices {
             (v.u, v.v) = (v.position[0], v.position[1]);
@@ -1756,8 +1782,16 @@ mod tests {
         // The mesh flag is what asks for the test: without it the hole is solid.
         let mut opaque = s.clone();
         opaque.meshes[0].flags = 0;
-        let h = closest_hit(opaque.view(), &opaque.texels[..], &ray(0.2, 0.3, f32::INFINITY));
+        let h = closest_hit(
+            opaque.view(),
+            &opaque.texels[..],
+            &ray(0.2, 0.3, f32::INFINITY),
+        );
         assert_eq!(h.t, 1.0);
-        assert!(any_hit(opaque.view(), &opaque.texels[..], &ray(0.2, 0.3, 1.5)));
+        assert!(any_hit(
+            opaque.view(),
+            &opaque.texels[..],
+            &ray(0.2, 0.3, 1.5)
+        ));
     }
 }

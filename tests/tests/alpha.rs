@@ -19,9 +19,7 @@ use gi_host::scene::bvh::Bvh;
 use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
-use gi_host::scene::{
-    Aabb, Instance, Light, LightKind, Material, Mesh, Scene, Texture, Wrap,
-};
+use gi_host::scene::{Aabb, Instance, Light, LightKind, Material, Mesh, Scene, Texture, Wrap};
 use gi_host::trace_rays::TraceRays;
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::path_tracer::path_random;
@@ -29,7 +27,7 @@ use gi_shared::random::Random;
 use gi_shared::ray::{HitRecord, Ray};
 use gi_shared::scene_data::MESH_ALPHA_TESTED;
 use gi_tests::{context, finish_without_validation_messages};
-use glam::{Mat4, UVec2, Vec2, Vec3, Vec4};
+use glam::{Mat4, UVec2, Vec2, Vec3};
 use std::f32::consts::PI;
 
 /// Rays whose filtered alpha on the fence is this close to the cutoff are not judged.
@@ -218,7 +216,11 @@ fn closest_hits_pass_through_the_holes_in_both_variants() {
             -2.0 + 4.0 * rng.next_f32(),
             4.0,
         );
-        let target = Vec3::new(-4.0 + 4.0 * rng.next_f32(), -2.0 + 4.0 * rng.next_f32(), 0.0);
+        let target = Vec3::new(
+            -4.0 + 4.0 * rng.next_f32(),
+            -2.0 + 4.0 * rng.next_f32(),
+            0.0,
+        );
         Ray {
             direction: (target - o).to_array(),
             ..down(o.x, o.y)
@@ -275,7 +277,10 @@ fn closest_hits_pass_through_the_holes_in_both_variants() {
             );
             same += 1;
         }
-        println!("{variant}: {same} of {} rays agree with the CPU", rays.len());
+        println!(
+            "{variant}: {same} of {} rays agree with the CPU",
+            rays.len()
+        );
     }
 }
 
@@ -313,6 +318,11 @@ fn the_gbuffer_shows_the_floor_through_the_holes() {
                     continue;
                 };
                 let t = g.texel(x, y);
+                if want == u32::MAX {
+                    // Past the floor's edge: sky.
+                    assert!(!t.is_surface(), "{name} ({x}, {y}): {:?}", t.ids);
+                    continue;
+                }
                 let (material, albedo) = if want == FLOOR {
                     holes += 1;
                     (FLOOR, floor_albedo)
@@ -336,7 +346,7 @@ fn the_gbuffer_shows_the_floor_through_the_holes() {
         println!("{name}: floor through {holes} pixels, fence on {solid}");
         // About half of the view is holes (the checker's filtered alpha is below 1/2 on half).
         let judged = holes + solid;
-        assert!(judged > (w * h) as usize * 2 / 3, "{name}: {judged} judged");
+        assert!(judged > (w * h) as usize / 2, "{name}: {judged} judged");
         assert!(
             holes.abs_diff(solid) * 5 < judged,
             "{name}: {holes} holes, {solid} solid"
@@ -399,11 +409,14 @@ fn sunlight_reaches_the_floor_through_the_holes() {
         .collect();
     let fraction = shadow_lit as f32 / shadow_samples as f32;
     println!("model: {shadow_lit} of {shadow_samples} samples under the fence are lit");
-    assert!(shadow_samples > 500, "{shadow_samples} samples under the fence");
+    assert!(
+        shadow_samples > 500,
+        "{shadow_samples} samples under the fence"
+    );
     assert!((0.4..=0.6).contains(&fraction), "lit fraction {fraction}");
     let bvh = Bvh::new(&scene).unwrap();
-    let cpu = gi_host::path_tracer::render_on_cpu(&shading, &set, &bvh, &camera, &settings)
-        .unwrap();
+    let cpu =
+        gi_host::path_tracer::render_on_cpu(&shading, &set, &bvh, &camera, &settings).unwrap();
     let mut images = vec![("cpu".to_owned(), cpu)];
     for variant in KernelVariant::ALL {
         let ctx = context(variant);

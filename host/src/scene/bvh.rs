@@ -1055,7 +1055,10 @@ mod tests {
                 t_max: f32::INFINITY,
             };
             let hit = bvh.closest_hit(&shading, &ray);
-            assert_eq!(hit, closest_hit_brute_force(bvh.scene(&shading), &shading.texels[..], &ray));
+            assert_eq!(
+                hit,
+                closest_hit_brute_force(bvh.scene(&shading), &shading.texels[..], &ray)
+            );
             assert_eq!((hit.primitive, hit.t), (i, 0.0));
         }
         // The same along the top level: instances of one triangle at those positions.
