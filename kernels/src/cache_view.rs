@@ -11,7 +11,7 @@
 
 use crate::atomics::DeviceWords;
 use crate::gbuffer::{DepthImage, HalfImage, IdImage, UnormImage};
-use crate::texture_images::{Bindless, SceneTextures};
+use crate::texture_images::Bindless;
 use gi_shared::append_list::append;
 use gi_shared::cache_view::{
     CachePassParams, CacheQuery, CacheViewPixel, PASS_TRACE, QUERY_COUNT, cache_ray, pass_random,
@@ -21,7 +21,6 @@ use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
 use gi_shared::light_grid::report_hit_bounds;
 use gi_shared::lights::GpuLight;
-use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
 
@@ -29,7 +28,7 @@ traced_kernel! {
     /// TraceCacheRays: the cosine ray of pixel `id` and its primary hit's next-event estimate.
     #[spirv(compute(threads(8, 8)))]
     pub fn trace_cache_rays(
-        scene;
+        scene, texture_images;
         #[spirv(global_invocation_id)] id: UVec3,
         #[spirv(push_constant)] params: &CachePassParams,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] camera: &CameraParams,
@@ -43,9 +42,6 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] queries: &mut [CacheQuery],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] counters: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] bounds: &mut [u32],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
-        #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
@@ -77,21 +73,21 @@ traced_kernel! {
         let ids_texel: UVec4 = ids.read(pixel);
         let mut rng = pass_random(view.seed, index, PASS_TRACE, view.frame_index);
         let ray = cache_ray(&surface, rng.next_vec2());
-        let hit = scene.closest_hit(&ray);
+        let hit = scene.closest_hit(&ray, texture_images);
         let shaded = shade_cache_hit(
             &view, &ray, &surface, &hit, index, scene.instances, scene.meshes, scene.vertices,
-            scene.triangles, materials, textures, &Bindless(texture_images), lights, light_table, environment,
+            scene.triangles, scene.materials, scene.textures, &Bindless(texture_images), lights, light_table, environment,
             environment_cdf,
         );
-        let emission = primary_emission(materials, ids_texel, e, view.emissive_multiplier);
+        let emission = primary_emission(scene.materials, ids_texel, e, view.emissive_multiplier);
         out.emissive = if emission.max_element() > 0.0 { 1 } else { 0 };
         let mut base = emission;
         let direct = primary_direct_light(
             &view, &surface, a.truncate(), scene.instances, scene.meshes, scene.vertices,
-            scene.triangles, materials, textures, &Bindless(texture_images), lights, environment, environment_cdf,
+            scene.triangles, scene.materials, scene.textures, &Bindless(texture_images), lights, environment, environment_cdf,
             &mut rng,
         );
-        if direct.radiance.max_element() > 0.0 && !scene.any_hit(&direct.ray) {
+        if direct.radiance.max_element() > 0.0 && !scene.any_hit(&direct.ray, texture_images) {
             base += direct.radiance;
         }
         out.ray_radiance = shaded.radiance.to_array();

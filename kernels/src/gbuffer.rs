@@ -8,10 +8,9 @@
 //! (instances, meshes, vertices, triangles, materials, texture table, texels; the lights that
 //! follow are unused). Workgroups of 8 × 8 pixels.
 
-use crate::texture_images::{Bindless, SceneTextures};
+use crate::texture_images::Bindless;
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::{GBufferTexel, PreviousTransform, gbuffer_texel, in_image};
-use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::{Image, spirv};
 
@@ -50,7 +49,7 @@ traced_kernel! {
     /// Writes the G-buffer pixel of invocation `id`.
     #[spirv(compute(threads(8, 8)))]
     pub fn gbuffer(
-        scene;
+        scene, texture_images;
         #[spirv(global_invocation_id)] id: UVec3,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] camera: &CameraParams,
         #[spirv(descriptor_set = 0, binding = 1)] depth: &DepthImage,
@@ -61,19 +60,16 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 6)] motion: &FloatImage,
         #[spirv(descriptor_set = 0, binding = 7)] ids: &IdImage,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] previous_transforms: &[PreviousTransform],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
-        #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
     ) {
         let pixel = UVec2::new(id.x, id.y);
         if !in_image(camera, pixel) {
             return;
         }
         let ray = primary_ray(camera, pixel, camera.jitter());
-        let hit = scene.closest_hit(&ray);
+        let hit = scene.closest_hit(&ray, texture_images);
         let texel = gbuffer_texel(
             camera, &ray, &hit, previous_transforms, scene.instances, scene.meshes, scene.vertices,
-            scene.triangles, materials, textures, &Bindless(texture_images),
+            scene.triangles, scene.materials, scene.textures, &Bindless(texture_images),
         );
         write_texel!(
             pixel,

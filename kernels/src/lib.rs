@@ -9,9 +9,11 @@
 //!
 //! Descriptor sets (the host side is `host/src/vulkan/pipeline.rs`): set 0 holds the kernel's own
 //! resources, from binding 0; a kernel that traces also has the scene's geometry as set 1 and the
-//! shading data's instances, meshes, vertices and triangles as set 2 bindings 0 to 3 (both bound
-//! by [`traced_kernel!`], which hands them to the body in its `Scene`), and may read the rest of
-//! set 2 (materials, textures, lights) itself. The numbers are the same in both variants.
+//! shading data's instances, meshes, vertices, triangles, materials, texture table and texture
+//! images as set 2 bindings 0 to 6 (all bound by [`traced_kernel!`], which hands them to the body
+//! in its `Scene` and, for the images, beside it: tracing reads them all for the alpha test), and
+//! may read the rest of set 2 (lights, environment) itself. The numbers are the same in both
+//! variants.
 #![cfg_attr(target_arch = "spirv", no_std)]
 #![cfg_attr(
     all(target_arch = "spirv", feature = "ray-query"),

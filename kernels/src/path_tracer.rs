@@ -9,12 +9,11 @@
 //! texels) and its distribution (`f32`). Push constants: `PathTracerParams`. Workgroups of 8 × 8
 //! pixels.
 
-use crate::texture_images::{Bindless, SceneTextures};
+use crate::texture_images::Bindless;
 use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
 use gi_shared::lights::GpuLight;
 use gi_shared::path_tracer::{MAX_BOUNCES, PathTracerParams, begin_path, finite_radiance, shade};
-use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::spirv;
 
@@ -34,14 +33,11 @@ traced_kernel! {
     /// Adds one path of pixel `id` to the accumulation buffer.
     #[spirv(compute(threads(8, 8)))]
     pub fn path_tracer(
-        scene;
+        scene, texture_images;
         #[spirv(global_invocation_id)] id: UVec3,
         #[spirv(push_constant)] params: &PathTracerParams,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] camera: &CameraParams,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] accumulation: &mut [[f32; 4]],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
-        #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
@@ -54,7 +50,7 @@ traced_kernel! {
         let mut path = begin_path(camera, params, pixel);
         let mut steps = 0;
         while path.active && steps <= MAX_BOUNCES {
-            let hit = scene.closest_hit(&path.ray);
+            let hit = scene.closest_hit(&path.ray, texture_images);
             shade(
                 &mut path,
                 &hit,
@@ -63,15 +59,15 @@ traced_kernel! {
                 scene.meshes,
                 scene.vertices,
                 scene.triangles,
-                materials,
-                textures,
+                scene.materials,
+                scene.textures,
                 &Bindless(texture_images),
                 lights,
                 light_table,
                 environment,
                 environment_cdf,
             );
-            if path.shadow_pending && !scene.any_hit(&path.shadow_ray) {
+            if path.shadow_pending && !scene.any_hit(&path.shadow_ray, texture_images) {
                 path.radiance += path.shadow_radiance;
             }
             steps += 1;

@@ -16,14 +16,13 @@
 //! buffers indexed `y × W + x`.
 
 use crate::gbuffer::{DepthImage, HalfImage, IdImage};
-use crate::texture_images::SceneTextures;
+use crate::texture_images::Bindless;
 use gi_shared::cache_view::{pass_random, primary_emission, primary_surface};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
 use gi_shared::lights::GpuLight;
 use gi_shared::primary_lighting::{PrimaryLighting, sky_lighting, surface_lighting};
 use gi_shared::ray::Ray;
-use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use gi_shared::screen_probes::{GiFrameParams, PASS_DIRECT};
 use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
@@ -33,7 +32,7 @@ traced_kernel! {
     /// `id`.
     #[spirv(compute(threads(8, 8)))]
     pub fn direct_light(
-        scene;
+        scene, texture_images;
         #[spirv(global_invocation_id)] id: UVec3,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &GiFrameParams,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] camera: &CameraParams,
@@ -43,9 +42,6 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 5)] emissive: &HalfImage,
         #[spirv(descriptor_set = 0, binding = 6)] ids: &IdImage,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lighting: &mut [PrimaryLighting],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] _textures: &[GpuTexture],
-        #[spirv(descriptor_set = 2, binding = 6)] _texture_images: &SceneTextures,
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] _light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
@@ -71,7 +67,7 @@ traced_kernel! {
         }
         let e: Vec4 = emissive.read(pixel);
         let ids_texel: UVec4 = ids.read(pixel);
-        let emission = primary_emission(materials, ids_texel, e, frame.emissive_multiplier);
+        let emission = primary_emission(scene.materials, ids_texel, e, frame.emissive_multiplier);
         let mut rng = pass_random(frame.seed, index, PASS_DIRECT, frame.frame_index);
         let tracer = scene.tracer();
         lighting[index as usize] = surface_lighting(
@@ -80,7 +76,8 @@ traced_kernel! {
             emission,
             lights,
             &mut rng,
-            move |ray: &Ray| tracer.any_hit(ray),
+            &Bindless(texture_images),
+            move |ray: &Ray, images: &Bindless<'_>| tracer.any_hit(ray, images),
         );
     }
 }

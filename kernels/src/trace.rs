@@ -5,12 +5,22 @@
 //! A kernel that traces is written once, with [`traced_kernel!`]: the macro emits its entry point
 //! for the variant being built, binding the scene's geometry as set 1 (the top-level acceleration
 //! structure at binding 0 with ray queries; the two-level BVH's nodes at binding 0 in software)
-//! and the shading data's geometry, set 2 bindings 0 to 3 (instances, meshes, vertices,
-//! triangles: the software traversal reads its triangles there), and handing the body a
-//! [`Scene`] that traces and holds those four buffers.
+//! and the shading data that tracing reads, set 2 bindings 0 to 6 (instances, meshes, vertices,
+//! triangles: the software traversal reads its triangles there; materials, texture table and
+//! texture images: the alpha test of meshes flagged `MESH_ALPHA_TESTED` reads them), and handing
+//! the body a [`Scene`] that traces and holds the six buffers, and the texture images beside it.
+//!
+//! The texture images stay out of [`Scene`] and [`Tracer`], and out of closures: a composite
+//! holding the bindless array fails SPIR-V validation (VUID-StandaloneSpirv-None-04667) unless
+//! every function that sees it is inlined. Every trace takes them as an argument instead, the
+//! way shading reads them ([`Bindless`], a bare reference).
 
+use crate::texture_images::Bindless;
+pub use crate::texture_images::SceneTextures;
 use gi_shared::ray::{HitRecord, Ray};
-pub use gi_shared::scene_data::{GpuInstance, GpuMesh, GpuTriangle, GpuVertex};
+pub use gi_shared::scene_data::{
+    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
+};
 
 /// The BVH nodes as the kernels bind them: rows of 16 bytes, one vector load each.
 #[cfg(not(feature = "ray-query"))]
@@ -19,28 +29,28 @@ pub use gi_shared::bvh::BvhNodeRows as BvhNode;
 pub use spirv_std::ray_tracing::AccelerationStructure;
 
 /// Defines a kernel that traces, once for both variants. It takes the entry point's attributes,
-/// the name the body calls the [`Scene`] by, then the kernel's own parameters (set 0, and set 2
-/// from binding 4 on) and its body:
+/// the names the body calls the [`Scene`] and the texture images ([`SceneTextures`]) by, then the
+/// kernel's own parameters (set 0, and set 2 from binding 7 on) and its body:
 ///
 /// ```ignore
 /// traced_kernel! {
 ///     /// Docs.
 ///     #[spirv(compute(threads(64)))]
-///     pub fn name(scene; #[spirv(global_invocation_id)] id: UVec3, ...) {
-///         let hit = scene.closest_hit(&ray);
+///     pub fn name(scene, images; #[spirv(global_invocation_id)] id: UVec3, ...) {
+///         let hit = scene.closest_hit(&ray, images);
 ///         let mesh = scene.meshes[0];
 ///     }
 /// }
 /// ```
 ///
-/// The variant being built gets one entry point of that name with the geometry's bindings (set 1,
-/// and set 2 bindings 0 to 3) added in front of the kernel's parameters.
+/// The variant being built gets one entry point of that name with the scene's bindings (set 1,
+/// and set 2 bindings 0 to 6) added in front of the kernel's parameters.
 #[macro_export]
 macro_rules! traced_kernel {
     (
         $(#[$attr:meta])*
         pub fn $name:ident(
-            $scene:ident;
+            $scene:ident, $images:ident;
             $($(#[$param_attr:meta])* $param:ident: $ty:ty),* $(,)?
         ) $body:block
     ) => {
@@ -61,6 +71,12 @@ macro_rules! traced_kernel {
             vertices: &[$crate::trace::GpuVertex],
             #[spirv(storage_buffer, descriptor_set = 2, binding = 3)]
             triangles: &[$crate::trace::GpuTriangle],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 4)]
+            materials: &[$crate::trace::GpuMaterial],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 5)]
+            textures: &[$crate::trace::GpuTexture],
+            #[spirv(descriptor_set = 2, binding = 6)]
+            $images: &$crate::trace::SceneTextures,
             $($(#[$param_attr])* $param: $ty),*
         ) {
             let $scene = $crate::trace::Scene {
@@ -69,6 +85,8 @@ macro_rules! traced_kernel {
                 meshes,
                 vertices,
                 triangles,
+                materials,
+                textures,
             };
             $body
         }
@@ -90,6 +108,12 @@ macro_rules! traced_kernel {
             vertices: &[$crate::trace::GpuVertex],
             #[spirv(storage_buffer, descriptor_set = 2, binding = 3)]
             triangles: &[$crate::trace::GpuTriangle],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 4)]
+            materials: &[$crate::trace::GpuMaterial],
+            #[spirv(storage_buffer, descriptor_set = 2, binding = 5)]
+            textures: &[$crate::trace::GpuTexture],
+            #[spirv(descriptor_set = 2, binding = 6)]
+            $images: &$crate::trace::SceneTextures,
             $($(#[$param_attr])* $param: $ty),*
         ) {
             let $scene = $crate::trace::Scene {
@@ -98,13 +122,15 @@ macro_rules! traced_kernel {
                 meshes,
                 vertices,
                 triangles,
+                materials,
+                textures,
             };
             $body
         }
     };
 }
 
-/// The scene's geometry as a tracing kernel sees it (built by [`traced_kernel!`]).
+/// The scene's geometry and materials as a tracing kernel sees it (built by [`traced_kernel!`]).
 #[cfg(feature = "ray-query")]
 #[derive(Clone, Copy)]
 pub struct Scene<'a> {
@@ -120,9 +146,13 @@ pub struct Scene<'a> {
     pub vertices: &'a [GpuVertex],
     /// Set 2 binding 3: every mesh's triangles.
     pub triangles: &'a [GpuTriangle],
+    /// Set 2 binding 4: the materials.
+    pub materials: &'a [GpuMaterial],
+    /// Set 2 binding 5: the texture table.
+    pub textures: &'a [GpuTexture],
 }
 
-/// The scene's geometry as a tracing kernel sees it (built by [`traced_kernel!`]).
+/// The scene's geometry and materials as a tracing kernel sees it (built by [`traced_kernel!`]).
 #[cfg(not(feature = "ray-query"))]
 #[derive(Clone, Copy)]
 pub struct Scene<'a> {
@@ -136,21 +166,10 @@ pub struct Scene<'a> {
     pub vertices: &'a [GpuVertex],
     /// Set 2 binding 3: every mesh's triangles, each mesh's in its leaf order.
     pub triangles: &'a [GpuTriangle],
-}
-
-#[cfg(not(feature = "ray-query"))]
-impl Tracer<'_> {
-    /// The closest hit of `ray`, or [`HitRecord::miss`].
-    #[inline(always)]
-    pub fn closest_hit(self, ray: &Ray) -> HitRecord {
-        gi_shared::bvh::closest_hit(self.bvh, ray)
-    }
-
-    /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
-    #[inline(always)]
-    pub fn any_hit(self, ray: &Ray) -> bool {
-        gi_shared::bvh::any_hit(self.bvh, ray)
-    }
+    /// Set 2 binding 4: the materials.
+    pub materials: &'a [GpuMaterial],
+    /// Set 2 binding 5: the texture table.
+    pub textures: &'a [GpuTexture],
 }
 
 /// What traces, without the rest of the [`Scene`]: small enough for a closure to capture. With
@@ -160,6 +179,19 @@ impl Tracer<'_> {
 #[derive(Clone, Copy)]
 pub struct Tracer<'a> {
     tlas: &'a [AccelerationStructure; 1],
+    surfaces: Surfaces<'a>,
+}
+
+/// The buffers the alpha test reads, apart from the acceleration structure.
+#[cfg(feature = "ray-query")]
+#[derive(Clone, Copy)]
+struct Surfaces<'a> {
+    instances: &'a [GpuInstance],
+    meshes: &'a [GpuMesh],
+    vertices: &'a [GpuVertex],
+    triangles: &'a [GpuTriangle],
+    materials: &'a [GpuMaterial],
+    textures: &'a [GpuTexture],
 }
 
 /// What traces, without the rest of the [`Scene`]: small enough for a closure to capture.
@@ -174,7 +206,17 @@ impl<'a> Scene<'a> {
     /// What traces, for a closure to capture.
     #[inline(always)]
     pub fn tracer(&self) -> Tracer<'a> {
-        Tracer { tlas: self.tlas }
+        Tracer {
+            tlas: self.tlas,
+            surfaces: Surfaces {
+                instances: self.instances,
+                meshes: self.meshes,
+                vertices: self.vertices,
+                triangles: self.triangles,
+                materials: self.materials,
+                textures: self.textures,
+            },
+        }
     }
 }
 
@@ -190,6 +232,8 @@ impl<'a> Scene<'a> {
                 meshes: self.meshes,
                 vertices: self.vertices,
                 triangles: self.triangles,
+                materials: self.materials,
+                textures: self.textures,
             },
         }
     }
@@ -198,37 +242,97 @@ impl<'a> Scene<'a> {
 // By reference: a copy of the whole `Scene` would carry the acceleration structure's handle
 // inside a composite value, which SPIR-V's logical addressing cannot load through.
 impl Scene<'_> {
-    /// The closest hit of `ray`, or [`HitRecord::miss`].
+    /// The closest hit of `ray`, or [`HitRecord::miss`]; `images` are the scene's textures, for
+    /// the alpha test.
     #[inline(always)]
-    pub fn closest_hit(&self, ray: &Ray) -> HitRecord {
-        self.tracer().closest_hit(ray)
+    pub fn closest_hit(&self, ray: &Ray, images: &SceneTextures) -> HitRecord {
+        self.tracer().closest_hit(ray, &Bindless(images))
     }
 
-    /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+    /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays); `images` as for
+    /// [`Self::closest_hit`].
     #[inline(always)]
-    pub fn any_hit(&self, ray: &Ray) -> bool {
-        self.tracer().any_hit(ray)
+    pub fn any_hit(&self, ray: &Ray, images: &SceneTextures) -> bool {
+        self.tracer().any_hit(ray, &Bindless(images))
+    }
+}
+
+#[cfg(not(feature = "ray-query"))]
+impl Tracer<'_> {
+    /// The closest hit of `ray`, or [`HitRecord::miss`]; `images` are the scene's textures, for
+    /// the alpha test.
+    #[inline(always)]
+    pub fn closest_hit(self, ray: &Ray, images: &Bindless<'_>) -> HitRecord {
+        gi_shared::bvh::closest_hit(self.bvh, images, ray)
+    }
+
+    /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays); `images` as for
+    /// [`Self::closest_hit`].
+    #[inline(always)]
+    pub fn any_hit(self, ray: &Ray, images: &Bindless<'_>) -> bool {
+        gi_shared::bvh::any_hit(self.bvh, images, ray)
     }
 }
 
 #[cfg(feature = "ray-query")]
 impl Tracer<'_> {
-    /// The closest hit of `ray`, or [`HitRecord::miss`].
+    /// The closest hit of `ray`, or [`HitRecord::miss`]; `images` are the scene's textures, for
+    /// the alpha test.
     #[inline(always)]
-    pub fn closest_hit(self, ray: &Ray) -> HitRecord {
-        closest_hit(&self.tlas[0], ray)
+    pub fn closest_hit(self, ray: &Ray, images: &Bindless<'_>) -> HitRecord {
+        closest_hit(&self.tlas[0], self.surfaces, images, ray)
     }
 
-    /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
+    /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays); `images` as for
+    /// [`Self::closest_hit`].
     #[inline(always)]
-    pub fn any_hit(self, ray: &Ray) -> bool {
-        any_hit(&self.tlas[0], ray)
+    pub fn any_hit(self, ray: &Ray, images: &Bindless<'_>) -> bool {
+        any_hit(&self.tlas[0], self.surfaces, images, ray)
+    }
+}
+
+/// Runs `query` (initialised) to its end, confirming each candidate, all of them triangles of
+/// the non-opaque bottom levels (meshes flagged `MESH_ALPHA_TESTED`), where the alpha test finds
+/// the surface. Opaque triangles are committed without a candidate.
+#[cfg(feature = "ray-query")]
+#[inline(always)]
+fn run_alpha_tested(
+    query: &spirv_std::ray_tracing::RayQuery,
+    surfaces: Surfaces<'_>,
+    images: &Bindless<'_>,
+) {
+    use spirv_std::ray_tracing::CandidateIntersection;
+    unsafe {
+        while query.proceed() {
+            if matches!(
+                query.get_candidate_intersection_type(),
+                CandidateIntersection::Triangle
+            ) && gi_shared::scene_data::alpha_visible(
+                surfaces.instances,
+                surfaces.meshes,
+                surfaces.vertices,
+                surfaces.triangles,
+                surfaces.materials,
+                surfaces.textures,
+                images,
+                query.get_candidate_intersection_instance_custom_index(),
+                query.get_candidate_intersection_primitive_index(),
+                query.get_candidate_intersection_barycentrics(),
+            ) {
+                query.confirm_intersection();
+            }
+        }
     }
 }
 
 /// The closest hit of `ray`, or [`HitRecord::miss`].
 #[cfg(feature = "ray-query")]
-fn closest_hit(tlas: &AccelerationStructure, ray: &Ray) -> HitRecord {
+fn closest_hit(
+    tlas: &AccelerationStructure,
+    surfaces: Surfaces<'_>,
+    images: &Bindless<'_>,
+    ray: &Ray,
+) -> HitRecord {
     use spirv_std::glam::Vec3;
     use spirv_std::ray_tracing::{CommittedIntersection, RayFlags, RayQuery};
     // Ray queries leave such rays undefined; the software traversal misses them, and so must this.
@@ -237,16 +341,17 @@ fn closest_hit(tlas: &AccelerationStructure, ray: &Ray) -> HitRecord {
     }
     spirv_std::ray_query!(let mut query);
     unsafe {
+        // No ray flag forces opacity: only the alpha-tested meshes' bottom levels are non-opaque.
         query.initialize(
             tlas,
-            RayFlags::OPAQUE,
+            RayFlags::NONE,
             0xff,
             Vec3::from(ray.origin),
             ray.t_min,
             Vec3::from(ray.direction),
             ray.t_max,
         );
-        while query.proceed() {}
+        run_alpha_tested(query, surfaces, images);
         match query.get_committed_intersection_type() {
             CommittedIntersection::Triangle => {
                 let b = query.get_committed_intersection_barycentrics();
@@ -266,7 +371,12 @@ fn closest_hit(tlas: &AccelerationStructure, ray: &Ray) -> HitRecord {
 
 /// Whether `ray` hits anything between `t_min` and `t_max` (shadow rays).
 #[cfg(feature = "ray-query")]
-fn any_hit(tlas: &AccelerationStructure, ray: &Ray) -> bool {
+fn any_hit(
+    tlas: &AccelerationStructure,
+    surfaces: Surfaces<'_>,
+    images: &Bindless<'_>,
+    ray: &Ray,
+) -> bool {
     use spirv_std::glam::Vec3;
     use spirv_std::ray_tracing::{CommittedIntersection, RayFlags, RayQuery};
     if !ray.is_traceable() {
@@ -276,14 +386,14 @@ fn any_hit(tlas: &AccelerationStructure, ray: &Ray) -> bool {
     unsafe {
         query.initialize(
             tlas,
-            RayFlags::OPAQUE | RayFlags::TERMINATE_ON_FIRST_HIT,
+            RayFlags::TERMINATE_ON_FIRST_HIT,
             0xff,
             Vec3::from(ray.origin),
             ray.t_min,
             Vec3::from(ray.direction),
             ray.t_max,
         );
-        while query.proceed() {}
+        run_alpha_tested(query, surfaces, images);
         !matches!(
             query.get_committed_intersection_type(),
             CommittedIntersection::None

@@ -11,14 +11,14 @@ traced_kernel! {
     /// `hits[i]` = closest hit of `rays[i]` in the scene.
     #[spirv(compute(threads(64)))]
     pub fn trace_rays(
-        scene;
+        scene, texture_images;
         #[spirv(global_invocation_id)] id: UVec3,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] rays: &[Ray],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] hits: &mut [HitRecord],
     ) {
         let i = id.x as usize;
         if i < rays.len() && i < hits.len() {
-            hits[i] = scene.closest_hit(&rays[i]);
+            hits[i] = scene.closest_hit(&rays[i], texture_images);
         }
     }
 }

@@ -42,7 +42,8 @@ The Mitsuba scene follows what our renderer does:
   else 0: bilinear then threshold, as a filtered lookup followed by glTF's test does. Mitsuba gets
   that test precomputed on a grid ALPHA_SUPERSAMPLE times finer than the texture, read with its
   nearest filter, so the cut-out's edge is placed within a quarter texel. `opaque` ignores alpha
-  (what `gi render` did before it honoured MASK). `BLEND` is opaque in both modes.
+  (what `gi render` did before it honoured MASK). `BLEND` is taken as `MASK` at 0.5, as our loader
+  takes it.
 
 Our renderer is built once through `scripts/run.sh` and its binary copied to `<out>`, so that every
 scene is rendered by the same build even while others edit and rebuild the tree (`--gi` names a
@@ -439,8 +440,12 @@ def environment_map(mi, path: Path) -> dict:
     }
 
 
+# glTF alpha modes cut out by the alpha test (BLEND as MASK at 0.5, like our loader).
+MASKED = ("MASK", "BLEND")
+
+
 def has_alpha_mask(scene: gltf_scene.Scene) -> bool:
-    return any(m.get("alphaMode") == "MASK" for m in scene.document.json.get("materials", []))
+    return any(m.get("alphaMode") in MASKED for m in scene.document.json.get("materials", []))
 
 
 def bsdf(material: dict, textures: TextureCache, kind: str, alpha: str) -> dict:
@@ -451,10 +456,11 @@ def bsdf(material: dict, textures: TextureCache, kind: str, alpha: str) -> dict:
         surface = {"type": "folded_lambert", "reflectance": reflectance}
     else:
         surface = {"type": "twosided", "material": {"type": "diffuse", "reflectance": reflectance}}
-    if alpha == "mask" and material.get("alphaMode") == "MASK":
-        opacity = textures.alpha_test(
-            pbr.get("baseColorTexture"), factor[3], material.get("alphaCutoff", 0.5)
-        )
+    mode = material.get("alphaMode")
+    if alpha == "mask" and mode in MASKED:
+        # BLEND has no cutoff of its own: our loader cuts it at 0.5.
+        cutoff = material.get("alphaCutoff", 0.5) if mode == "MASK" else 0.5
+        opacity = textures.alpha_test(pbr.get("baseColorTexture"), factor[3], cutoff)
         return {"type": "mask", "opacity": opacity, "bsdf": surface}
     return surface
 

@@ -86,13 +86,25 @@
 //! Front faces are counter-clockwise seen from the ray's origin in the mesh's object space, as
 //! ray queries decide them: a mirroring instance transform then shows the clockwise side of its
 //! triangles in world space as the front. Barycentrics stay in the mesh's vertex order.
+//!
+//! # Alpha-tested meshes
+//!
+//! A triangle of a mesh flagged [`MESH_ALPHA_TESTED`] is only hit where [`alpha_visible`] says
+//! its surface is there (base colour alpha at level 0 against its material's cutoff): a hit it
+//! rejects neither ends an [`any_hit`] nor shortens the closest hit's `t_max`, so the walk goes
+//! on behind it as if the triangle had a hole there. Ray queries do the same with their
+//! non-opaque candidates. Unflagged meshes pay one test of the flag per hit.
 
 use bytemuck::{Pod, Zeroable};
-use glam::{UVec4, Vec3, Vec4};
+use glam::{UVec4, Vec2, Vec3, Vec4};
 use num_traits::Float;
 
 use crate::ray::{HitRecord, Ray};
-use crate::scene_data::{GpuInstance, GpuMesh, GpuTriangle, GpuVertex};
+use crate::scene_data::{
+    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED,
+    alpha_visible,
+};
+use crate::textures::TextureImages;
 
 /// Entries of the long traversal stack: enough for any tree whose leaves are within the depth
 /// limits of both levels.
@@ -246,8 +258,9 @@ impl BvhElement for BvhNodeRows {
     }
 }
 
-/// What the traversal reads: the two-level node buffer and the shading data's geometry (the
-/// buffers of `crate::scene_data`).
+/// What the traversal reads: the two-level node buffer, the shading data's geometry (the
+/// buffers of `crate::scene_data`), and the materials and texture table that the alpha test of
+/// meshes flagged [`MESH_ALPHA_TESTED`] reads.
 pub struct BvhScene<'a, N> {
     /// Top level at node 0, then the meshes' bottom levels.
     pub nodes: &'a [N],
@@ -259,6 +272,10 @@ pub struct BvhScene<'a, N> {
     pub vertices: &'a [GpuVertex],
     /// Every mesh's triangles, each mesh's in its bottom level's leaf order.
     pub triangles: &'a [GpuTriangle],
+    /// The materials, for their alpha cutoffs.
+    pub materials: &'a [GpuMaterial],
+    /// The texture table, for the base colour textures' alpha.
+    pub textures: &'a [GpuTexture],
 }
 
 impl<N> Clone for BvhScene<'_, N> {
@@ -557,8 +574,9 @@ fn child_entry(child: &BvhChild, parent: u32, nodes: usize, items: usize, max_co
 /// was dropped because the stack was full. With `ANY`, stops at the first hit and does not order
 /// children.
 #[inline]
-fn walk<const STACK: usize, const ANY: bool, N: BvhElement>(
+fn walk<const STACK: usize, const ANY: bool, N: BvhElement, I: TextureImages + ?Sized>(
     scene: BvhScene<'_, N>,
+    images: &I,
     world_ray: &Ray,
     world: &TraceRay,
     mut t_max: f32,
@@ -586,7 +604,7 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement>(
             let v = triangle_vertices(scene.vertices, scene.triangles, &mesh, tri);
             let h = ray.intersect(v, t_max);
             // Strictly closer: the first hit tested keeps an exact tie.
-            if h.t < best.t {
+            if h.t < best.t && surface_there(scene, images, &mesh, instance, tri, &h) {
                 *best = HitRecord {
                     t: h.t,
                     instance,
@@ -689,41 +707,85 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement>(
     }
 }
 
+/// Whether the hit `h` on triangle `primitive` of `instance` (whose mesh is `mesh`) counts: always
+/// on an unflagged mesh, else where [`alpha_visible`] finds the surface.
+#[inline]
+fn surface_there<N, I: TextureImages + ?Sized>(
+    scene: BvhScene<'_, N>,
+    images: &I,
+    mesh: &GpuMesh,
+    instance: u32,
+    primitive: u32,
+    h: &TriangleHit,
+) -> bool {
+    mesh.flags & MESH_ALPHA_TESTED == 0
+        || alpha_visible(
+            scene.instances,
+            scene.meshes,
+            scene.vertices,
+            scene.triangles,
+            scene.materials,
+            scene.textures,
+            images,
+            instance,
+            primitive,
+            Vec2::new(h.u, h.v),
+        )
+}
+
 /// Both walks of the module documentation: the short stack, then the long one if the short one
 /// dropped an entry.
 #[inline]
-fn traverse<const ANY: bool, N: BvhElement>(scene: BvhScene<'_, N>, ray: &Ray) -> HitRecord {
+fn traverse<const ANY: bool, N: BvhElement, I: TextureImages + ?Sized>(
+    scene: BvhScene<'_, N>,
+    images: &I,
+    ray: &Ray,
+) -> HitRecord {
     let mut best = HitRecord::miss();
     if scene.nodes.is_empty() || !ray.is_traceable() {
         return best;
     }
     let world = TraceRay::new(ray);
-    if walk::<BVH_SHORT_STACK_SIZE, ANY, N>(scene, ray, &world, ray.t_max, &mut best)
+    if walk::<BVH_SHORT_STACK_SIZE, ANY, N, I>(scene, images, ray, &world, ray.t_max, &mut best)
         && !(ANY && best.is_hit())
     {
         let t_max = if best.is_hit() { best.t } else { ray.t_max };
-        walk::<BVH_STACK_SIZE, ANY, N>(scene, ray, &world, t_max, &mut best);
+        walk::<BVH_STACK_SIZE, ANY, N, I>(scene, images, ray, &world, t_max, &mut best);
     }
     best
 }
 
-/// The closest hit of `ray` in `scene`, or [`HitRecord::miss`].
+/// The closest hit of `ray` in `scene`, or [`HitRecord::miss`]; `images` holds the textures the
+/// alpha test of flagged meshes reads (see the module documentation).
 ///
 /// A ray that is not [`Ray::is_traceable`] misses (as it must with ray queries too),
 /// as does every ray on an empty BVH. See the module documentation for ties.
-pub fn closest_hit<N: BvhElement>(scene: BvhScene<'_, N>, ray: &Ray) -> HitRecord {
-    traverse::<false, N>(scene, ray)
+pub fn closest_hit<N: BvhElement, I: TextureImages + ?Sized>(
+    scene: BvhScene<'_, N>,
+    images: &I,
+    ray: &Ray,
+) -> HitRecord {
+    traverse::<false, N, I>(scene, images, ray)
 }
 
-/// Whether `ray` hits any triangle with `t_min <= t <= t_max` (shadow rays): stops at the first.
-pub fn any_hit<N: BvhElement>(scene: BvhScene<'_, N>, ray: &Ray) -> bool {
-    traverse::<true, N>(scene, ray).is_hit()
+/// Whether `ray` hits any triangle with `t_min <= t <= t_max` (shadow rays): stops at the first
+/// that the alpha test lets through.
+pub fn any_hit<N: BvhElement, I: TextureImages + ?Sized>(
+    scene: BvhScene<'_, N>,
+    images: &I,
+    ray: &Ray,
+) -> bool {
+    traverse::<true, N, I>(scene, images, ray).is_hit()
 }
 
 /// The closest hit by testing every triangle of every instance in order, without the nodes: the
-/// reference for the traversal, with the same transform, triangle test, validity rules and
-/// tie-break (the first instance, then the first triangle, wins).
-pub fn closest_hit_brute_force<N>(scene: BvhScene<'_, N>, ray: &Ray) -> HitRecord {
+/// reference for the traversal, with the same transform, triangle test, alpha test, validity
+/// rules and tie-break (the first instance, then the first triangle, wins).
+pub fn closest_hit_brute_force<N, I: TextureImages + ?Sized>(
+    scene: BvhScene<'_, N>,
+    images: &I,
+    ray: &Ray,
+) -> HitRecord {
     let mut best = HitRecord::miss();
     if !ray.is_traceable() {
         return best;
@@ -740,7 +802,7 @@ pub fn closest_hit_brute_force<N>(scene: BvhScene<'_, N>, ray: &Ray) -> HitRecor
         for primitive in 0..triangle_limit(mesh, scene.triangles.len()) as u32 {
             let v = triangle_vertices(scene.vertices, scene.triangles, mesh, primitive);
             let h = local.intersect(v, best.t.min(ray.t_max));
-            if h.t < best.t {
+            if h.t < best.t && surface_there(scene, images, mesh, instance as u32, primitive, &h) {
                 best = HitRecord {
                     t: h.t,
                     instance: instance as u32,
@@ -862,6 +924,9 @@ mod tests {
         meshes: Vec<GpuMesh>,
         vertices: Vec<GpuVertex>,
         triangles: Vec<GpuTriangle>,
+        materials: Vec<GpuMaterial>,
+        textures: Vec<GpuTexture>,
+        texels: Vec<u32>,
     }
 
     impl TestScene {
@@ -872,6 +937,8 @@ mod tests {
                 meshes: &self.meshes,
                 vertices: &self.vertices,
                 triangles: &self.triangles,
+                materials: &self.materials,
+                textures: &self.textures,
             }
         }
 
@@ -998,9 +1065,13 @@ mod tests {
     /// Asserts that the BVH and brute force agree on `ray`: the same record, or an exact tie in
     /// `t` (then the order of testing may pick another triangle).
     fn assert_agree(s: &TestScene, ray: &Ray) {
-        let bvh = closest_hit(s.view(), ray);
-        let brute = closest_hit_brute_force(s.view(), ray);
-        assert_eq!(any_hit(s.view(), ray), brute.is_hit(), "{ray:?}");
+        let bvh = closest_hit(s.view(), &s.texels[..], ray);
+        let brute = closest_hit_brute_force(s.view(), &s.texels[..], ray);
+        assert_eq!(
+            any_hit(s.view(), &s.texels[..], ray),
+            brute.is_hit(),
+            "{ray:?}"
+        );
         if (bvh.instance, bvh.primitive) != (brute.instance, brute.primitive) && bvh.t == brute.t {
             return;
         }
@@ -1053,6 +1124,8 @@ mod tests {
             meshes: v.meshes,
             vertices: v.vertices,
             triangles: v.triangles,
+            materials: v.materials,
+            textures: v.textures,
         };
         let mut hits = 0;
         for _ in 0..2000 {
@@ -1062,9 +1135,9 @@ mod tests {
                 direction: rng.vec(-1.0, 1.0),
                 t_max: f32::INFINITY,
             };
-            let want = closest_hit(s.view(), &ray);
-            assert_eq!(closest_hit(rows_scene, &ray), want);
-            assert_eq!(any_hit(rows_scene, &ray), want.is_hit());
+            let want = closest_hit(s.view(), &s.texels[..], &ray);
+            assert_eq!(closest_hit(rows_scene, &s.texels[..], &ray), want);
+            assert_eq!(any_hit(rows_scene, &s.texels[..], &ray), want.is_hit());
             hits += usize::from(want.is_hit());
         }
         assert!(hits > 200, "{hits}");
@@ -1104,7 +1177,7 @@ mod tests {
             for _ in 0..4000 {
                 let ray = random_ray(&mut rng);
                 assert_agree(&s, &ray);
-                hits += usize::from(closest_hit(s.view(), &ray).is_hit());
+                hits += usize::from(closest_hit(s.view(), &s.texels[..], &ray).is_hit());
             }
         }
         // The rays must actually exercise hits, not just misses.
@@ -1144,7 +1217,7 @@ mod tests {
         for _ in 0..6000 {
             let ray = random_ray(&mut rng);
             assert_agree(&s, &ray);
-            let h = closest_hit(s.view(), &ray);
+            let h = closest_hit(s.view(), &s.texels[..], &ray);
             if h.is_hit() {
                 hits += 1;
                 // Front face = counter-clockwise in object space = the world-space cross product
@@ -1206,7 +1279,7 @@ mod tests {
                     t_max: f32::INFINITY,
                 };
                 assert_agree(&s, &ray);
-                let hit = closest_hit(s.view(), &ray);
+                let hit = closest_hit(s.view(), &s.texels[..], &ray);
                 let inside = (0.0..=16.0).contains(&xy[0]) && (0.0..=16.0).contains(&xy[1]);
                 if direction[2] > 0.0 || !inside {
                     assert!(!hit.is_hit(), "{ray:?}");
@@ -1235,8 +1308,11 @@ mod tests {
                 direction,
                 t_max: f32::INFINITY,
             };
-            assert!(!closest_hit(s.view(), &ray).is_hit(), "{ray:?}");
-            assert!(!any_hit(s.view(), &ray), "{ray:?}");
+            assert!(
+                !closest_hit(s.view(), &s.texels[..], &ray).is_hit(),
+                "{ray:?}"
+            );
+            assert!(!any_hit(s.view(), &s.texels[..], &ray), "{ray:?}");
         }
     }
 
@@ -1249,7 +1325,7 @@ mod tests {
             direction: [0.0, 0.0, 4.0],
             t_max: f32::INFINITY,
         };
-        let hit = closest_hit(s.view(), &ray);
+        let hit = closest_hit(s.view(), &s.texels[..], &ray);
         assert!(hit.is_hit());
         assert_eq!(hit.front_face, 0);
         assert_eq!(hit.t, 0.5);
@@ -1285,7 +1361,7 @@ mod tests {
                     direction: [0.0, 0.0, dz],
                     t_max: f32::INFINITY,
                 };
-                let hit = closest_hit(s.view(), &ray);
+                let hit = closest_hit(s.view(), &s.texels[..], &ray);
                 assert_eq!(hit.primitive, 0);
                 assert_eq!(hit.front_face, face, "{m:?} {ray:?}");
                 assert_eq!(hit.barycentrics, [0.25, 0.5]);
@@ -1312,7 +1388,7 @@ mod tests {
                 t_max,
             };
             assert_agree(&s, &ray);
-            let h = closest_hit(s.view(), &ray);
+            let h = closest_hit(s.view(), &s.texels[..], &ray);
             // The layer's number, or 0 on a miss.
             let layer = if h.is_hit() {
                 s.input_index(h.primitive) + 1
@@ -1340,7 +1416,7 @@ mod tests {
             direction: [0.0, 0.0, -1.0],
             t_max: f32::INFINITY,
         };
-        assert!(closest_hit(s.view(), &good).is_hit());
+        assert!(closest_hit(s.view(), &s.texels[..], &good).is_hit());
         let nan = f32::NAN;
         for ray in [
             Ray {
@@ -1366,9 +1442,16 @@ mod tests {
             Ray { t_min: nan, ..good },
             Ray { t_max: nan, ..good },
         ] {
-            assert_eq!(closest_hit(s.view(), &ray), HitRecord::miss(), "{ray:?}");
-            assert_eq!(closest_hit_brute_force(s.view(), &ray), HitRecord::miss());
-            assert!(!any_hit(s.view(), &ray), "{ray:?}");
+            assert_eq!(
+                closest_hit(s.view(), &s.texels[..], &ray),
+                HitRecord::miss(),
+                "{ray:?}"
+            );
+            assert_eq!(
+                closest_hit_brute_force(s.view(), &s.texels[..], &ray),
+                HitRecord::miss()
+            );
+            assert!(!any_hit(s.view(), &s.texels[..], &ray), "{ray:?}");
         }
     }
 
@@ -1392,7 +1475,7 @@ mod tests {
                 t_max: f32::INFINITY,
             };
             assert_agree(&s, &ray);
-            let hit = closest_hit(s.view(), &ray);
+            let hit = closest_hit(s.view(), &s.texels[..], &ray);
             if hit.is_hit() {
                 hits += 1;
                 assert!(![5, 9, 12, 20].contains(&s.input_index(hit.primitive)));
@@ -1463,8 +1546,10 @@ mod tests {
         let mut s = bare(&grid());
         // The triangle the ray hits, wherever the builder put it.
         let target = s.triangles.iter().position(|t| t.material == 0).unwrap() as u32;
-        let miss =
-            |s: &TestScene| !closest_hit(s.view(), &ray).is_hit() && !any_hit(s.view(), &ray);
+        let miss = |s: &TestScene| {
+            !closest_hit(s.view(), &s.texels[..], &ray).is_hit()
+                && !any_hit(s.view(), &s.texels[..], &ray)
+        };
         assert!(miss(&s));
         assert!(miss(&TestScene::default()));
         let node = |left: BvhChild, right: BvhChild| BvhNode { left, right };
@@ -1514,7 +1599,7 @@ mod tests {
             top,
             node(leaf(first, BVH_MAX_LEAF_TRIANGLES), BvhChild::EMPTY),
         ];
-        assert_eq!(closest_hit(s.view(), &ray).primitive, target);
+        assert_eq!(closest_hit(s.view(), &s.texels[..], &ray).primitive, target);
         // A mesh root, a mesh or a vertex past the end, a singular or NaN transform: misses.
         let good = s.clone();
         let mut broken = Vec::new();
@@ -1539,7 +1624,10 @@ mod tests {
         for (i, b) in broken.iter().enumerate() {
             assert!(miss(b));
             // Brute force does not use the mesh's root.
-            assert_eq!(closest_hit_brute_force(b.view(), &ray).is_hit(), i == 0);
+            assert_eq!(
+                closest_hit_brute_force(b.view(), &b.texels[..], &ray).is_hit(),
+                i == 0
+            );
         }
         // A chain deeper than both stacks, whose side leaves miss: both walks drop entries
         // without a panic, and the hit at the chain's end is still found.
@@ -1547,9 +1635,9 @@ mod tests {
         let k = s.triangles[far].indices[0] as usize;
         s.vertices[k].position = [50.0; 3];
         s.nodes = chain(3 * BVH_STACK_SIZE, target, |_| far as u32);
-        let h = closest_hit(s.view(), &ray);
+        let h = closest_hit(s.view(), &s.texels[..], &ray);
         assert_eq!((h.primitive, h.t), (target, 1.0));
-        assert!(any_hit(s.view(), &ray));
+        assert!(any_hit(s.view(), &s.texels[..], &ray));
     }
 
     /// Hits that only the long stack reaches: the short walk drops them, the second walk finds
@@ -1583,14 +1671,14 @@ mod tests {
         // Side leaf k holds layer `depth - k` (the deeper side leaves hold the nearer layers)
         // and the chain ends on the farthest layer: the short stack drops the nearest ones.
         s.nodes = chain(depth, at(&s, BVH_STACK_SIZE - 1), |k| at(&s, depth - k));
-        let h = closest_hit(s.view(), &ray);
+        let h = closest_hit(s.view(), &s.texels[..], &ray);
         let nearest = depth - (depth - 1);
         assert_eq!(
             (s.input_index(h.primitive), h.t),
             (nearest as u32, 1.0 + nearest as f32)
         );
-        assert_eq!(h, closest_hit_brute_force(s.view(), &ray));
-        assert!(any_hit(s.view(), &ray));
+        assert_eq!(h, closest_hit_brute_force(s.view(), &s.texels[..], &ray));
+        assert!(any_hit(s.view(), &s.texels[..], &ray));
         // Only the dropped side leaves hit: any_hit needs the second walk too.
         let mut far = s.clone();
         let mut hide = |layer: usize| {
@@ -1601,9 +1689,109 @@ mod tests {
         for k in 0..BVH_SHORT_STACK_SIZE {
             hide(depth - k);
         }
-        let h = closest_hit(far.view(), &ray);
-        assert_eq!(h, closest_hit_brute_force(far.view(), &ray));
+        let h = closest_hit(far.view(), &far.texels[..], &ray);
+        assert_eq!(
+            h,
+            closest_hit_brute_force(far.view(), &far.texels[..], &ray)
+        );
         assert!(h.is_hit());
-        assert!(any_hit(far.view(), &ray));
+        assert!(any_hit(far.view(), &far.texels[..], &ray));
+    }
+
+    /// A quad at z = 1 (triangles 0 and 1, material 0: masked, UVs = xy over [0, 1]²) whose
+    /// 2 × 2 texture has a hole at texel (0, 0), in front of an opaque quad at z = 2.
+    fn fence() -> TestScene {
+        let quad = |z: f32| -> [Tri; 2] {
+            [
+                [[0.0, 0.0, z], [1.0, 0.0, z], [1.0, 1.0, z]],
+                [[0.0, 0.0, z], [1.0, 1.0, z], [0.0, 1.0, z]],
+            ]
+        };
+        let soup: Vec<Tri> = quad(1.0).into_iter().chain(quad(2.0)).collect();
+        let identity = [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+        ];
+        let mut s = scene(&soup, &[identity]);
+        for v in &mut s.vertices {
+            (v.u, v.v) = (v.position[0], v.position[1]);
+        }
+        s.meshes[0].has_uvs = 1;
+        s.meshes[0].flags = MESH_ALPHA_TESTED;
+        // `scene` gives triangle `i` material `i`: the back quad's (2, 3) do not exist, and read
+        // as opaque.
+        let masked = GpuMaterial {
+            base_color_texture: 0,
+            alpha_cutoff: 0.5,
+            ..GpuMaterial::default()
+        };
+        s.materials = vec![masked, masked];
+        s.textures = vec![GpuTexture {
+            offset: 0,
+            width: 2,
+            height: 2,
+            srgb: 0,
+            wrap_u: crate::scene_data::WRAP_CLAMP_TO_EDGE,
+            wrap_v: crate::scene_data::WRAP_CLAMP_TO_EDGE,
+            levels: 1,
+            _pad: 0,
+        }];
+        // RGBA8, alpha in the high byte: texel (0, 0) is transparent white.
+        s.texels = vec![0x00ff_ffff, 0xffff_ffff, 0xffff_ffff, 0xffff_ffff];
+        s
+    }
+
+    #[test]
+    fn alpha_masked_triangles_are_hit_only_where_the_surface_is() {
+        let s = fence();
+        let ray = |x: f32, y: f32, t_max: f32| Ray {
+            origin: [x, y, 0.0],
+            t_min: 0.0,
+            direction: [0.0, 0.0, 1.0],
+            t_max,
+        };
+        let material = |h: HitRecord| s.triangles[h.primitive as usize].material;
+        // Through the hole: the back quad, and no shadow-ray hit short of it.
+        let hole = closest_hit(s.view(), &s.texels[..], &ray(0.2, 0.3, f32::INFINITY));
+        assert_eq!(hole.t, 2.0);
+        assert!(material(hole) >= 2, "{hole:?}");
+        assert!(!any_hit(s.view(), &s.texels[..], &ray(0.2, 0.3, 1.5)));
+        assert!(any_hit(s.view(), &s.texels[..], &ray(0.2, 0.3, 2.5)));
+        // Through solid texels: the fence.
+        for (x, y) in [(0.75, 0.25), (0.25, 0.75), (0.8, 0.7)] {
+            let h = closest_hit(s.view(), &s.texels[..], &ray(x, y, f32::INFINITY));
+            assert_eq!(h.t, 1.0);
+            assert!(material(h) < 2, "{h:?}");
+            assert!(any_hit(s.view(), &s.texels[..], &ray(x, y, 1.5)));
+        }
+        // Brute force applies the same test, over the whole quad. Bilinear alpha is
+        // `1 - (1 - wu)(1 - wv)`, each weight `clamp(2 (x - 1/4), 0, 1)`: the hole is where the
+        // product exceeds 1/2 (never exactly 1/2 on this grid).
+        for i in 0..16 {
+            for j in 0..16 {
+                let (x, y) = ((i as f32 + 0.5) / 16.0, (j as f32 + 0.5) / 16.0);
+                let r = ray(x, y, f32::INFINITY);
+                let want = closest_hit_brute_force(s.view(), &s.texels[..], &r);
+                assert_eq!(closest_hit(s.view(), &s.texels[..], &r), want, "{r:?}");
+                let weight = |c: f32| (2.0 * (c - 0.25)).clamp(0.0, 1.0);
+                let through = (1.0 - weight(x)) * (1.0 - weight(y)) > 0.5;
+                assert_eq!(want.t, if through { 2.0 } else { 1.0 }, "{r:?}");
+            }
+        }
+        // The mesh flag is what asks for the test: without it the hole is solid.
+        let mut opaque = s.clone();
+        opaque.meshes[0].flags = 0;
+        let h = closest_hit(
+            opaque.view(),
+            &opaque.texels[..],
+            &ray(0.2, 0.3, f32::INFINITY),
+        );
+        assert_eq!(h.t, 1.0);
+        assert!(any_hit(
+            opaque.view(),
+            &opaque.texels[..],
+            &ray(0.2, 0.3, 1.5)
+        ));
     }
 }

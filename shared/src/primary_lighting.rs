@@ -119,12 +119,14 @@ pub fn punctual_term(light: &GpuLight, surface: &PrimarySurface) -> PunctualTerm
 }
 
 /// The exact direct irradiance of the first `count` punctual lights at `surface`: the sum of
-/// [`punctual_term`] over those whose shadow ray `occluded` says is free.
+/// [`punctual_term`] over those whose shadow ray `occluded` says is free (`occluded` gets `images`
+/// with each ray, see [`surface_lighting`]).
 #[inline]
-pub fn exact_direct_light<F: FnMut(&Ray) -> bool>(
+pub fn exact_direct_light<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
     surface: &PrimarySurface,
     lights: &[GpuLight],
     count: u32,
+    images: &I,
     occluded: &mut F,
 ) -> Vec3 {
     let n = min_u32(count, lights.len() as u32);
@@ -133,7 +135,7 @@ pub fn exact_direct_light<F: FnMut(&Ray) -> bool>(
     while i < n {
         let light = lights[i as usize];
         let term = punctual_term(&light, surface);
-        if term.irradiance.max_element() > 0.0 && !occluded(&term.ray) {
+        if term.irradiance.max_element() > 0.0 && !occluded(&term.ray, images) {
             sum += term.irradiance;
         }
         i += 1;
@@ -202,18 +204,19 @@ pub fn resample_punctual_light(
 }
 
 /// The resampled estimate of the punctual lights' direct irradiance: [`resample_punctual_light`]
-/// and its one shadow ray.
+/// and its one shadow ray (`occluded` gets `images` with it, see [`surface_lighting`]).
 #[inline]
-pub fn sampled_direct_light<F: FnMut(&Ray) -> bool>(
+pub fn sampled_direct_light<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
     surface: &PrimarySurface,
     lights: &[GpuLight],
     count: u32,
     candidates: u32,
     rng: &mut Random,
+    images: &I,
     occluded: &mut F,
 ) -> Vec3 {
     let s = resample_punctual_light(surface, lights, count, candidates, rng);
-    if s.weight > 0.0 && s.term.irradiance.max_element() > 0.0 && !occluded(&s.term.ray) {
+    if s.weight > 0.0 && s.term.irradiance.max_element() > 0.0 && !occluded(&s.term.ray, images) {
         finite_sample(s.term.irradiance * s.weight)
     } else {
         Vec3::ZERO
@@ -241,14 +244,18 @@ pub fn sky_lighting(
 
 /// DirectLight for a surface pixel: its `emission` toward the camera (already × the multiplier)
 /// and the punctual lights' direct irradiance, exact or (under [`FLAG_SAMPLED_DIRECT`]) resampled
-/// from `rng`; `occluded` traces a shadow ray.
+/// from `rng`; `occluded` traces a shadow ray, given `images`: the scene's textures, which tracing
+/// reads for the alpha test. They are an argument rather than a capture because on the device
+/// they are the bindless image array, and a closure holding it would be a composite holding an
+/// opaque handle, which SPIR-V forbids.
 #[inline]
-pub fn surface_lighting<F: FnMut(&Ray) -> bool>(
+pub fn surface_lighting<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
     frame: &GiFrameParams,
     surface: &PrimarySurface,
     emission: Vec3,
     lights: &[GpuLight],
     rng: &mut Random,
+    images: &I,
     mut occluded: F,
 ) -> PrimaryLighting {
     if !surface.valid {
@@ -262,10 +269,11 @@ pub fn surface_lighting<F: FnMut(&Ray) -> bool>(
             frame.punctual_count,
             frame.light_candidates,
             rng,
+            images,
             &mut occluded,
         )
     } else {
-        exact_direct_light(surface, lights, frame.punctual_count, &mut occluded)
+        exact_direct_light(surface, lights, frame.punctual_count, images, &mut occluded)
     };
     PrimaryLighting {
         emission: emission.to_array(),
@@ -377,18 +385,18 @@ mod tests {
             GpuLight::point(Vec3::new(0.0, 0.0, 2.0), Vec3::splat(4.0)),
             GpuLight::directional(Vec3::NEG_Z, Vec3::splat(2.0)),
         ];
-        let mut none = |_: &Ray| false;
-        let e = exact_direct_light(&s, &lights, 3, &mut none);
+        let mut none = |_: &Ray, _: &()| false;
+        let e = exact_direct_light(&s, &lights, 3, &(), &mut none);
         assert!((e - Vec3::splat(4.0)).abs().max_element() < 1e-5, "{e}");
         // Occlude the directional light (infinite ray).
-        let mut sun_blocked = |r: &Ray| r.t_max == f32::INFINITY;
-        let e = exact_direct_light(&s, &lights, 3, &mut sun_blocked);
+        let mut sun_blocked = |r: &Ray, _: &()| r.t_max == f32::INFINITY;
+        let e = exact_direct_light(&s, &lights, 3, &(), &mut sun_blocked);
         assert!((e - Vec3::splat(2.0)).abs().max_element() < 1e-5, "{e}");
         // Only the punctual prefix counts.
-        let e = exact_direct_light(&s, &lights, 1, &mut none);
+        let e = exact_direct_light(&s, &lights, 1, &(), &mut none);
         assert!((e - Vec3::ONE).abs().max_element() < 1e-5);
         // A count beyond the buffer is clamped.
-        let e = exact_direct_light(&s, &lights, 40, &mut none);
+        let e = exact_direct_light(&s, &lights, 40, &(), &mut none);
         assert!((e - Vec3::splat(4.0)).abs().max_element() < 1e-5);
     }
 
@@ -409,13 +417,13 @@ mod tests {
             Vec3::splat(100.0),
         ));
         let count = lights.len() as u32;
-        let mut none = |_: &Ray| false;
-        let exact = exact_direct_light(&s, &lights, count, &mut none);
+        let mut none = |_: &Ray, _: &()| false;
+        let exact = exact_direct_light(&s, &lights, count, &(), &mut none);
         let n = 40_000;
         let mut sum = glam::DVec3::ZERO;
         let mut rng = Random::new(5, 0);
         for _ in 0..n {
-            let e = sampled_direct_light(&s, &lights, count, 8, &mut rng, &mut none);
+            let e = sampled_direct_light(&s, &lights, count, 8, &mut rng, &(), &mut none);
             sum += e.as_dvec3();
         }
         let mean = sum / f64::from(n);
@@ -431,11 +439,11 @@ mod tests {
         // Nothing to sample: zero.
         let mut rng = Random::new(7, 0);
         assert_eq!(
-            sampled_direct_light(&s, &lights[40..], 1, 8, &mut rng, &mut none),
+            sampled_direct_light(&s, &lights[40..], 1, 8, &mut rng, &(), &mut none),
             Vec3::ZERO
         );
         assert_eq!(
-            sampled_direct_light(&s, &lights, 0, 8, &mut rng, &mut none),
+            sampled_direct_light(&s, &lights, 0, 8, &mut rng, &(), &mut none),
             Vec3::ZERO
         );
     }
@@ -450,22 +458,48 @@ mod tests {
             ..Default::default()
         };
         let mut rng = Random::new(1, 0);
-        let l = surface_lighting(&frame, &s, Vec3::ZERO, &lights, &mut rng, |_| false);
+        let l = surface_lighting(
+            &frame,
+            &s,
+            Vec3::ZERO,
+            &lights,
+            &mut rng,
+            &(),
+            |_, _: &()| false,
+        );
         assert_eq!(l.surface, 1);
         assert_eq!(l.emissive, 0);
         assert!((l.direct() - Vec3::ONE).length() < 1e-5);
         // One light sampled: the estimate is exact.
         frame.flags = FLAG_SAMPLED_DIRECT;
-        let l = surface_lighting(&frame, &s, Vec3::X, &lights, &mut rng, |_| false);
+        let l = surface_lighting(&frame, &s, Vec3::X, &lights, &mut rng, &(), |_, _: &()| {
+            false
+        });
         assert!((l.direct() - Vec3::ONE).length() < 1e-5);
         assert_eq!(l.emissive, 1);
         assert_eq!(l.emission(), Vec3::X);
         // Shadowed.
-        let l = surface_lighting(&frame, &s, Vec3::ZERO, &lights, &mut rng, |_| true);
+        let l = surface_lighting(
+            &frame,
+            &s,
+            Vec3::ZERO,
+            &lights,
+            &mut rng,
+            &(),
+            |_, _: &()| true,
+        );
         assert_eq!(l.direct(), Vec3::ZERO);
         // Not a surface.
         let sky = PrimarySurface { valid: false, ..s };
-        let l = surface_lighting(&frame, &sky, Vec3::ONE, &lights, &mut rng, |_| false);
+        let l = surface_lighting(
+            &frame,
+            &sky,
+            Vec3::ONE,
+            &lights,
+            &mut rng,
+            &(),
+            |_, _: &()| false,
+        );
         assert_eq!(l, PrimaryLighting::default());
         assert!(samples_direct_light(EXACT_DIRECT_LIGHTS + 1));
         assert!(!samples_direct_light(EXACT_DIRECT_LIGHTS));

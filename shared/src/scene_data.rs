@@ -103,7 +103,8 @@ impl GpuInstance {
 }
 
 /// [`GpuMesh::flags`] bit: some of the mesh's triangles have an alpha-masked material, whose
-/// alpha ([`alpha_visible`]) decides whether a hit counts. The traversals do not test it yet.
+/// alpha ([`alpha_visible`]) decides whether a hit counts. Both traversals test it on these meshes
+/// alone (`crate::bvh`; with ray queries, only their bottom levels are built non-opaque).
 pub const MESH_ALPHA_TESTED: u32 = 1;
 
 /// Point `p` transformed by the 3×4 matrix whose rows are `rows` (the bottom row `0 0 0 1`).
@@ -237,8 +238,8 @@ pub struct GpuMaterial {
     /// 1 when the back face is lit like the front.
     pub double_sided: u32,
     /// glTF's `alphaCutoff` of an alpha-masked material: a point whose base colour alpha
-    /// (factor × texture, level 0) is below it is not there ([`alpha_visible`]; the traversals do
-    /// not call it yet). 0 for an opaque material.
+    /// (factor × texture, level 0) is below it is not there ([`alpha_visible`], which tracing
+    /// calls on the meshes flagged [`MESH_ALPHA_TESTED`]). 0 for an opaque material.
     pub alpha_cutoff: f32,
     /// Explicit padding.
     pub _pad: [u32; 3],
@@ -445,7 +446,7 @@ pub fn fetch_surface(
 /// Whether the surface of triangle `primitive` of `instance` exists at `barycentrics`: false only
 /// where its material is alpha-masked and the base colour's alpha (factor × texture at level 0,
 /// the exact coverage: no mip level erodes it) is below the cutoff. Meant for the triangles of
-/// meshes flagged [`MESH_ALPHA_TESTED`], once the traversals call it.
+/// meshes flagged [`MESH_ALPHA_TESTED`]: both traversals call it on their hits.
 #[allow(clippy::too_many_arguments, reason = "one argument per scene buffer")]
 pub fn alpha_visible<I: TextureImages + ?Sized>(
     instances: &[GpuInstance],

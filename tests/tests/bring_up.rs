@@ -88,7 +88,7 @@ fn ray_queries_hit_the_expected_triangles() {
         [0.0, 1.0, 0.0],
     ];
     let indices = [0, 1, 2, 0, 2, 3];
-    let blas = AccelerationStructure::triangles(&ctx, &vertices, &indices).unwrap();
+    let blas = AccelerationStructure::triangles(&ctx, &vertices, &indices, false).unwrap();
     let identity = |z: f32| {
         [
             [1.0, 0.0, 0.0, 0.0],

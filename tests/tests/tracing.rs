@@ -244,7 +244,7 @@ fn instanced_mesh() {
     let mut ties = 0;
     for ray in &rays[..RAYS / 10] {
         let got = bvh.closest_hit(&shading, ray);
-        let want = gi_shared::bvh::closest_hit_brute_force(view, ray);
+        let want = gi_shared::bvh::closest_hit_brute_force(view, &shading.texels[..], ray);
         if (got.instance, got.primitive) != (want.instance, want.primitive) && got.t == want.t {
             ties += 1;
         } else {

@@ -324,17 +324,20 @@ impl Bvh {
             meshes: &shading.meshes,
             vertices: &shading.vertices,
             triangles: &shading.triangles,
+            materials: &shading.materials,
+            textures: &shading.textures,
         }
     }
 
-    /// The closest hit of `ray` (the shared traversal, on the CPU).
+    /// The closest hit of `ray` (the shared traversal, on the CPU, alpha test included).
     pub fn closest_hit(&self, shading: &ShadingData, ray: &Ray) -> HitRecord {
-        closest_hit(self.scene(shading), ray)
+        closest_hit(self.scene(shading), &shading.texels[..], ray)
     }
 
-    /// Whether `ray` hits anything in `[t_min, t_max]` (the shared traversal, on the CPU).
+    /// Whether `ray` hits anything in `[t_min, t_max]` (the shared traversal, on the CPU, alpha
+    /// test included).
     pub fn any_hit(&self, shading: &ShadingData, ray: &Ray) -> bool {
-        any_hit(self.scene(shading), ray)
+        any_hit(self.scene(shading), &shading.texels[..], ray)
     }
 }
 
@@ -860,7 +863,7 @@ mod tests {
         for _ in 0..rays {
             let ray = random_ray(rng, scene);
             let got = bvh.closest_hit(&shading, &ray);
-            let want = closest_hit_brute_force(bvh.scene(&shading), &ray);
+            let want = closest_hit_brute_force(bvh.scene(&shading), &shading.texels[..], &ray);
             if !((got.instance, got.primitive) != (want.instance, want.primitive)
                 && got.t == want.t)
             {
@@ -1052,7 +1055,10 @@ mod tests {
                 t_max: f32::INFINITY,
             };
             let hit = bvh.closest_hit(&shading, &ray);
-            assert_eq!(hit, closest_hit_brute_force(bvh.scene(&shading), &ray));
+            assert_eq!(
+                hit,
+                closest_hit_brute_force(bvh.scene(&shading), &shading.texels[..], &ray)
+            );
             assert_eq!((hit.primitive, hit.t), (i, 0.0));
         }
         // The same along the top level: instances of one triangle at those positions.

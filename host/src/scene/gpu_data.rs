@@ -90,13 +90,7 @@ impl ShadingData {
                 has_uvs: u32::from(mesh.uvs.is_some()),
                 // A scene without bottom levels (not through `Scene::update_derived`) has none.
                 bvh_root: roots.get(m).copied().unwrap_or(u32::MAX),
-                flags: if mesh.materials.iter().any(|&m| {
-                    scene
-                        .materials
-                        .get(m as usize)
-                        .and_then(|m| m.alpha_cutoff)
-                        .is_some_and(|c| c > 0.0)
-                }) {
+                flags: if mesh.alpha_tested(&scene.materials) {
                     MESH_ALPHA_TESTED
                 } else {
                     0

@@ -697,13 +697,6 @@ impl Builder<'_> {
         let pbr = &m.pbr_metallic_roughness;
         let alpha_cutoff = match m.alpha_mode {
             Checked::Valid(AlphaMode::Mask) => {
-                self.ctx.warn(
-                    "alpha mode MASK",
-                    &element,
-                    "alphaMode MASK is loaded (alphaCutoff reaches the GPU material table) but \
-                     tracing does not test it yet: the surface renders opaque",
-                    1,
-                );
                 let cutoff = m.alpha_cutoff.map_or(0.5, |c| c.0);
                 // NaN and out-of-range cutoffs: glTF requires >= 0; 1 keeps only full alpha.
                 Some(if cutoff.is_nan() {
@@ -716,8 +709,7 @@ impl Builder<'_> {
                 self.ctx.warn(
                     "alpha mode BLEND",
                     &element,
-                    "alphaMode BLEND is treated as MASK with cutoff 0.5 (no transparency), and \
-                     tracing does not test masks yet: the surface renders opaque",
+                    "alphaMode BLEND is treated as MASK with cutoff 0.5 (no transparency)",
                     1,
                 );
                 Some(0.5)

@@ -62,11 +62,11 @@
 //! (HDR) texels are clamped to [0, 1]; non-triangle primitives, orthographic cameras, extensions
 //! in `extensionsUsed` that the loader does not support, UV sets after the first, vertex colours,
 //! tangents, skins, morph targets, normal, occlusion and metallic-roughness textures are ignored;
-//! `MASK` and `BLEND` (taken as `MASK` at 0.5) materials are loaded with their cutoff but render
-//! opaque, since tracing does not test alpha yet; nodes with a singular transform (a zero
-//! scale), instances whose world-space positions reach beyond [`MAX_WORLD_COORDINATE`], and lights
-//! and cameras with invalid parameters (lights brighter than [`MAX_EMISSION`] included) are
-//! skipped; emission beyond [`MAX_EMISSION`] is set to zero. Animation channels that cannot be
+//! `BLEND` materials are taken as `MASK` at 0.5 (cut out where alpha is below it, no
+//! transparency); nodes with a singular transform (a zero scale), instances whose world-space
+//! positions reach beyond [`MAX_WORLD_COORDINATE`], and lights and cameras with invalid parameters
+//! (lights brighter than [`MAX_EMISSION`] included) are skipped; emission beyond [`MAX_EMISSION`]
+//! is set to zero. Animation channels that cannot be
 //! played are dropped (see [`animation`]).
 
 pub mod animation;
@@ -386,6 +386,18 @@ impl Mesh {
     pub fn triangle(&self, primitive: usize) -> [Vec3; 3] {
         self.triangles[primitive].map(|v| self.positions[v as usize])
     }
+
+    /// Whether some triangle has an alpha-masked material among `materials` (the scene's): then
+    /// tracing tests alpha on the mesh (`MESH_ALPHA_TESTED`, a non-opaque bottom level with ray
+    /// queries). A cutoff of 0 keeps every point: opaque.
+    pub fn alpha_tested(&self, materials: &[Material]) -> bool {
+        self.materials.iter().any(|&m| {
+            materials
+                .get(m as usize)
+                .and_then(|m| m.alpha_cutoff)
+                .is_some_and(|c| c > 0.0)
+        })
+    }
 }
 
 /// A mesh placed in the world by a glTF node.
@@ -472,8 +484,8 @@ pub struct Material {
     pub double_sided: bool,
     /// `alphaCutoff` of an alpha-masked material (`alphaMode` `MASK`, and `BLEND`, which is
     /// treated as `MASK` at 0.5): where the base colour's alpha is below it, the surface is not
-    /// there (`gi_shared::scene_data::alpha_visible`). `None` for an opaque material. Not yet
-    /// tested by the traversals: masked surfaces render opaque, with a warning.
+    /// there (`gi_shared::scene_data::alpha_visible`, which tracing calls on every hit of a mesh
+    /// that has such a material). `None` for an opaque material.
     pub alpha_cutoff: Option<f32>,
 }
 

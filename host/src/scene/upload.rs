@@ -67,7 +67,8 @@ impl GeometryData {
                         let vertices: Vec<[f32; 3]> =
                             mesh.positions.iter().map(|p| p.to_array()).collect();
                         let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
-                        AccelerationStructure::triangles(ctx, &vertices, &indices)
+                        let alpha_tested = mesh.alpha_tested(&scene.materials);
+                        AccelerationStructure::triangles(ctx, &vertices, &indices, alpha_tested)
                     })
                     .collect::<Result<Vec<_>>>()?;
                 let instances: Vec<Instance<'_>> = scene

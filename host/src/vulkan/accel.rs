@@ -51,7 +51,14 @@ impl AccelerationStructure {
     }
 
     /// Builds a bottom-level structure over `vertices` indexed by `indices` (three per triangle).
-    pub fn triangles(ctx: &Context, vertices: &[[f32; 3]], indices: &[u32]) -> Result<Self> {
+    /// Its triangles are opaque unless `alpha_tested`: then every hit on them is a candidate
+    /// that the kernels' alpha test confirms or not (`kernels/src/trace.rs`).
+    pub fn triangles(
+        ctx: &Context,
+        vertices: &[[f32; 3]],
+        indices: &[u32],
+        alpha_tested: bool,
+    ) -> Result<Self> {
         if indices.is_empty() || !indices.len().is_multiple_of(3) {
             return Err(Error::InvalidArgument {
                 name: "indices",
@@ -80,7 +87,11 @@ impl AccelerationStructure {
         let geometry = vk::AccelerationStructureGeometryKHR::default()
             .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
             .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
-            .flags(vk::GeometryFlagsKHR::OPAQUE);
+            .flags(if alpha_tested {
+                vk::GeometryFlagsKHR::empty()
+            } else {
+                vk::GeometryFlagsKHR::OPAQUE
+            });
         // The inputs go when this returns: the build has finished by then.
         Self::build(
             ctx,
@@ -348,7 +359,8 @@ fn instance_geometry<'a>(
     vk::AccelerationStructureGeometryKHR::default()
         .geometry_type(vk::GeometryTypeKHR::INSTANCES)
         .geometry(vk::AccelerationStructureGeometryDataKHR { instances: data })
-        .flags(vk::GeometryFlagsKHR::OPAQUE)
+        // Opacity is the bottom levels' (per mesh), not forced here.
+        .flags(vk::GeometryFlagsKHR::empty())
 }
 
 impl Drop for AccelerationStructure {

@@ -5,7 +5,8 @@
 //! invalidated (its `W` zeroed).
 //!
 //! Set 0: cache-view counters, shadow rays, queries, accumulators, pixels, lists (for the count of
-//! dropped samples), this frame's ReSTIR reservoirs. Set 1: the scene's geometry.
+//! dropped samples), this frame's ReSTIR reservoirs. Set 1: the scene's geometry; set 2 as
+//! `traced_kernel!` binds it.
 
 use crate::atomics::DeviceWords;
 use gi_shared::cache_view::{
@@ -22,7 +23,7 @@ traced_kernel! {
     /// Traces shadow ray `id.x` and accumulates its light.
     #[spirv(compute(threads(64)))]
     pub fn populate_radiance_cache(
-        scene;
+        scene, texture_images;
         #[spirv(global_invocation_id)] id: UVec3,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] counters: &[u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] shadow_rays: &[ShadowRay],
@@ -41,7 +42,7 @@ traced_kernel! {
         if shadow.query as usize >= queries.len() {
             return;
         }
-        let occluded = shadow.t_max >= 0.0 && scene.any_hit(&shadow.ray());
+        let occluded = shadow.t_max >= 0.0 && scene.any_hit(&shadow.ray(), texture_images);
         if occluded && i < reservoirs.len() {
             // "Invalidate the stored reservoir": its sample is not seen from here.
             let mut r = reservoirs[i];

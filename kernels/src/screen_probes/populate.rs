@@ -11,7 +11,7 @@
 //! spawn_grid.y]` groups.
 
 use crate::gbuffer::{DepthImage, HalfImage};
-use crate::texture_images::{Bindless, SceneTextures};
+use crate::texture_images::Bindless;
 use gi_shared::append_list::append;
 use gi_shared::cache_view::{
     CachePassParams, CacheQuery, CacheViewPixel, QUERY_COUNT, primary_surface, shade_cache_hit,
@@ -21,7 +21,6 @@ use gi_shared::light_grid::report_hit_bounds;
 use gi_shared::lights::GpuLight;
 use gi_shared::packing::unpack_seed;
 use gi_shared::ray::Ray;
-use gi_shared::scene_data::{GpuMaterial, GpuTexture};
 use gi_shared::screen_probes::{GiFrameParams, MISS_DISTANCE, PROBE_CELLS, ProbeRay, SPAWN_COUNT};
 use spirv_std::glam::{UVec3, Vec3, Vec4};
 use spirv_std::spirv;
@@ -30,7 +29,7 @@ traced_kernel! {
     /// Traces ray `lane` of spawn slot `group`.
     #[spirv(compute(threads(64)))]
     pub fn populate_screen_probes(
-        scene;
+        scene, texture_images;
         #[spirv(workgroup_id)] group: UVec3,
         #[spirv(local_invocation_index)] lane: u32,
         #[spirv(push_constant)] params: &CachePassParams,
@@ -45,9 +44,6 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] queries: &mut [CacheQuery],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] counters: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] bounds: &mut [u32],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 4)] materials: &[GpuMaterial],
-        #[spirv(storage_buffer, descriptor_set = 2, binding = 5)] textures: &[GpuTexture],
-        #[spirv(descriptor_set = 2, binding = 6)] texture_images: &SceneTextures,
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
@@ -78,10 +74,10 @@ traced_kernel! {
                 direction: record.direction,
                 t_max: f32::INFINITY,
             };
-            let hit = scene.closest_hit(&ray);
+            let hit = scene.closest_hit(&ray, texture_images);
             let shaded = shade_cache_hit(
                 &params.view, &ray, &surface, &hit, index, scene.instances, scene.meshes,
-                scene.vertices, scene.triangles, materials, textures, &Bindless(texture_images), lights, light_table,
+                scene.vertices, scene.triangles, scene.materials, scene.textures, &Bindless(texture_images), lights, light_table,
                 environment, environment_cdf,
             );
             if hit.is_hit() {
