@@ -92,4 +92,3 @@ fn main() {
         finish_without_validation_messages(ctx);
     }
 }
-
