@@ -1,6 +1,8 @@
 //! Support for the integration tests: contexts with validation on, the check that it stayed
 //! silent, and the check that long-lived buffers are device-local.
 
+use gi_host::image_io::HdrImage;
+use gi_host::scene::Scene;
 use gi_host::vulkan::{BufferInfo, Context, ContextOptions, MemoryLocation};
 use gi_host::{KernelVariant, TraceMode};
 
@@ -36,6 +38,22 @@ pub fn scene_path(file: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../scenes")
         .join(file)
+}
+
+/// The scene `file` of the repository's `scenes/`, loaded (its warnings dropped).
+pub fn load_scene(file: &str) -> Scene {
+    Scene::load(scene_path(file))
+        .unwrap_or_else(|e| panic!("{file}: {e}"))
+        .0
+}
+
+/// The committed path-traced reference of `scene` (e.g. `cornell-box`) at `side`×`side`
+/// (`tests/data/reference/`, written by `bash scripts/references.sh`).
+pub fn reference_image(scene: &str, side: u32) -> HdrImage {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data/reference")
+        .join(format!("{scene}-{side}.exr"));
+    HdrImage::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 /// Path of a file under `../shared/scenes/third-party/` beside the repository (never copied into

@@ -26,7 +26,7 @@ use gi_host::scene::upload::GpuScene;
 use gi_host::scene::{Camera, Light, LightKind, Material, Scene, procedural};
 use gi_host::vulkan::Context;
 use gi_shared::camera::CameraParams;
-use gi_tests::{context, finish_without_validation_messages, scene_path};
+use gi_tests::{context, finish_without_validation_messages, load_scene, reference_image};
 use glam::{Mat4, Quat, Vec3, Vec4};
 
 /// Side of the images.
@@ -41,18 +41,6 @@ const FACTOR: f64 = 1.5;
 /// Absolute slack of the bound: keeps a normal case with almost no error from failing its
 /// extreme one on noise alone.
 const SLACK: f64 = 2e-3;
-
-/// The committed 4096-path reference of `scene` (e.g. `indirect-room`) at [`SIDE`].
-fn reference_of(scene: &str) -> HdrImage {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data/reference")
-        .join(format!("{scene}-{SIDE}.exr"));
-    HdrImage::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
-
-fn load(file: &str) -> Scene {
-    Scene::load(scene_path(file)).unwrap().0
-}
 
 /// A scene uploaded, lit by its emitters and `sky`.
 struct Lit {
@@ -176,8 +164,8 @@ fn normal_case(case: &str, image: &HdrImage, reference: &HdrImage) -> f64 {
 
 #[test]
 fn the_indirect_room_at_1e_3_and_1e3_scale_and_offset_by_1e5() {
-    let reference = reference_of("indirect-room");
-    let room = load("indirect-room.gltf");
+    let reference = reference_image("indirect-room", SIDE);
+    let room = load_scene("indirect-room.gltf");
     let ctx = context(KernelVariant::Software);
     let camera = scene_camera(&room, SIDE, SIDE);
     let (normal_image, ..) = render(&ctx, &room, None, &camera, settings(), false);
@@ -229,7 +217,7 @@ fn the_indirect_room_at_1e_3_and_1e3_scale_and_offset_by_1e5() {
 
 /// The Cornell box with every emission multiplied by `k` and base colours by `albedo`.
 fn cornell(k: f32, albedo: f32) -> Scene {
-    let mut scene = load("cornell-box.gltf");
+    let mut scene = load_scene("cornell-box.gltf");
     for m in &mut scene.materials {
         m.emissive *= k;
         m.base_color = (m.base_color.truncate() * albedo).extend(m.base_color.w);
@@ -240,7 +228,7 @@ fn cornell(k: f32, albedo: f32) -> Scene {
 
 #[test]
 fn the_cornell_box_at_1e6_emission_black_and_seen_from_inside_a_box() {
-    let reference = reference_of("cornell-box");
+    let reference = reference_image("cornell-box", SIDE);
     let box_scene = cornell(1.0, 1.0);
     let camera = scene_camera(&box_scene, SIDE, SIDE);
     let ctx = context(KernelVariant::Software);

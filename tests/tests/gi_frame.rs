@@ -30,7 +30,7 @@ use gi_shared::hash::pcg_chain;
 use gi_shared::light_grid::{
     LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams, build_light_grid_cell,
 };
-use gi_tests::{context, finish_without_validation_messages, scene_path};
+use gi_tests::{context, finish_without_validation_messages, load_scene, reference_image};
 use glam::{Quat, Vec3};
 
 /// Side of the test images.
@@ -40,18 +40,6 @@ const FRAMES: u32 = 48;
 /// Paths per pixel of the committed references (`tests/data/reference/*-64.exr`, written by
 /// `bash scripts/references.sh`: the path tracer at the scene's own camera, seed 0).
 const REFERENCE_SPP: u32 = 4096;
-
-/// The committed path-traced reference of `scene` (e.g. `cornell-box`) at [`SIDE`].
-fn reference_of(scene: &str) -> HdrImage {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data/reference")
-        .join(format!("{scene}-{SIDE}.exr"));
-    HdrImage::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
-
-fn load(file: &str) -> Scene {
-    Scene::load(scene_path(file)).unwrap().0
-}
 
 /// A context with a scene uploaded.
 struct Gpu {
@@ -149,10 +137,10 @@ fn gi_converges_to_the_path_tracer() {
         ("cornell-box", 0.12, 0.57, 0.11),
         ("indirect-room", 0.009, 0.12, 0.22),
     ] {
-        let scene = load(&format!("{file}.gltf"));
+        let scene = load_scene(&format!("{file}.gltf"));
         let gpu = Gpu::new(KernelVariant::Software, &scene);
         let image = gpu.converged(&scene, settings(), FRAMES);
-        let (relmse, flip, bias) = errors(&reference_of(file), &image);
+        let (relmse, flip, bias) = errors(&reference_image(file, SIDE), &image);
         println!(
             "{file}: GI after {FRAMES} frames vs the path tracer at {REFERENCE_SPP} spp: relMSE \
              {relmse:.4}, FLIP {flip:.4}, mean {:+.1}%",
@@ -225,8 +213,8 @@ const FIREFLY_SEEDS: u32 = 4;
 
 #[test]
 fn switching_a_technique_off_moves_the_error_the_expected_way() {
-    let scene = load("cornell-box.gltf");
-    let reference = reference_of("cornell-box");
+    let scene = load_scene("cornell-box.gltf");
+    let reference = reference_image("cornell-box", SIDE);
     let gpu = Gpu::new(KernelVariant::Software, &scene);
     let base = settings();
     let undenoised = GiSettings {
@@ -281,7 +269,7 @@ fn switching_a_technique_off_moves_the_error_the_expected_way() {
     gpu.finish();
     // Patching: a camera that jumps leaves disoccluded tiles; with patching they get probes at
     // once, without they wait for their spawn turn and interpolation finds nothing nearby.
-    let scene = load("indirect-room.gltf");
+    let scene = load_scene("indirect-room.gltf");
     let gpu = Gpu::new(KernelVariant::Software, &scene);
     let holes = |patching: bool| {
         let mut gi = gpu.renderer(GiSettings { patching, ..base });
@@ -308,8 +296,8 @@ fn switching_a_technique_off_moves_the_error_the_expected_way() {
     );
     gpu.finish();
     // The leak fixes: light from the lit room crosses the thin wall without them.
-    let scene = load("light-leak.gltf");
-    let reference = reference_of("light-leak");
+    let scene = load_scene("light-leak.gltf");
+    let reference = reference_image("light-leak", SIDE);
     let gpu = Gpu::new(KernelVariant::Software, &scene);
     let on = dark_ratio(&reference, &gpu.converged(&scene, base, FRAMES));
     let off = dark_ratio(
@@ -361,7 +349,7 @@ fn temporal_change(gpu: &Gpu, scene: &Scene, settings: GiSettings) -> f64 {
 
 #[test]
 fn a_slow_orbit_stays_temporally_stable() {
-    let scene = load("cornell-box.gltf");
+    let scene = load_scene("cornell-box.gltf");
     let gpu = Gpu::new(KernelVariant::Software, &scene);
     let on = temporal_change(&gpu, &scene, settings());
     let off = temporal_change(
@@ -389,7 +377,7 @@ fn a_slow_orbit_stays_temporally_stable() {
 #[test]
 fn no_gi_buffer_holds_nan_or_inf_after_1000_moving_frames() {
     const SIDE_SMALL: u32 = 32;
-    let scene = load("cornell-box.gltf");
+    let scene = load_scene("cornell-box.gltf");
     let target = Vec3::new(0.0, 1.0, 0.0);
     let camera_at = |f: u32| {
         let angle = 1.2 * (f as f32 * std::f32::consts::TAU / 250.0).sin();
@@ -437,7 +425,7 @@ fn no_gi_buffer_holds_nan_or_inf_after_1000_moving_frames() {
 
 #[test]
 fn both_tracing_variants_render_the_same_frame_cleanly() {
-    let scene = load("indirect-room.gltf");
+    let scene = load_scene("indirect-room.gltf");
     let images: Vec<HdrImage> = KernelVariant::ALL
         .into_iter()
         .map(|variant| {
@@ -468,7 +456,7 @@ fn both_tracing_variants_render_the_same_frame_cleanly() {
 /// probability the CPU computes (256 lights: every lane streams four).
 #[test]
 fn the_light_grid_build_matches_the_cpu() {
-    let scene = load("many-lights.gltf");
+    let scene = load_scene("many-lights.gltf");
     let gpu = Gpu::new(KernelVariant::Software, &scene);
     let mut gi = gpu.renderer(settings());
     gpu.run(&mut gi, 1, |_| scene_camera(&scene, SIDE, SIDE));

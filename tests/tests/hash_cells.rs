@@ -22,7 +22,7 @@ use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_shared::camera::CameraParams;
-use gi_tests::{context, finish_without_validation_messages, scene_path};
+use gi_tests::{context, finish_without_validation_messages, load_scene};
 use glam::Vec3;
 
 const VARIANTS: [KernelVariant; 2] = [KernelVariant::RayQuery, KernelVariant::Software];
@@ -36,10 +36,6 @@ const RELMSE_BOUND_64_FRAMES: f64 = 0.027;
 /// The image mean's largest relative difference to the reference's: measured −1.59% (−2.17%
 /// with ReSTIR; without temporal feedback, one bounce of indirect light only: −11.9%).
 const MEAN_BIAS_BOUND: f64 = 0.03;
-
-fn load(file: &str) -> Scene {
-    Scene::load(scene_path(file)).unwrap().0
-}
 
 /// Mean of all channels of all pixels.
 fn mean(image: &HdrImage) -> f64 {
@@ -115,7 +111,7 @@ fn assert_occupancy_consistent(occupancy: &[Occupancy], tile_count: u32) {
 
 #[test]
 fn the_cornell_box_converges_toward_the_path_tracer() {
-    let scene = load("cornell-box.gltf");
+    let scene = load_scene("cornell-box.gltf");
     let camera = scene_camera(&scene, SIDE, SIDE);
     let reference = path_traced(&scene, &camera, 1024, Strategy::Mis);
     let bsdf_only = path_traced(&scene, &camera, FRAMES, Strategy::BsdfOnly);
@@ -180,7 +176,7 @@ fn the_cornell_box_converges_toward_the_path_tracer() {
 /// refuses inserts without hanging, its image still finite.
 #[test]
 fn occupancy_counters_track_inserts_and_evictions() {
-    let scene = load("cornell-box.gltf");
+    let scene = load_scene("cornell-box.gltf");
     let near = scene_camera(&scene, 32, 32);
     let far = CameraParams::new(
         near.position() + Vec3::new(0.0, 0.0, 6.0),
@@ -237,7 +233,7 @@ fn occupancy_counters_track_inserts_and_evictions() {
 /// inserts), cells and touch stamps.
 #[test]
 fn a_recorded_query_batch_replays() {
-    let scene = load("cornell-box.gltf");
+    let scene = load_scene("cornell-box.gltf");
     let camera = scene_camera(&scene, 32, 32);
     let settings = GiSettings::for_resolution(32, 32);
     let ctx = context(KernelVariant::Software);
@@ -286,7 +282,7 @@ fn a_recorded_query_batch_replays() {
 /// checker's mip levels, the primary hit's filtered texture alone gave relMSE 0.026.
 #[test]
 fn punctual_lights_reach_the_primary_hit_through_its_shadow_ray() {
-    let mut scene = load("textured.gltf");
+    let mut scene = load_scene("textured.gltf");
     // Level 0 alone: the path tracer reads level 0 (its samples average each pixel), while the
     // primary hit here would read the ray cone's mip level of the fine checker, a different
     // filter of the same texture (mip selection has its own test, in gbuffer.rs).

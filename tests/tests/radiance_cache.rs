@@ -44,12 +44,8 @@ use gi_shared::layout::{HashCellValue, HashGridParams, HashGridQuery};
 use gi_shared::light_grid::{LightGridEntry, LightGridParams};
 use gi_shared::random::Random;
 use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
-use gi_tests::{context, finish_without_validation_messages, scene_path};
+use gi_tests::{context, finish_without_validation_messages, load_scene};
 use glam::{Mat4, Vec3};
-
-fn load(file: &str) -> Scene {
-    Scene::load(scene_path(file)).unwrap().0
-}
 
 /// A context with `scene` uploaded (its lights and `environment`, importance-sampled).
 struct Gpu {
@@ -578,7 +574,7 @@ fn samples(seed: u32, n: usize) -> Vec<Vec3> {
 ///    samples.
 #[test]
 fn the_cpu_model_equals_the_gpu() {
-    let scene = load("cornell-box.gltf");
+    let scene = load_scene("cornell-box.gltf");
     let near = scene_camera(&scene, MODEL_SIDE, MODEL_SIDE);
     let far = CameraParams::new(
         near.position() + Vec3::new(0.0, 0.0, 6.0),
@@ -773,7 +769,7 @@ const OVERFLOW_MAX_LOSS: f64 = 0.25;
 /// full cache changes the image by 1%).
 #[test]
 fn a_cache_smaller_than_the_scene_degrades_gracefully() {
-    let scene = load("cornell-box.gltf");
+    let scene = load_scene("cornell-box.gltf");
     let camera = scene_camera(&scene, OVERFLOW_SIDE, OVERFLOW_SIDE);
     let normal = GiSettings {
         temporal_feedback: false,
@@ -863,7 +859,7 @@ fn tiles(state: &CacheState, tiles_per_bucket_log2: u32) -> BTreeMap<(usize, u32
 #[test]
 fn tiles_expire_after_exactly_50_untouched_frames() {
     let side = 16;
-    let scene = load("cornell-box.gltf");
+    let scene = load_scene("cornell-box.gltf");
     let near = scene_camera(&scene, side, side);
     let far = CameraParams::new(
         near.position() + Vec3::new(0.0, 0.0, 6.0),
@@ -1025,7 +1021,7 @@ const FINITE_CHECK_EVERY: u32 = 100;
 #[test]
 fn no_cache_buffer_holds_nan_or_inf_after_1000_moving_frames() {
     let side = 16;
-    let scene = load("cornell-box.gltf");
+    let scene = load_scene("cornell-box.gltf");
     let home = scene_camera(&scene, side, side);
     let target = Vec3::new(0.0, 1.0, 0.0);
     let camera_at = |f: u32| {
@@ -1117,7 +1113,7 @@ const LEAK_MIN_EXCESS: f64 = 0.05;
 /// straddle the wall light the dark room measurably more.
 #[test]
 fn the_leak_fixes_keep_the_dark_room_dark() {
-    let scene = load("light-leak.gltf");
+    let scene = load_scene("light-leak.gltf");
     let camera = scene_camera(&scene, LEAK_SIDE, LEAK_SIDE);
     // Columns right of the wall's (the middle one), a pixel of margin.
     let dark = |x: u32| x > LEAK_SIDE / 2;
