@@ -1426,7 +1426,7 @@ fn exr_environment_with_a_nan_texel() {
 #[test]
 fn missing_environment_file() {
     let path = std::env::temp_dir().join("gi-malformed-no-such-sky.exr");
-    image_error(Environment::read(&path), &path, "cannot read OpenEXR");
+    image_error(Environment::read(&path), &path, "cannot read: No such file");
 }
 
 // --- image requests and settings (the library API; `cli.rs` has the command line) -------------
