@@ -813,18 +813,8 @@ mod tests {
             .collect()
     }
 
-    /// A mesh of the triangles `soup`, each with its own three vertices.
     fn soup_mesh(soup: &[Tri]) -> Mesh {
-        Mesh {
-            name: "soup".into(),
-            positions: soup.iter().flatten().map(|&v| Vec3::from(v)).collect(),
-            normals: vec![Vec3::ZERO; 3 * soup.len()],
-            uvs: None,
-            triangles: (0..soup.len() as u32)
-                .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-                .collect(),
-            materials: vec![0; soup.len()],
-        }
+        procedural::triangle_soup("soup", soup)
     }
 
     /// A ray from the scene's surroundings, most aimed at (or near) one of its world triangles.

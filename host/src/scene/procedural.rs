@@ -126,6 +126,21 @@ fn mesh(name: &str, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
     }
 }
 
+/// A mesh named `name` of the triangles `soup` (world-space corners), each with its own three
+/// vertices and material 0: what BVH tests feed the builder.
+pub fn triangle_soup(name: &str, soup: &[[[f32; 3]; 3]]) -> Mesh {
+    Mesh {
+        name: name.into(),
+        positions: soup.iter().flatten().map(|&v| Vec3::from(v)).collect(),
+        normals: vec![Vec3::ZERO; 3 * soup.len()],
+        uvs: None,
+        triangles: (0..soup.len() as u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect(),
+        materials: vec![0; soup.len()],
+    }
+}
+
 /// `mesh` with its positions moved by `transform` (and its normals turned with it), the way
 /// [`Scene::world_triangles`] moves an instance's: the same vertex values, for a scene whose
 /// instances have the identity transform.

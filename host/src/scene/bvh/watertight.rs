@@ -215,16 +215,7 @@ fn the_bvh_agrees_with_an_f64_oracle() {
             })
         })
         .collect();
-    let soup = crate::scene::Mesh {
-        name: "random soup".into(),
-        positions: soup.iter().flatten().map(|&v| Vec3::from(v)).collect(),
-        normals: vec![Vec3::ZERO; 3 * soup.len()],
-        uvs: None,
-        triangles: (0..soup.len() as u32)
-            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-            .collect(),
-        materials: vec![0; soup.len()],
-    };
+    let soup = procedural::triangle_soup("random soup", &soup);
     let soup = procedural::scene(vec![soup], &[(0, Mat4::IDENTITY)]).unwrap();
     scenes.push(("random soup".into(), soup));
 
