@@ -192,15 +192,7 @@ impl Image {
         src: vk::AccessFlags,
         dst: vk::AccessFlags,
     ) -> vk::ImageMemoryBarrier<'static> {
-        vk::ImageMemoryBarrier::default()
-            .src_access_mask(src)
-            .dst_access_mask(dst)
-            .old_layout(old)
-            .new_layout(new)
-            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-            .image(self.handle)
-            .subresource_range(COLOR)
+        layout_barrier(self.handle, COLOR, old, new, src, dst)
     }
 
     /// Size of the image's texels in bytes, tightly packed.
@@ -319,4 +311,24 @@ pub(super) fn destroy_image(
     if let (Some(a), Ok(mut alloc)) = (allocation, shared.allocator.lock()) {
         alloc.free(a).ok();
     }
+}
+
+/// A barrier moving `range` of `image` from layout `old` to `new` (one queue family).
+pub(crate) fn layout_barrier(
+    image: vk::Image,
+    range: vk::ImageSubresourceRange,
+    old: vk::ImageLayout,
+    new: vk::ImageLayout,
+    src: vk::AccessFlags,
+    dst: vk::AccessFlags,
+) -> vk::ImageMemoryBarrier<'static> {
+    vk::ImageMemoryBarrier::default()
+        .src_access_mask(src)
+        .dst_access_mask(dst)
+        .old_layout(old)
+        .new_layout(new)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(range)
 }

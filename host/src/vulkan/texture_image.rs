@@ -7,7 +7,7 @@
 //! textures, so a scene's whole texture set never needs a staging copy of its size.
 
 use super::context::{Context, SharedDevice};
-use super::image::{create_bound_image, destroy_image};
+use super::image::{create_bound_image, destroy_image, layout_barrier};
 use super::memory::Buffer;
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
@@ -202,15 +202,8 @@ fn upload_batch(
             .iter()
             .zip(textures)
             .map(|(image, t)| {
-                vk::ImageMemoryBarrier::default()
-                    .src_access_mask(src)
-                    .dst_access_mask(dst)
-                    .old_layout(old)
-                    .new_layout(new)
-                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .image(image.handle)
-                    .subresource_range(all_levels(t.levels.len() as u32))
+                let range = all_levels(t.levels.len() as u32);
+                layout_barrier(image.handle, range, old, new, src, dst)
             })
             .collect()
     };
