@@ -20,10 +20,15 @@ use spirv_std::{Image, spirv};
 /// An engine image: any float, UNORM, SNORM, sRGB or depth format, read by texel fetch.
 pub type EngineImage = Image!(2D, type = f32, sampled);
 
-/// The stored depth at `pixel`, or NaN outside the image.
-fn depth_at(depth: &EngineImage, camera: &CameraParams, pixel: UVec2) -> f32 {
-    if in_image(camera, pixel) {
-        let texel: Vec4 = depth.fetch(pixel);
+/// The stored depth `(dx, dy)` pixels from `pixel`, or NaN outside the image.
+fn depth_at(depth: &EngineImage, camera: &CameraParams, pixel: UVec2, dx: i32, dy: i32) -> f32 {
+    // Wrapping: a pixel off the left or top edge lands far outside the image.
+    let p = UVec2::new(
+        pixel.x.wrapping_add(dx as u32),
+        pixel.y.wrapping_add(dy as u32),
+    );
+    if in_image(camera, p) {
+        let texel: Vec4 = depth.fetch(p);
         texel.x
     } else {
         f32::NAN
@@ -57,16 +62,18 @@ pub fn import_gbuffer(
     if !in_image(camera, pixel) {
         return;
     }
-    // Wrapping: a neighbour off the left or top edge lands far outside the image.
-    let left = UVec2::new(pixel.x.wrapping_sub(1), pixel.y);
-    let up = UVec2::new(pixel.x, pixel.y.wrapping_sub(1));
+    let d = engine_depth;
     let texels = EngineTexels {
         depth: [
-            depth_at(engine_depth, camera, pixel),
-            depth_at(engine_depth, camera, left),
-            depth_at(engine_depth, camera, pixel + UVec2::X),
-            depth_at(engine_depth, camera, up),
-            depth_at(engine_depth, camera, pixel + UVec2::Y),
+            depth_at(d, camera, pixel, 0, 0),
+            depth_at(d, camera, pixel, -1, 0),
+            depth_at(d, camera, pixel, -2, 0),
+            depth_at(d, camera, pixel, 1, 0),
+            depth_at(d, camera, pixel, 2, 0),
+            depth_at(d, camera, pixel, 0, -1),
+            depth_at(d, camera, pixel, 0, -2),
+            depth_at(d, camera, pixel, 0, 1),
+            depth_at(d, camera, pixel, 0, 2),
         ],
         normal: engine_normal.fetch(pixel),
         albedo: engine_albedo.fetch(pixel),

@@ -6,9 +6,11 @@
 //!
 //! * **depth**: linear depth decoded from the engine's depth ([`DepthEncoding`]); sky where the
 //!   engine's depth is its clear value (or not a finite positive distance).
-//! * **geometric normal**: rebuilt from depth, the cross product of the world positions of the
-//!   pixel and its nearer neighbour in x and in y (the one whose depth is closer, so that an edge
-//!   takes the surface's side), turned to face the camera. Where no neighbour is a surface, the
+//! * **geometric normal**: rebuilt from depth, the cross product of the tangents from the pixel's
+//!   world position to a neighbour's in x and in y, each towards the side whose next two pixels
+//!   continue the pixel's plane best (1/z is linear across the screen on a plane: the side whose
+//!   extrapolated 1/z misses least), so that an edge takes the surface's side; turned to face the
+//!   camera. Where no neighbour is a surface, the
 //!   shading normal stands in.
 //! * **shading normal**: the engine's normal ([`NormalEncoding`]), normalised, turned to the
 //!   geometric normal's side when it lies on the other.
@@ -248,9 +250,9 @@ impl GBufferImportParams {
 /// The engine's texels of one pixel, as read (stored values, not yet decoded).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EngineTexels {
-    /// Stored depth of the pixel, then of its neighbours left, right, up, down (NaN for a
-    /// neighbour outside the image).
-    pub depth: [f32; 5],
+    /// Stored depth of the pixel, then of the pixels 1 and 2 to its left, 1 and 2 to its right,
+    /// 1 and 2 up, 1 and 2 down (NaN for a pixel outside the image).
+    pub depth: [f32; 9],
     /// Normal texel.
     pub normal: Vec4,
     /// Albedo texel (linear: an sRGB format is decoded by the read).
@@ -268,9 +270,24 @@ fn position(camera: &CameraParams, pixel: UVec2, z: f32) -> Vec3 {
     Vec3::from_array(ray.origin) + Vec3::from_array(ray.direction) * z
 }
 
-/// The tangent along one image axis at `p` (linear depth `z`, `pixel`), from the neighbour whose
-/// linear depth is closer to `z` (`before` at `pixel − step`, `after` at `pixel + step`; 0 for
-/// sky or outside the image); zero when neither is a surface.
+/// How far the pixel's linear depth `z` is from the surface of one side: `z1`, `z2` are the
+/// linear depths one and two pixels away (0 for sky or outside the image). With both, the error of
+/// their linear extrapolation of 1/z (linear across the screen on a plane: zero when all three lie
+/// on one plane), relative; with `z1` alone, the relative depth difference; infinite without.
+#[inline]
+fn side_error(z: f32, z1: f32, z2: f32) -> f32 {
+    if z1 <= 0.0 {
+        f32::INFINITY
+    } else if z2 > 0.0 {
+        abs((2.0 / z1 - 1.0 / z2) * z - 1.0)
+    } else {
+        abs(z1 - z) / z
+    }
+}
+
+/// The tangent along one image axis at `p` (linear depth `z`, `pixel`), towards the side whose
+/// depths continue the pixel's surface best ([`side_error`]): `before` holds the linear depths one
+/// and two steps back, `after` one and two steps on; zero when neither side has a surface.
 #[inline]
 fn tangent(
     camera: &CameraParams,
@@ -278,15 +295,15 @@ fn tangent(
     step: UVec2,
     p: Vec3,
     z: f32,
-    before: f32,
-    after: f32,
+    before: [f32; 2],
+    after: [f32; 2],
 ) -> Vec3 {
-    let after_ok = after > 0.0;
-    let before_ok = before > 0.0;
-    if after_ok && (!before_ok || abs(after - z) <= abs(before - z)) {
-        position(camera, pixel + step, after) - p
-    } else if before_ok {
-        p - position(camera, pixel - step, before)
+    let before_error = side_error(z, before[0], before[1]);
+    let after_error = side_error(z, after[0], after[1]);
+    if after[0] > 0.0 && after_error <= before_error {
+        position(camera, pixel + step, after[0]) - p
+    } else if before[0] > 0.0 {
+        p - position(camera, pixel - step, before[0])
     } else {
         Vec3::ZERO
     }
@@ -306,12 +323,9 @@ pub fn imported_texel(
     }
     let p = position(camera, pixel, z);
     let direction = p - camera.position();
-    let left = params.linear_depth(texels.depth[1]);
-    let right = params.linear_depth(texels.depth[2]);
-    let up = params.linear_depth(texels.depth[3]);
-    let down = params.linear_depth(texels.depth[4]);
-    let tx = tangent(camera, pixel, UVec2::X, p, z, left, right);
-    let ty = tangent(camera, pixel, UVec2::Y, p, z, up, down);
+    let d = |i: usize| params.linear_depth(texels.depth[i]);
+    let tx = tangent(camera, pixel, UVec2::X, p, z, [d(1), d(2)], [d(3), d(4)]);
+    let ty = tangent(camera, pixel, UVec2::Y, p, z, [d(5), d(6)], [d(7), d(8)]);
     let mut shading = params.decode_normal(texels.normal);
     let mut geometric = tx.cross(ty).normalize_or_zero();
     if geometric == Vec3::ZERO {
@@ -467,7 +481,7 @@ mod tests {
         // Every ray's forward component is 1: linear depth 2 everywhere on the wall.
         let d = e.encode(2.0);
         let texels = EngineTexels {
-            depth: [d, d, f32::NAN, e.sky(), d],
+            depth: [d, d, d, f32::NAN, f32::NAN, e.sky(), e.sky(), d, d],
             normal: Vec4::new(0.0, 0.0, 1.0, 0.0),
             albedo: Vec4::new(0.5, 0.25, 0.125, 1.0),
             motion: Vec4::ZERO,
@@ -523,7 +537,7 @@ mod tests {
 
         // Sky.
         let sky = EngineTexels {
-            depth: [e.sky(); 5],
+            depth: [e.sky(); 9],
             ..texels
         };
         assert_eq!(imported_texel(&moved, &p, pixel, &sky), GBufferTexel::SKY);
