@@ -36,7 +36,7 @@ fn main() {
         manifest::Provenance::of_sources(repo).unwrap_or_else(|e| panic!("kernel sources: {e}"));
     let stale = manifest::check(&shipped, sources.as_ref()).err();
     if sources.is_some() {
-        for input in manifest::WATCHED {
+        for input in manifest::inputs() {
             watch(&repo.join(input));
         }
     }

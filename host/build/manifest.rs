@@ -35,10 +35,23 @@ const HASHED_FILES: &[&str] = &[
 ];
 /// Directories, relative to the repository root, every file of which is hashed.
 const HASHED_DIRS: &[&str] = &["kernels/src", "shared/src"];
+/// The workspace's manifest and lock, relative to the repository root: parts of them are hashed.
+const WORKSPACE_MANIFEST: &str = "Cargo.toml";
+const LOCK: &str = "Cargo.lock";
 /// The crates whose manifests' dependencies the kernels are built with.
 const KERNEL_CRATES: &[&str] = &["kernels", "shared"];
 /// rust-gpu's builder and backend: their lock entries count, not their dependencies'.
 const BUILDER_PACKAGES: &[&str] = &["spirv-builder", "rustc_codegen_spirv"];
+
+/// Every input of the sources hash, relative to the repository root: what a build script
+/// watches.
+pub fn inputs() -> impl Iterator<Item = &'static str> {
+    HASHED_FILES
+        .iter()
+        .chain(HASHED_DIRS)
+        .copied()
+        .chain([WORKSPACE_MANIFEST, LOCK])
+}
 
 impl Provenance {
     /// Reads the sources in the repository at `repo`; `None` where they are absent (a packaged
@@ -72,7 +85,7 @@ impl Provenance {
             .to_string();
 
         // What the kernel crates inherit from the workspace.
-        let workspace = toml_file(&repo.join("Cargo.toml"))?;
+        let workspace = toml_file(&repo.join(WORKSPACE_MANIFEST))?;
         let workspace_deps = workspace
             .get("workspace")
             .and_then(|w| w.get("dependencies"))
@@ -107,7 +120,7 @@ impl Provenance {
             }
         }
 
-        let lock = Lock::read(&repo.join("Cargo.lock"))?;
+        let lock = Lock::read(&repo.join(LOCK))?;
         let mut spirv_builder = None;
         for (key, entry) in lock.closure(&roots) {
             inputs.insert(format!("Cargo.lock:{key}"), entry.into());
@@ -319,15 +332,3 @@ fn files_under(dir: &Path) -> Result<Vec<PathBuf>, String> {
     }
     Ok(files)
 }
-
-/// The inputs of the sources hash that a build script watches, relative to the repository root.
-pub const WATCHED: &[&str] = &[
-    "rust-toolchain.toml",
-    "Cargo.toml",
-    "Cargo.lock",
-    "host/build/kernels.rs",
-    "kernels/Cargo.toml",
-    "kernels/src",
-    "shared/Cargo.toml",
-    "shared/src",
-];
