@@ -1,111 +1,82 @@
-//! Compiles `kernels/` to SPIR-V twice, both builds at once: without features (every kernel,
-//! tracing by walking the BVH in software) and with `ray-query` (only the kernels that trace, with
-//! `VK_KHR_ray_query`). The host takes non-tracing kernels from the first module in either
-//! variant (see `kernels::KernelVariant`).
-//!
-//! Without the `kernels` feature only the scene configuration below is done: rust-gpu's backend
-//! is not even a dependency then.
+//! The scene configuration, and the kernels: with the `build-kernels` feature compiled from
+//! `kernels/` by rust-gpu (`build/kernels.rs`), else the modules shipped in `kernels-spirv/`,
+//! checked against the sources beside them when those are present (`build/manifest.rs`). Either
+//! way rustc gets `GI_KERNELS_DIR`, the folder with the modules and their manifest.
 
-use std::path::PathBuf;
+#[cfg(feature = "build-kernels")]
+#[path = "build/kernels.rs"]
+mod kernels;
+#[path = "build/manifest.rs"]
+mod manifest;
+
+use std::path::{Path, PathBuf};
 
 /// Where the third-party scenes are, from this package's directory.
 const THIRD_PARTY_SCENES: &str = "../../shared/scenes/third-party";
+/// The shipped modules, from this package's directory.
+const SHIPPED: &str = "kernels-spirv";
+/// What to do when the shipped modules do not match.
+const REMEDY: &str = "run scripts/build-kernels.sh (needs the pinned nightly), or build gi-host \
+                      with its `build-kernels` feature";
 
 fn main() {
+    let host = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     // Third-party scenes stay beside the repository, in ../shared: tests and benchmarks that
     // read them are ignored, saying why, where it is absent (a user's clone).
-    let third_party = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(THIRD_PARTY_SCENES);
+    let third_party = host.join(THIRD_PARTY_SCENES);
     println!("cargo::rustc-check-cfg=cfg(third_party_scenes)");
-    // Cargo reruns a build script on every build that watches a path which does not exist (and
-    // rebuilds the crate): watch the deepest ancestor that does, which changes when it appears.
-    let watched = third_party
-        .ancestors()
-        .find(|p| p.exists())
-        .unwrap_or(&third_party);
-    println!("cargo::rerun-if-changed={}", watched.display());
+    watch(&third_party);
     if third_party.is_dir() {
         println!("cargo::rustc-cfg=third_party_scenes");
     }
-    #[cfg(feature = "kernels")]
-    kernels::build_all();
+
+    let repo = host.parent().expect("the package has a parent directory");
+    let shipped = host.join(SHIPPED);
+    let sources =
+        manifest::Provenance::of_sources(repo).unwrap_or_else(|e| panic!("kernel sources: {e}"));
+    let stale = manifest::check(&shipped, sources.as_ref()).err();
+    if sources.is_some() {
+        for input in manifest::inputs() {
+            watch(&repo.join(input));
+        }
+    }
+    watch(&shipped);
+    #[cfg(feature = "build-kernels")]
+    let dir = {
+        let sources = sources.expect("building the kernels needs kernels/ beside host/");
+        if let Some(stale) = stale {
+            // A build without the feature would fail; the tests fail too (kernels::tests).
+            println!("cargo::warning=kernels changed: {stale}; {REMEDY}");
+        }
+        let dir =
+            PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR")).join(SHIPPED);
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+        let mut modules = vec![];
+        for (file, built) in kernels::build_all(&repo.join("kernels")) {
+            let bytes =
+                std::fs::read(&built).unwrap_or_else(|e| panic!("{}: {e}", built.display()));
+            std::fs::write(dir.join(file), &bytes)
+                .unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+            modules.push((file, bytes));
+        }
+        std::fs::write(dir.join(manifest::MANIFEST), sources.manifest(&modules))
+            .unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+        dir
+    };
+    #[cfg(not(feature = "build-kernels"))]
+    let dir = {
+        if let Some(stale) = stale {
+            panic!("kernels changed: {stale}; {REMEDY}");
+        }
+        shipped
+    };
+    println!("cargo::rustc-env=GI_KERNELS_DIR={}", dir.display());
 }
 
-/// The kernel builds.
-#[cfg(feature = "kernels")]
-mod kernels {
-    use spirv_builder::{Capability, ModuleResult, SpirvBuilder, SpirvMetadata};
-    use std::path::{Path, PathBuf};
-    use std::str::FromStr;
-
-    struct Variant {
-        env: &'static str,
-        target_dir: &'static str,
-        features: &'static [&'static str],
-        capabilities: &'static [Capability],
-        extensions: &'static [&'static str],
-    }
-
-    const VARIANTS: &[Variant] = &[
-        Variant {
-            env: "GI_KERNELS_SOFTWARE_SPV",
-            target_dir: "spirv-software",
-            features: &[],
-            capabilities: &[],
-            extensions: &[],
-        },
-        Variant {
-            env: "GI_KERNELS_RAY_QUERY_SPV",
-            target_dir: "spirv-ray-query",
-            features: &["ray-query"],
-            capabilities: &[Capability::RayQueryKHR],
-            extensions: &["SPV_KHR_ray_query"],
-        },
-    ];
-
-    /// Builds both variants and tells rustc where their modules are.
-    pub fn build_all() {
-        let kernels = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../kernels");
-        // Each build is one mostly serial rustc: side by side they take the time of the longer.
-        let modules: Vec<(&str, PathBuf)> = std::thread::scope(|s| {
-            let builds: Vec<_> = VARIANTS
-                .iter()
-                .map(|v| s.spawn(|| (v.env, build(&kernels, v))))
-                .collect();
-            builds
-                .into_iter()
-                .map(|b| b.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                .collect()
-        });
-        for (env, path) in modules {
-            println!("cargo::rustc-env={env}={}", path.display());
-        }
-    }
-
-    /// Builds one variant and returns the module's path.
-    fn build(kernels: &Path, v: &Variant) -> PathBuf {
-        let mut b = SpirvBuilder::new(kernels, "spirv-unknown-vulkan1.2")
-            .target_dir_path(v.target_dir)
-            .spirv_metadata(SpirvMetadata::NameVariables)
-            .shader_crate_features(v.features.iter().map(|s| s.to_string()));
-        b.build_script.defaults = true;
-        // The host enables a device feature for each of these (gi_shared::abi).
-        for name in gi_shared::abi::KERNEL_CAPABILITIES {
-            let c = Capability::from_str(name)
-                .unwrap_or_else(|()| panic!("unknown SPIR-V capability {name}"));
-            b = b.capability(c);
-        }
-        for c in v.capabilities {
-            b = b.capability(*c);
-        }
-        for e in v.extensions {
-            b = b.extension(*e);
-        }
-        let result = b
-            .build()
-            .unwrap_or_else(|e| panic!("kernels ({}): {e}", v.env));
-        match result.module {
-            ModuleResult::SingleModule(path) => path,
-            ModuleResult::MultiModule(_) => panic!("kernels ({}): expected one module", v.env),
-        }
-    }
+/// Reruns this script when `path` changes. Cargo reruns a build script on every build that
+/// watches a path which does not exist (and rebuilds the crate): watch the deepest ancestor that
+/// does, which changes when it appears.
+fn watch(path: &Path) {
+    let watched = path.ancestors().find(|p| p.exists()).unwrap_or(path);
+    println!("cargo::rerun-if-changed={}", watched.display());
 }

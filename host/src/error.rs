@@ -35,11 +35,6 @@ pub enum Error {
         /// What needs it.
         needed_for: String,
     },
-    /// The crate was built without its kernels, so it cannot open a GPU context.
-    #[error(
-        "gi-host was built without its `kernels` feature: it reads scenes and images but has no kernels to run; build it with default features"
-    )]
-    NoKernels,
     /// Validation layers were requested but are not installed.
     #[error(
         "Vulkan validation layer VK_LAYER_KHRONOS_validation is not installed; run scripts/setup.sh (Debian package vulkan-validationlayers) or turn validation off"

@@ -1,5 +1,9 @@
 //! The two compiled kernel modules and the choice between them.
 //!
+//! The modules are embedded: by default those shipped in `host/kernels-spirv/` (built by
+//! `scripts/build-kernels.sh`), with the `build-kernels` feature those rust-gpu just built from
+//! `kernels/` (`host/build.rs`).
+//!
 //! The common module has every kernel, tracing (if at all) in software; the ray-query module has
 //! only the kernels that trace, with ray queries. A context running ray queries takes its tracing
 //! kernels from the latter and every other kernel from the former.
@@ -30,17 +34,9 @@ pub enum KernelVariant {
     Software,
 }
 
-/// Whether this build has the kernels (the `kernels` feature): without them no context opens.
-pub const BUILT: bool = cfg!(feature = "kernels");
-
-#[cfg(feature = "kernels")]
-const SOFTWARE_SPV: &[u8] = include_bytes!(env!("GI_KERNELS_SOFTWARE_SPV"));
-#[cfg(feature = "kernels")]
-const RAY_QUERY_SPV: &[u8] = include_bytes!(env!("GI_KERNELS_RAY_QUERY_SPV"));
-#[cfg(not(feature = "kernels"))]
-const SOFTWARE_SPV: &[u8] = &[];
-#[cfg(not(feature = "kernels"))]
-const RAY_QUERY_SPV: &[u8] = &[];
+// The build script's folder: the shipped modules, or those it built from source (`build-kernels`).
+const SOFTWARE_SPV: &[u8] = include_bytes!(concat!(env!("GI_KERNELS_DIR"), "/software.spv"));
+const RAY_QUERY_SPV: &[u8] = include_bytes!(concat!(env!("GI_KERNELS_DIR"), "/ray-query.spv"));
 
 impl KernelVariant {
     /// Both variants, software first.
@@ -91,7 +87,7 @@ pub fn common_spirv_words() -> Vec<u32> {
 }
 
 fn words(bytes: &[u8]) -> Vec<u32> {
-    // The build script wrote the module itself; a malformed one is a build bug.
+    // The build script checked the module against its manifest; a malformed one is a build bug.
     ash::util::read_spv(&mut std::io::Cursor::new(bytes)).unwrap_or_default()
 }
 
@@ -189,5 +185,26 @@ mod tests {
         // A truncated module yields what was complete, without panicking.
         let words = KernelVariant::RayQuery.tracing_spirv_words();
         let _ = entry_points(&words[..words.len() / 2]);
+    }
+
+    /// The modules just built from source are those shipped for builds without the nightly, and
+    /// the shipped manifest is the one these sources give (the hash a precompiled build checks).
+    #[cfg(feature = "build-kernels")]
+    #[test]
+    fn shipped_kernels_are_the_ones_built_from_source() {
+        let shipped = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("kernels-spirv");
+        let built = std::path::Path::new(env!("GI_KERNELS_DIR"));
+        // Read at run time: a missing shipped file fails this test, not the workspace's build.
+        for file in ["software.spv", "ray-query.spv", "manifest.toml"] {
+            let read = |dir: &std::path::Path| std::fs::read(dir.join(file)).unwrap_or_default();
+            let (shipped, built) = (read(&shipped), read(built));
+            assert!(
+                !built.is_empty() && built == shipped,
+                "kernels changed: run scripts/build-kernels.sh (host/kernels-spirv/{file}: \
+                 {} bytes shipped, {} built from source)",
+                shipped.len(),
+                built.len()
+            );
+        }
     }
 }
