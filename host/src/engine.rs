@@ -45,9 +45,10 @@ pub const OUTPUT_ACCESS: vk::AccessFlags = vk::AccessFlags::TRANSFER_WRITE;
 ///
 /// Requirements: 2D, [`OUTPUT_FORMAT`], the renderer's size, one mip level and layer, created
 /// with `VK_IMAGE_USAGE_TRANSFER_DST_BIT`, on the device of the context. Before the recorded
-/// frame it must be in `layout` (`GENERAL` or `TRANSFER_DST_OPTIMAL`) with the engine's earlier
-/// accesses made available to [`OUTPUT_STAGE`]/[`OUTPUT_ACCESS`]; the frame leaves it in the
-/// same layout, written at [`OUTPUT_STAGE`]/[`OUTPUT_ACCESS`].
+/// frame it must be in `layout` (`TRANSFER_DST_OPTIMAL`, or `GENERAL`, which the validation
+/// layer reports as a performance warning) with the engine's earlier accesses made available to
+/// [`OUTPUT_STAGE`]/[`OUTPUT_ACCESS`]; the frame leaves it in the same layout, written at
+/// [`OUTPUT_STAGE`]/[`OUTPUT_ACCESS`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct OutputImage {
     /// The image.
@@ -58,7 +59,7 @@ pub struct OutputImage {
     pub width: u32,
     /// Its height in pixels.
     pub height: u32,
-    /// Its layout during the frame: `GENERAL` or `TRANSFER_DST_OPTIMAL`.
+    /// Its layout during the frame: `TRANSFER_DST_OPTIMAL` or `GENERAL`.
     pub layout: vk::ImageLayout,
 }
 

@@ -81,7 +81,8 @@ pub fn render(
                     )
                     .message_type(
                         vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                            | vk::DebugUtilsMessageTypeFlagsEXT::GENERAL,
+                            | vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                            | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
                     )
                     .pfn_user_callback(Some(on_message)),
                 None,
@@ -185,13 +186,13 @@ fn draw(
         format: OUTPUT_FORMAT,
         width,
         height,
-        layout: vk::ImageLayout::GENERAL,
+        layout: vk::ImageLayout::TRANSFER_DST_OPTIMAL,
     };
     for frame in 0..frames {
         let cmd = engine.cmd;
         unsafe {
             device.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default())?;
-            // The engine's barrier before our use: here its previous frame's copy.
+            // The engine's barrier before our use: here after our copy of the frame before.
             let old = if frame == 0 {
                 vk::ImageLayout::UNDEFINED
             } else {
@@ -199,12 +200,9 @@ fn draw(
             };
             engine.image_barrier(
                 &device,
-                (
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::AccessFlags::TRANSFER_READ | vk::AccessFlags::TRANSFER_WRITE,
-                ),
                 (OUTPUT_STAGE, OUTPUT_ACCESS),
-                old,
+                (OUTPUT_STAGE, OUTPUT_ACCESS),
+                (old, output.layout),
             );
         }
         gi.record(
@@ -227,7 +225,7 @@ fn draw(
                         vk::PipelineStageFlags::TRANSFER,
                         vk::AccessFlags::TRANSFER_READ,
                     ),
-                    output.layout,
+                    (output.layout, vk::ImageLayout::TRANSFER_SRC_OPTIMAL),
                 );
                 let region = vk::BufferImageCopy::default()
                     .image_subresource(COLOR_LAYER)
@@ -239,7 +237,7 @@ fn draw(
                 device.cmd_copy_image_to_buffer(
                     cmd,
                     engine.image,
-                    output.layout,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                     engine.readback,
                     &[region],
                 );
@@ -386,20 +384,20 @@ impl EngineFrame {
         }
     }
 
-    /// Records a barrier on the output image from `src` to `dst` (stages, accesses), from
-    /// layout `old` to `GENERAL`.
+    /// Records a barrier on the output image from `src` to `dst` (stages, accesses), between
+    /// `layouts` (old, new).
     unsafe fn image_barrier(
         &self,
         device: &ash::Device,
         src: (vk::PipelineStageFlags, vk::AccessFlags),
         dst: (vk::PipelineStageFlags, vk::AccessFlags),
-        old: vk::ImageLayout,
+        (old, new): (vk::ImageLayout, vk::ImageLayout),
     ) {
         let barrier = vk::ImageMemoryBarrier::default()
             .src_access_mask(src.1)
             .dst_access_mask(dst.1)
             .old_layout(old)
-            .new_layout(vk::ImageLayout::GENERAL)
+            .new_layout(new)
             .image(self.image)
             .subresource_range(vk::ImageSubresourceRange {
                 aspect_mask: vk::ImageAspectFlags::COLOR,
