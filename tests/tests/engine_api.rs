@@ -9,8 +9,8 @@ mod integration;
 
 use ash::vk;
 use gi_host::engine::{
-    FrameInputs, FrameOutputs, GiRenderer, GiSettings, GpuScene, OUTPUT_ACCESS, OUTPUT_FORMAT,
-    OUTPUT_STAGE, OutputImage, ViewOptions,
+    FrameInputs, FrameOutputs, GBufferSource, GiRenderer, GiSettings, GpuScene, OUTPUT_ACCESS,
+    OUTPUT_FORMAT, OUTPUT_STAGE, OutputImage, ViewOptions,
 };
 use gi_host::gbuffer::scene_camera;
 use gi_host::image_io::HdrImage;
@@ -176,6 +176,25 @@ fn an_engine_device_renders_what_render_frame_renders() {
     assert!(denoised.iter().any(|t| t[0] > 0.0), "no irradiance");
     assert!(written == bytemuck::cast_slice::<[f32; 4], u8>(&denoised));
     drop(irradiance);
+
+    // A G-buffer the engine wrote (here: the last frame's, left in place) instead of ours.
+    let traced = gi.image(&ctx).unwrap();
+    let written = FrameInputs {
+        gbuffer: GBufferSource::Written,
+        ..FrameInputs::new(camera)
+    };
+    let no_outputs = FrameOutputs::default();
+    ctx.submit(|cmd| gi.record(&ctx, cmd, &mut gpu, &written, &no_outputs))
+        .unwrap()
+        .unwrap();
+    let from_written = gi.image(&ctx).unwrap();
+    let metrics = compare(&traced, &from_written, &CompareSettings::default())
+        .unwrap()
+        .metrics;
+    println!("a frame on the written G-buffer against the traced frame before: {metrics}");
+    // One more frame of a converging image: relMSE 8.9e-4, mean -0.4% measured; ~10× that.
+    assert!(metrics.relative_mse < 1e-2, "{metrics}");
+    assert!(metrics.mean_bias.abs() < 0.05, "{metrics}");
 
     // Resize keeps the world cache's hash grid (same buffers) and renders at the new size.
     let keys = gi.cache_resources().keys.handle;
