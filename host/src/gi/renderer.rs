@@ -365,9 +365,9 @@ impl GiRenderer {
     /// Renders another scene from the next frame on (pass its [`GpuScene`] to the next
     /// [`GiRenderer::record`]), lit by `lights` (made from it), without rebuilding the
     /// renderer: the screen-space history and world-space ReSTIR's reservoirs start over. With
-    /// `reset_cache` the world cache is emptied too; without, cells of the old scene fade out as
-    /// they are evicted or overwritten (its light lingers for up to the cache's sample cap of
-    /// frames where the scenes overlap). No frame may be in flight.
+    /// `reset_cache` the world cache is emptied too; without, the old scene's cells stay until
+    /// they are evicted or their running averages take in the new scene's light (where the two
+    /// scenes overlap in space, its light lingers). No frame may be in flight.
     pub fn change_scene(
         &mut self,
         ctx: &Context,
