@@ -6,6 +6,7 @@
 //! `gi-shared`.
 
 pub mod bench;
+pub mod engine;
 pub mod error;
 pub mod frame;
 pub mod fuzzing;

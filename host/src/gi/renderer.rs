@@ -17,6 +17,7 @@ use super::resources::{CacheResources, RestirResources};
 use super::screen_probes::{ProbeLayout, ScreenProbePasses, ScreenProbeResources, technique_flags};
 use super::settings::GiSettings;
 use super::world_cache::{CacheFrame, PassTimer, SceneLighting, WorldCache};
+use crate::engine::{FrameInputs, FrameOutputs, GBufferSource, OutputImage};
 use crate::error::Result;
 use crate::frame::FloatWords;
 use crate::gbuffer::GBufferImages;
@@ -25,7 +26,7 @@ use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
 use crate::vulkan::{
     BindingKind, Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule, Resource,
-    compute_barrier, transfer_barrier,
+    compute_barrier, memory_barrier, transfer_barrier,
 };
 use ash::vk;
 use gi_shared::cache_view::{
@@ -82,6 +83,8 @@ pub struct GiRenderer {
     gbuffer: GBufferImages,
     gbuffer_kernel: Kernel,
     cache: WorldCache,
+    /// The reservoir-grid slots `cache`'s pipelines were made for (at least `restir.slots`).
+    cache_slots: u32,
     probes: ScreenProbeResources,
     probe_passes: ScreenProbePasses,
     denoiser: DenoiserResources,
@@ -128,6 +131,7 @@ impl GiRenderer {
         })();
         drop(module);
         let (gbuffer_kernel, cache, probe_passes, denoiser_passes, primary_passes) = made?;
+        let cache_slots = restir.slots;
         Ok(Self {
             settings,
             options,
@@ -139,6 +143,7 @@ impl GiRenderer {
             gbuffer: GBufferImages::new(ctx, width, height)?,
             gbuffer_kernel,
             cache,
+            cache_slots,
             probes: ScreenProbeResources::new(ctx, layout)?,
             probe_passes,
             denoiser: DenoiserResources::new(ctx, pixels)?,
@@ -204,12 +209,16 @@ impl GiRenderer {
         self.last.as_ref()
     }
 
-    /// The frame parameters of this frame seen by `camera`.
-    fn frame_params(&self, camera: &CameraParams) -> GiFrameParams {
+    /// The frame parameters of this frame seen by `camera`, after `previous`.
+    fn frame_params(
+        &self,
+        camera: &CameraParams,
+        previous: Option<&CameraParams>,
+    ) -> GiFrameParams {
         let layout = self.probes.layout;
         let fov_y = 2.0 * camera.tan_half_fov_y.atan();
         let mut flags = technique_flags(&self.settings);
-        if self.previous.is_some() {
+        if previous.is_some() {
             flags |= FLAG_HISTORY;
         }
         if self.lighting.punctual_count > EXACT_DIRECT_LIGHTS {
@@ -231,7 +240,7 @@ impl GiRenderer {
             max_groups: 0,
             eye: camera.position,
             emissive_multiplier: self.options.emissive_multiplier,
-            previous_eye: self.previous.map_or(camera.position, |p| p.position),
+            previous_eye: previous.map_or(camera.position, |p| p.position),
             light_candidates: self.settings.light_candidates,
             sky: self.options.sky.to_array(),
             light_count: self.lighting.light_count,
@@ -240,17 +249,194 @@ impl GiRenderer {
         }
     }
 
-    /// Renders one frame of `scene` seen by `camera` (its image size must be the renderer's).
+    /// Renders one frame of `scene` seen by `camera` (its image size must be the renderer's):
+    /// [`GiRenderer::record`]s it into a command buffer of the context, submits it, waits, and
+    /// reads back the frame's counters and pass timings.
     pub fn render_frame(
         &mut self,
         ctx: &Context,
         scene: &GpuScene,
         camera: &CameraParams,
     ) -> Result<GiFrameStats> {
-        check_image_size(camera, self.width, self.height)?;
-        let mut frame_camera = *camera;
+        let inputs = FrameInputs::new(*camera);
+        let mut timer = self.timer.take();
+        let recorded = ctx.submit(|cmd| {
+            self.record_frame(
+                ctx,
+                cmd,
+                scene,
+                &inputs,
+                &FrameOutputs::default(),
+                timer.as_mut(),
+            )
+        });
+        let spans = match (&recorded, &timer) {
+            (Ok(Ok(())), Some(t)) => Some(t.results(ctx)),
+            _ => None,
+        };
+        self.timer = timer;
+        recorded??;
+        if let Some(spans) = spans {
+            self.timings.add_frame(&spans?);
+        }
+        self.stats(ctx, self.frame.wrapping_sub(1))
+    }
+
+    /// Records one frame into the engine's `cmd` (begun, on the context's device and queue
+    /// family), with no submission and no wait: every pass in the [module](self)'s order, then
+    /// copies of the image and the irradiance into `outputs` (see [`OutputImage`] for formats,
+    /// layouts and access masks). `inputs.scene_update`, if any, is applied to `scene` first,
+    /// with one submission that waits ([`FrameInputs::scene_update`]).
+    ///
+    /// Per-frame parameters are written inside `cmd` (`vkCmdUpdateBuffer`), so earlier frames
+    /// may still be in flight; the frame starts with a barrier on the compute and transfer work
+    /// before it on the queue (earlier frames, and the engine's writes of the G-buffer for
+    /// [`GBufferSource::Written`]). `scene`, the renderer and the output images must live until
+    /// the command buffer finished. Counters and pass timings are not read on this path
+    /// ([`GiRenderer::frame_stats`] reads the counters of the last finished frame).
+    ///
+    /// Errors, recording nothing, when the camera's or an output's size is not the renderer's,
+    /// or an output's format or layout is not one accepted.
+    pub fn record(
+        &mut self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: &mut GpuScene,
+        inputs: &FrameInputs,
+        outputs: &FrameOutputs,
+    ) -> Result<()> {
+        self.check_frame(inputs, outputs)?;
+        if let Some(update) = &inputs.scene_update {
+            scene.set_pose(ctx, update.scene, update.lights, update.previous_transforms)?;
+            // A pose that only changed the host-visible previous transforms submitted nothing:
+            // wait for the frames in flight that read them.
+            ctx.submit(|_| ())?;
+        }
+        self.record_frame(ctx, cmd, scene, inputs, outputs, None)
+    }
+
+    /// The counters of the last frame (spawned probes, cache occupancy, ...), read back with one
+    /// submission that waits: after [`GiRenderer::record`], once that frame's command buffer
+    /// finished.
+    pub fn frame_stats(&self, ctx: &Context) -> Result<GiFrameStats> {
+        self.stats(ctx, self.frame.wrapping_sub(1))
+    }
+
+    /// Changes the frame's size to `width × height`, keeping the pipelines and the world cache
+    /// (hash grid, light grid): only the resolution-sized resources are made again (G-buffer,
+    /// screen probes, denoiser, the image, per-ray buffers), and the screen-space history starts
+    /// over. The reservoir-grid pipelines are made again only when world-space ReSTIR's grid
+    /// grows. No frame may be in flight. On an error the renderer is unchanged.
+    pub fn resize(&mut self, ctx: &Context, width: u32, height: u32) -> Result<()> {
+        self.settings.validate(width, height)?;
+        let layout = ProbeLayout::new(width, height, self.settings.spawn_rate.tile());
+        let rays = layout.ray_capacity();
+        let pixels = width as usize * height as usize;
+        let restir = RestirResources::new(ctx, self.settings.restir, rays)?;
+        let cache = match restir.slots > self.cache_slots {
+            true => Some(WorldCache::new(
+                ctx,
+                &KernelModule::new(ctx)?,
+                restir.slots,
+            )?),
+            false => None,
+        };
+        let gbuffer = GBufferImages::new(ctx, width, height)?;
+        let probes = ScreenProbeResources::new(ctx, layout)?;
+        let denoiser = DenoiserResources::new(ctx, pixels)?;
+        let primary = PrimaryResources::new(ctx, pixels)?;
+        self.cache_res.resize(ctx, width, height, rays)?;
+        if let Some(cache) = cache {
+            self.cache = cache;
+            self.cache_slots = restir.slots;
+        }
+        (self.width, self.height) = (width, height);
+        self.restir = restir;
+        self.gbuffer = gbuffer;
+        self.probes = probes;
+        self.denoiser = denoiser;
+        self.primary = primary;
+        self.restir_history = false;
+        self.previous = None;
+        self.last = None;
+        Ok(())
+    }
+
+    /// Renders another scene from the next frame on (pass its [`GpuScene`] to the next
+    /// [`GiRenderer::record`]), lit by `lights` (made from it), without rebuilding the
+    /// renderer: the screen-space history and world-space ReSTIR's reservoirs start over. With
+    /// `reset_cache` the world cache is emptied too; without, the old scene's cells stay until
+    /// they are evicted or their running averages take in the new scene's light (where the two
+    /// scenes overlap in space, its light lingers). No frame may be in flight.
+    pub fn change_scene(
+        &mut self,
+        ctx: &Context,
+        lights: &LightSet,
+        reset_cache: bool,
+    ) -> Result<()> {
+        if reset_cache {
+            let rays = self.cache_res.ray_capacity();
+            self.cache_res = CacheResources::new(
+                ctx,
+                &self.settings,
+                self.width,
+                self.height,
+                rays,
+                self.frame,
+            )?;
+        }
+        self.lighting = SceneLighting::new(lights);
+        self.restir_history = false;
+        self.previous = None;
+        Ok(())
+    }
+
+    /// An error unless the camera and `outputs` fit the renderer.
+    fn check_frame(&self, inputs: &FrameInputs, outputs: &FrameOutputs) -> Result<()> {
+        check_image_size(&inputs.camera, self.width, self.height)?;
+        if let Some(image) = &outputs.image {
+            image.check("output image", self.width, self.height)?;
+        }
+        if let Some(image) = &outputs.irradiance {
+            image.check("irradiance image", self.width, self.height)?;
+        }
+        Ok(())
+    }
+
+    /// The frame counters after frame `frame`.
+    fn stats(&self, ctx: &Context, frame: u32) -> Result<GiFrameStats> {
+        let c: Vec<u32> = self.probes.counters.read_back(ctx)?;
+        Ok(GiFrameStats {
+            cache: self.cache_res.occupancy(ctx, frame)?,
+            spawned: c[SPAWN_COUNT],
+            reprojected: c[REPROJECTED_COUNT],
+            empty: c[EMPTY_COUNT],
+            overrides: c[OVERRIDE_COUNT],
+            patched: c[PATCHED_COUNT],
+            relaxed: c[RELAXED_COUNT],
+            blur_taps: c[BLUR_TAPS],
+        })
+    }
+
+    /// Records a frame (see [`GiRenderer::record`]) and moves the renderer's state on to the
+    /// next one.
+    fn record_frame(
+        &mut self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        scene: &GpuScene,
+        inputs: &FrameInputs,
+        outputs: &FrameOutputs,
+        timer: Option<&mut GpuTimer>,
+    ) -> Result<()> {
+        self.check_frame(inputs, outputs)?;
+        if inputs.camera_cut {
+            self.previous = None;
+        }
+        let previous = inputs.previous_camera.or(self.previous);
+        let mut frame_camera = inputs.camera;
         frame_camera.jitter = [0.0; 2];
-        if let Some(p) = &self.previous {
+        if let Some(p) = &previous {
             frame_camera.previous_view_proj = p.view_proj;
         }
         let mut params = WorldCache::params(
@@ -262,14 +448,14 @@ impl GiRenderer {
             CacheFrame {
                 frame: self.frame,
                 camera: &frame_camera,
-                previous: self.previous.as_ref(),
+                previous: previous.as_ref(),
                 restir_history: self.restir_history,
                 extra_flags: FLAG_PROBE_RAYS,
             },
         );
         let max_groups = ctx.capabilities().max_workgroup_count[0];
         params.view.max_groups = max_groups;
-        let mut frame_params = self.frame_params(&frame_camera);
+        let mut frame_params = self.frame_params(&frame_camera, previous.as_ref());
         if self.settings.object_motion && scene.has_object_motion() {
             // Damped brightening would hold a moving occluder's shadow in the static probes it
             // leaves for dozens of frames: a dark trail (README, "Moving objects").
@@ -278,55 +464,58 @@ impl GiRenderer {
         frame_params.max_groups = max_groups;
         self.probes.swap();
         self.denoiser.swap();
-        self.cache_res
-            .camera
-            .write(bytemuck::bytes_of(&frame_camera))?;
-        self.probes.frame.write(bytemuck::bytes_of(&frame_params))?;
-        let mut timer = self.timer.take();
-        let recorded =
-            ctx.submit(|cmd| self.record_frame(ctx, cmd, scene, &params, timer.as_mut()));
-        let spans = match (&recorded, &timer) {
-            (Ok(Ok(())), Some(t)) => Some(t.results(ctx)),
-            _ => None,
-        };
-        self.timer = timer;
-        recorded??;
-        if let Some(spans) = spans {
-            self.timings.add_frame(&spans?);
+        // Earlier frames on the queue (still reading these buffers) and the engine's G-buffer
+        // writes come before anything here.
+        let all = (
+            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+            vk::AccessFlags::SHADER_READ
+                | vk::AccessFlags::SHADER_WRITE
+                | vk::AccessFlags::TRANSFER_READ
+                | vk::AccessFlags::TRANSFER_WRITE,
+        );
+        memory_barrier(ctx, cmd, all, all);
+        unsafe {
+            ctx.device.cmd_update_buffer(
+                cmd,
+                self.cache_res.camera.handle,
+                0,
+                bytemuck::bytes_of(&frame_camera),
+            );
+            ctx.device.cmd_update_buffer(
+                cmd,
+                self.probes.frame.handle,
+                0,
+                bytemuck::bytes_of(&frame_params),
+            );
         }
-        let stats = self.stats(ctx)?;
+        self.record_passes(ctx, cmd, scene, &params, inputs.gbuffer, timer)?;
+        let irradiance = self.denoiser.output(true, self.settings.denoiser_spatial);
+        for (buffer, image) in [
+            (&self.primary.color, &outputs.image),
+            (irradiance, &outputs.irradiance),
+        ] {
+            if let Some(image) = image {
+                record_copy_to_image(ctx, cmd, buffer, image);
+            }
+        }
         self.last = Some((frame_camera, params, frame_params));
         if self.settings.restir {
             self.restir.grids.swap();
         }
         self.restir_history = self.settings.restir;
-        self.previous = Some(*camera);
+        self.previous = Some(inputs.camera);
         self.frame = self.frame.wrapping_add(1);
-        Ok(stats)
-    }
-
-    /// The frame's counters.
-    fn stats(&self, ctx: &Context) -> Result<GiFrameStats> {
-        let c: Vec<u32> = self.probes.counters.read_back(ctx)?;
-        Ok(GiFrameStats {
-            cache: self.cache_res.occupancy(ctx, self.frame)?,
-            spawned: c[SPAWN_COUNT],
-            reprojected: c[REPROJECTED_COUNT],
-            empty: c[EMPTY_COUNT],
-            overrides: c[OVERRIDE_COUNT],
-            patched: c[PATCHED_COUNT],
-            relaxed: c[RELAXED_COUNT],
-            blur_taps: c[BLUR_TAPS],
-        })
+        Ok(())
     }
 
     /// Records every pass of a frame (see the [module](self)).
-    fn record_frame(
+    fn record_passes(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         scene: &GpuScene,
         params: &CachePassParams,
+        gbuffer_source: GBufferSource,
         timer: Option<&mut GpuTimer>,
     ) -> Result<()> {
         let mut timer = PassTimer::new(ctx, cmd, timer);
@@ -341,21 +530,23 @@ impl GiRenderer {
         timer.pass(ctx, cmd, "PurgeRadianceCache", || {
             self.cache.hash_cells.record_purge(ctx, cmd, cache, params)
         })?;
-        timer.pass(ctx, cmd, "GBuffer", || {
-            let mut resources = vec![Resource::Buffer(camera)];
-            resources.extend(gbuffer.resources());
-            resources.push(Resource::Buffer(scene.previous_transforms()));
-            self.gbuffer_kernel.dispatch_traced(
-                ctx,
-                cmd,
-                scene.sets(),
-                &resources,
-                &[],
-                super::gi_denoiser::pixel_groups(gbuffer),
-            )?;
-            compute_barrier(ctx, cmd);
-            Ok(())
-        })?;
+        if gbuffer_source == GBufferSource::Traced {
+            timer.pass(ctx, cmd, "GBuffer", || {
+                let mut resources = vec![Resource::Buffer(camera)];
+                resources.extend(gbuffer.resources());
+                resources.push(Resource::Buffer(scene.previous_transforms()));
+                self.gbuffer_kernel.dispatch_traced(
+                    ctx,
+                    cmd,
+                    scene.sets(),
+                    &resources,
+                    &[],
+                    super::gi_denoiser::pixel_groups(gbuffer),
+                )?;
+                compute_barrier(ctx, cmd);
+                Ok(())
+            })?;
+        }
         timer.pass(ctx, cmd, "ReprojectScreenProbes", || {
             pp.record_reproject(ctx, cmd, probes, camera, gbuffer)
         })?;
@@ -526,4 +717,42 @@ impl GiRenderer {
             color.iter().map(|c| [c[0], c[1], c[2]]).collect(),
         )
     }
+}
+
+/// Records a copy of `buffer` (`[f32; 4]` texels, row after row) into the engine's `image`
+/// (checked by [`OutputImage::check`]), after the compute writes before it.
+fn record_copy_to_image(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    buffer: &Buffer,
+    image: &OutputImage,
+) {
+    memory_barrier(
+        ctx,
+        cmd,
+        (
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            vk::AccessFlags::SHADER_WRITE,
+        ),
+        (
+            vk::PipelineStageFlags::TRANSFER,
+            vk::AccessFlags::TRANSFER_READ,
+        ),
+    );
+    let region = [vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        })
+        .image_extent(vk::Extent3D {
+            width: image.width,
+            height: image.height,
+            depth: 1,
+        })];
+    unsafe {
+        ctx.device
+            .cmd_copy_buffer_to_image(cmd, buffer.handle, image.image, image.layout, &region)
+    };
 }

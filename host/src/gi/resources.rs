@@ -140,6 +140,29 @@ impl CacheResources {
         })
     }
 
+    /// Reallocates what depends on the frame's size (queries, shadow rays and ray records for
+    /// `rays` rays; feedback history and accumulation for `width × height` pixels, zeroed) and
+    /// keeps the hash grid, the light grid and the counters: the world cache survives a resize.
+    /// On an error nothing changed.
+    pub fn resize(&mut self, ctx: &Context, width: u32, height: u32, rays: u32) -> Result<()> {
+        let pixels = width as usize * height as usize;
+        let rays = (rays as usize).max(1);
+        let n = &RESOURCE_NAMES;
+        let queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[7], rays)?;
+        let shadow_rays = Buffer::device_zeroed::<ShadowRay>(ctx, n[8], rays)?;
+        let ray_records = Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], rays)?;
+        let history = Buffer::device_zeroed::<FeedbackTexel>(ctx, n[10], pixels)?;
+        let accumulation = Buffer::device_zeroed::<[f32; 4]>(ctx, n[11], pixels)?;
+        self.queries = queries;
+        self.shadow_rays = shadow_rays;
+        self.ray_records = ray_records;
+        self.history = history;
+        self.accumulation = accumulation;
+        self.pixel_count = pixels as u32;
+        self.ray_capacity = rays as u32;
+        Ok(())
+    }
+
     /// Tiles of the hash grid.
     pub fn tile_count(&self) -> u32 {
         self.tile_count

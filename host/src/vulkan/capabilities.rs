@@ -77,15 +77,77 @@ pub struct Capabilities {
     pub bindless_textures: bool,
 }
 
-/// The feature structs a probe fills, and device creation enables (trimmed to what kernels use).
-#[derive(Default)]
-pub(crate) struct FeatureChain {
+/// Device feature structs: what a probe found, what device creation enables (trimmed to what
+/// the kernels use: [`DeviceRequirements`](super::DeviceRequirements)), or what an engine
+/// enabled on its device ([`ExternalDevice`](super::ExternalDevice)). Their `p_next` fields are
+/// ignored: [`FeatureChain::chain`] links them.
+#[derive(Clone, Copy, Default)]
+pub struct FeatureChain {
+    /// Vulkan 1.0 features.
     pub core: vk::PhysicalDeviceFeatures,
+    /// Vulkan 1.1 features.
     pub v11: vk::PhysicalDeviceVulkan11Features<'static>,
+    /// Vulkan 1.2 features.
     pub v12: vk::PhysicalDeviceVulkan12Features<'static>,
+    /// `VK_KHR_acceleration_structure` features.
     pub accel: vk::PhysicalDeviceAccelerationStructureFeaturesKHR<'static>,
+    /// `VK_KHR_ray_query` features.
     pub ray_query: vk::PhysicalDeviceRayQueryFeaturesKHR<'static>,
+    /// `VK_EXT_shader_atomic_float` features (probed, never required).
     pub atomic_float: vk::PhysicalDeviceShaderAtomicFloatFeaturesEXT<'static>,
+}
+
+/// Reads one feature's flag from a chain.
+type FeatureField = fn(&FeatureChain) -> vk::Bool32;
+
+/// Each feature the kernels may require, by its Vulkan name, and where it sits in the chain.
+const REQUIRABLE: [(&str, FeatureField); 11] = [
+    ("shaderInt16", |f| f.core.shader_int16),
+    ("shaderInt64", |f| f.core.shader_int64),
+    ("shaderInt8", |f| f.v12.shader_int8),
+    ("vulkanMemoryModel", |f| f.v12.vulkan_memory_model),
+    ("vulkanMemoryModelDeviceScope", |f| {
+        f.v12.vulkan_memory_model_device_scope
+    }),
+    ("runtimeDescriptorArray", |f| f.v12.runtime_descriptor_array),
+    ("shaderSampledImageArrayNonUniformIndexing", |f| {
+        f.v12.shader_sampled_image_array_non_uniform_indexing
+    }),
+    ("descriptorBindingPartiallyBound", |f| {
+        f.v12.descriptor_binding_partially_bound
+    }),
+    ("bufferDeviceAddress", |f| f.v12.buffer_device_address),
+    ("accelerationStructure", |f| f.accel.acceleration_structure),
+    ("rayQuery", |f| f.ray_query.ray_query),
+];
+
+impl FeatureChain {
+    /// The first feature set here (required) that `enabled` lacks, by its Vulkan name.
+    pub fn missing_in(&self, enabled: &FeatureChain) -> Option<&'static str> {
+        REQUIRABLE
+            .iter()
+            .find(|(_, get)| get(self) == vk::TRUE && get(enabled) != vk::TRUE)
+            .map(|(name, _)| *name)
+    }
+
+    /// The structs linked for `VkDeviceCreateInfo::pNext` (or a features query): core, 1.1 and
+    /// 1.2, then the acceleration-structure and ray-query structs when `ray_query` (only with
+    /// their extensions enabled).
+    pub fn chain(&mut self, ray_query: bool) -> vk::PhysicalDeviceFeatures2<'_> {
+        // A copy's links point into the original: cut them before linking anew.
+        self.v11.p_next = std::ptr::null_mut();
+        self.v12.p_next = std::ptr::null_mut();
+        self.accel.p_next = std::ptr::null_mut();
+        self.ray_query.p_next = std::ptr::null_mut();
+        let mut f2 = vk::PhysicalDeviceFeatures2::default()
+            .features(self.core)
+            .push_next(&mut self.v11)
+            .push_next(&mut self.v12);
+        if ray_query {
+            f2 = f2.push_next(&mut self.accel).push_next(&mut self.ray_query);
+        }
+        f2
+    }
 }
 
 pub(crate) fn has_extension(extensions: &[vk::ExtensionProperties], name: &CStr) -> bool {

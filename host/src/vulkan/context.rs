@@ -64,15 +64,18 @@ pub struct Context {
 /// destroys the device, then ([`Instance`]) the debug messenger and the instance.
 pub(crate) struct SharedDevice {
     pub(crate) device: ash::Device,
-    pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
+    /// Ours, or the engine's ([`ExternalDevice::allocator`]): both are shared.
+    pub(crate) allocator: ManuallyDrop<Arc<Mutex<Allocator>>>,
     pub(crate) accel: Option<ash::khr::acceleration_structure::Device>,
     pub(crate) buffers: ResourceRegistry<vk::Buffer>,
     pub(crate) images: ResourceRegistry<vk::Image>,
     /// Set once a wait reported the device lost or timed out: nothing is submitted or waited on
     /// after that (a hung device may never finish a wait).
     lost: AtomicBool,
-    // Dropped by `drop`, after the device and under the same lock.
-    instance: ManuallyDrop<Instance>,
+    /// The instance when we created it and the device: dropped by `drop`, after the device and
+    /// under the same lock. `None` for an engine's device ([`Context::from_external`]), which
+    /// the engine destroys.
+    instance: Option<Instance>,
 }
 
 /// Held while an instance or device is created or destroyed: loaders and drivers race there when
@@ -104,9 +107,11 @@ impl Drop for SharedDevice {
         self.wait_idle();
         unsafe {
             ManuallyDrop::drop(&mut self.allocator);
-            let _held = lifetimes();
-            self.device.destroy_device(None);
-            ManuallyDrop::drop(&mut self.instance);
+            if let Some(instance) = self.instance.take() {
+                let _held = lifetimes();
+                self.device.destroy_device(None);
+                drop(instance);
+            }
         }
     }
 }
@@ -265,43 +270,21 @@ impl Context {
             .nth(index)
             .ok_or_else(|| Error::NoDevice(icd_hint()))?;
 
-        let variant = KernelVariant::resolve(options.trace, &capabilities)?;
-        let mut enabled = required_features(&capabilities, variant)?;
-
-        let queue_family =
-            unsafe { instance.get_physical_device_queue_family_properties(physical_device) }
-                .iter()
-                .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
-                .ok_or_else(|| Error::MissingFeature {
-                    device: capabilities.name.clone(),
-                    feature: "a compute queue".into(),
-                    needed_for: "every kernel".into(),
-                })? as u32;
-
-        let mut device_exts: Vec<*const c_char> = vec![ash::khr::push_descriptor::NAME.as_ptr()];
-        if variant == KernelVariant::RayQuery {
-            for name in [
-                ash::khr::acceleration_structure::NAME,
-                ash::khr::ray_query::NAME,
-                ash::khr::deferred_host_operations::NAME,
-            ] {
-                debug_assert!(super::capabilities::has_extension(&extensions, name));
-                device_exts.push(name.as_ptr());
-            }
-        }
+        let mut required = DeviceRequirements::of(
+            &instance,
+            physical_device,
+            capabilities,
+            &extensions,
+            options.trace,
+        )?;
+        let (variant, queue_family) = (required.variant, required.queue_family);
+        let device_exts: Vec<*const c_char> =
+            required.extensions.iter().map(|e| e.as_ptr()).collect();
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        let mut f2 = vk::PhysicalDeviceFeatures2::default()
-            .features(enabled.core)
-            .push_next(&mut enabled.v11)
-            .push_next(&mut enabled.v12);
-        if variant == KernelVariant::RayQuery {
-            f2 = f2
-                .push_next(&mut enabled.accel)
-                .push_next(&mut enabled.ray_query);
-        }
+        let mut f2 = required.features.chain(variant == KernelVariant::RayQuery);
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_extension_names(&device_exts)
@@ -335,20 +318,42 @@ impl Context {
         drop(held);
         let shared = Arc::new(SharedDevice {
             device: device.clone(),
-            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            allocator: ManuallyDrop::new(Arc::new(Mutex::new(allocator))),
             accel: (variant == KernelVariant::RayQuery)
                 .then(|| ash::khr::acceleration_structure::Device::new(&instance, &device)),
             buffers: ResourceRegistry::default(),
             lost: AtomicBool::new(false),
             images: ResourceRegistry::default(),
-            instance: ManuallyDrop::new(owner),
+            instance: Some(owner),
         });
+        Self::with_device(
+            shared,
+            &instance,
+            validation,
+            queue,
+            queue_family,
+            required.capabilities,
+            variant,
+        )
+    }
+
+    /// The context of a device that exists (`shared`): our command pool and scene layouts.
+    fn with_device(
+        shared: Arc<SharedDevice>,
+        instance: &ash::Instance,
+        validation: Option<Arc<ValidationLog>>,
+        queue: vk::Queue,
+        queue_family: u32,
+        capabilities: Capabilities,
+        variant: KernelVariant,
+    ) -> Result<Self> {
+        let device = shared.device.clone();
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         let command_pool =
             unsafe { device.create_command_pool(&pool_info, None) }.vk("vkCreateCommandPool")?;
-        let push_descriptor = ash::khr::push_descriptor::Device::new(&instance, &device);
+        let push_descriptor = ash::khr::push_descriptor::Device::new(instance, &device);
 
         let mut ctx = Self {
             shared,
@@ -371,6 +376,109 @@ impl Context {
             *slot = create_set_layout(&ctx.device, &kinds, false)?;
         }
         Ok(ctx)
+    }
+
+    /// Wraps an engine's device (see [`ExternalDevice`]): the kernels run on its queue, and
+    /// resources come from its allocator or from one made here. Nothing of the engine's is
+    /// destroyed: dropping the context and every resource made from it (renderers, scenes,
+    /// buffers) destroys only what this crate created (command pool, layouts, pipelines, buffers,
+    /// images, our allocator); the last of them waits for the device to be idle first. Destroy the
+    /// device after that.
+    ///
+    /// Errors, naming what is missing, when the physical device lacks a feature the kernels need,
+    /// or when `device` was created without an extension or feature of
+    /// [`DeviceRequirements::new`] (for `trace`), or `queue_family` has no compute.
+    /// Validation messages are the engine's: [`Context::validation_messages`] is `None`.
+    ///
+    /// # Safety
+    /// Every handle of `device` must be valid, belong together (device of the physical device
+    /// of the instance, queue of the device and family, allocator of the device), and outlive
+    /// the context and every resource made from it.
+    pub unsafe fn from_external(device: ExternalDevice, trace: TraceMode) -> Result<Self> {
+        if !crate::kernels::BUILT {
+            return Err(Error::NoKernels);
+        }
+        let ExternalDevice {
+            instance,
+            physical_device,
+            device,
+            queue,
+            queue_family,
+            enabled_extensions,
+            enabled_features,
+            allocator,
+        } = device;
+        let required = unsafe { DeviceRequirements::new(&instance, physical_device, trace) }?;
+        let name = &required.capabilities.name;
+        for ext in &required.extensions {
+            if !enabled_extensions.iter().any(|e| e.as_c_str() == *ext) {
+                return Err(Error::MissingFeature {
+                    device: name.clone(),
+                    feature: format!(
+                        "{} (not in ExternalDevice::enabled_extensions)",
+                        ext.to_string_lossy()
+                    ),
+                    needed_for: "the kernels (enable DeviceRequirements::extensions)".into(),
+                });
+            }
+        }
+        if let Some(feature) = required.features.missing_in(&enabled_features) {
+            return Err(Error::MissingFeature {
+                device: name.clone(),
+                feature: format!("{feature} (not in ExternalDevice::enabled_features)"),
+                needed_for: "the kernels (enable DeviceRequirements::features)".into(),
+            });
+        }
+        let families =
+            unsafe { instance.get_physical_device_queue_family_properties(physical_device) };
+        let compute = families
+            .get(queue_family as usize)
+            .is_some_and(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE));
+        if !compute {
+            return Err(Error::MissingFeature {
+                device: name.clone(),
+                feature: format!("compute on queue family {queue_family}"),
+                needed_for: "every kernel (ExternalDevice::queue_family)".into(),
+            });
+        }
+        let variant = required.variant;
+        let allocator = match allocator {
+            Some(a) => a,
+            None => Arc::new(Mutex::new(
+                Allocator::new(&AllocatorCreateDesc {
+                    instance: instance.clone(),
+                    device: device.clone(),
+                    physical_device,
+                    debug_settings: Default::default(),
+                    buffer_device_address: variant == KernelVariant::RayQuery,
+                    allocation_sizes: Default::default(),
+                })
+                .map_err(|e| Error::Allocation {
+                    what: "allocator".into(),
+                    bytes: None,
+                    why: e.to_string(),
+                })?,
+            )),
+        };
+        let shared = Arc::new(SharedDevice {
+            device: device.clone(),
+            allocator: ManuallyDrop::new(allocator),
+            accel: (variant == KernelVariant::RayQuery)
+                .then(|| ash::khr::acceleration_structure::Device::new(&instance, &device)),
+            buffers: ResourceRegistry::default(),
+            lost: AtomicBool::new(false),
+            images: ResourceRegistry::default(),
+            instance: None,
+        });
+        Self::with_device(
+            shared,
+            &instance,
+            None,
+            queue,
+            queue_family,
+            required.capabilities,
+            variant,
+        )
     }
 
     /// The layouts of the scene's persistent sets, in set order (1 and 2).
@@ -534,6 +642,110 @@ impl Drop for Context {
     }
 }
 
+/// An engine's Vulkan objects, for [`Context::from_external`]. The engine keeps ownership: the
+/// context never destroys them.
+///
+/// The instance must have been created with `apiVersion` 1.2 or later, and the device with
+/// every extension and feature of [`DeviceRequirements::new`] for the same physical device and
+/// trace mode (they are checked against `enabled_extensions` and `enabled_features`, which must
+/// say what the device was really created with).
+#[derive(Clone)]
+pub struct ExternalDevice {
+    /// The engine's instance.
+    pub instance: ash::Instance,
+    /// The physical device of `device`.
+    pub physical_device: vk::PhysicalDevice,
+    /// The engine's device.
+    pub device: ash::Device,
+    /// The queue that [`Context::submit`] and the scene uploads use; it must be of
+    /// `queue_family`. The engine must not use it from another thread during those calls
+    /// (Vulkan's external synchronization of queues).
+    pub queue: vk::Queue,
+    /// The queue family of `queue` and of the command buffers the engine records our passes
+    /// into; it must support compute.
+    pub queue_family: u32,
+    /// The device extensions the device was created with.
+    pub enabled_extensions: Vec<std::ffi::CString>,
+    /// The features the device was created with.
+    pub enabled_features: FeatureChain,
+    /// The engine's allocator, made for this device (with `buffer_device_address` for the
+    /// ray-query variant); `None` makes one of ours, freed with the last resource.
+    pub allocator: Option<Arc<Mutex<Allocator>>>,
+}
+
+/// What a device must enable for the kernels of one trace mode: create the device with
+/// `extensions` and `features` (through [`FeatureChain::chain`], with
+/// `variant == KernelVariant::RayQuery`), then hand it over with [`Context::from_external`].
+#[derive(Clone)]
+pub struct DeviceRequirements {
+    /// What the physical device can do.
+    pub capabilities: Capabilities,
+    /// The kernel variant the trace mode resolves to on this device.
+    pub variant: KernelVariant,
+    /// Device extensions to enable.
+    pub extensions: Vec<&'static CStr>,
+    /// Features to enable (and nothing else is needed).
+    pub features: FeatureChain,
+    /// The first queue family with compute (any compute family will do).
+    pub queue_family: u32,
+}
+
+impl DeviceRequirements {
+    /// What `physical_device` must enable for `trace`'s kernels; errors name the first thing
+    /// the physical device lacks.
+    ///
+    /// # Safety
+    /// `physical_device` must belong to `instance`.
+    pub unsafe fn new(
+        instance: &ash::Instance,
+        physical_device: vk::PhysicalDevice,
+        trace: TraceMode,
+    ) -> Result<Self> {
+        let (capabilities, extensions) = unsafe { Capabilities::probe(instance, physical_device) };
+        Self::of(instance, physical_device, capabilities, &extensions, trace)
+    }
+
+    fn of(
+        instance: &ash::Instance,
+        physical_device: vk::PhysicalDevice,
+        capabilities: Capabilities,
+        available: &[vk::ExtensionProperties],
+        trace: TraceMode,
+    ) -> Result<Self> {
+        let variant = KernelVariant::resolve(trace, &capabilities)?;
+        let features = required_features(&capabilities, variant)?;
+        let queue_family =
+            unsafe { instance.get_physical_device_queue_family_properties(physical_device) }
+                .iter()
+                .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
+                .ok_or_else(|| Error::MissingFeature {
+                    device: capabilities.name.clone(),
+                    feature: "a compute queue".into(),
+                    needed_for: "every kernel".into(),
+                })? as u32;
+        let mut extensions = vec![ash::khr::push_descriptor::NAME];
+        if variant == KernelVariant::RayQuery {
+            extensions.extend([
+                ash::khr::acceleration_structure::NAME,
+                ash::khr::ray_query::NAME,
+                ash::khr::deferred_host_operations::NAME,
+            ]);
+        }
+        debug_assert!(
+            extensions
+                .iter()
+                .all(|e| super::capabilities::has_extension(available, e))
+        );
+        Ok(Self {
+            capabilities,
+            variant,
+            extensions,
+            features,
+            queue_family,
+        })
+    }
+}
+
 fn icd_hint() -> String {
     match std::env::var("VK_ICD_FILENAMES").or_else(|_| std::env::var("VK_DRIVER_FILES")) {
         Ok(v) => format!(" (the driver list is overridden: VK_ICD_FILENAMES/VK_DRIVER_FILES={v})"),
@@ -690,6 +902,25 @@ mod tests {
             .unwrap_err();
         assert!(err.to_string().contains("runtimeDescriptorArray"), "{err}");
         assert!(err.to_string().contains("texture array"), "{err}");
+    }
+
+    #[test]
+    fn an_engine_device_lacking_a_required_feature_is_named() {
+        let caps = Capabilities::for_tests(true);
+        let software = required_features(&caps, KernelVariant::Software).unwrap();
+        assert_eq!(software.missing_in(&software), None);
+        let mut enabled = software;
+        enabled.v12.vulkan_memory_model_device_scope = vk::FALSE;
+        assert_eq!(
+            software.missing_in(&enabled),
+            Some("vulkanMemoryModelDeviceScope")
+        );
+        // More than required is fine; ray queries need what the software device lacks.
+        let ray_query = required_features(&caps, KernelVariant::RayQuery).unwrap();
+        assert_eq!(ray_query.missing_in(&ray_query), None);
+        assert_eq!(software.missing_in(&ray_query), None);
+        assert_eq!(ray_query.missing_in(&software), Some("bufferDeviceAddress"));
+        assert!(ray_query.missing_in(&FeatureChain::default()).is_some());
     }
 
     #[test]

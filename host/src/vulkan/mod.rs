@@ -14,8 +14,11 @@ mod timing;
 mod validation;
 
 pub use accel::{AccelerationStructure, Instance, TopLevel};
-pub use capabilities::Capabilities;
-pub use context::{Context, ContextOptions, DEVICE_ENV, LOADER_ENV, SUBMIT_TIMEOUT, select_device};
+pub use capabilities::{Capabilities, FeatureChain};
+pub use context::{
+    Context, ContextOptions, DEVICE_ENV, DeviceRequirements, ExternalDevice, LOADER_ENV,
+    SUBMIT_TIMEOUT, select_device,
+};
 pub use image::Image;
 pub(crate) use memory::memory_barrier;
 pub use memory::{
