@@ -13,7 +13,9 @@
 //! `cargo bench --profile dev -p gi-host --bench tracing [-- WORD...]` (only the scenes whose
 //! name contains a word; `"1M build"` names the build-time line; a word that is the path of a
 //! scene file benches that file, e.g. one from `gi generate`); figures are ratios within one run,
-//! not absolute claims.
+//! not absolute claims. With `GI_BENCH_MAX_BINDING_BYTES=N` in the environment the kernels read
+//! the vertices, triangles and BVH nodes split into storage bindings of at most `N` bytes
+//! (`GpuScene::upload_with_binding_limit`): the cost of the splitting.
 
 use gi_host::KernelVariant;
 use gi_host::gbuffer::scene_camera;
@@ -109,6 +111,15 @@ fn cpu_speed(bvh: &Bvh, shading: &ShadingData, rays: &[Ray]) -> (f64, f64) {
     (mrays(rays.len(), ms), hits as f64 / rays.len() as f64)
 }
 
+/// The storage-binding limit of the scene's split arrays: `GI_BENCH_MAX_BINDING_BYTES`, or the
+/// device's own.
+fn max_binding_bytes() -> u64 {
+    std::env::var("GI_BENCH_MAX_BINDING_BYTES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(u64::MAX)
+}
+
 /// Timed dispatches per context and ray set; the best counts. The contexts take turns, so that a
 /// burst of load on the machine does not favour one of them.
 const REPEATS: usize = 4;
@@ -127,7 +138,14 @@ fn gpu_speeds(
         .iter()
         .map(|ctx| {
             Ok((
-                GpuScene::upload(ctx, scene, Some(bvh), shading, &lights)?,
+                GpuScene::upload_with_binding_limit(
+                    ctx,
+                    scene,
+                    Some(bvh),
+                    shading,
+                    &lights,
+                    max_binding_bytes(),
+                )?,
                 TraceRays::new(ctx)?,
             ))
         })

@@ -10,6 +10,10 @@
 //! texture images: the alpha test of meshes flagged `MESH_ALPHA_TESTED` reads them), and handing
 //! the body a [`Scene`] that traces and holds the six buffers, and the texture images beside it.
 //!
+//! The arrays that scale with the triangle count (vertices, triangles, BVH nodes) are bound split
+//! ([`Chunks`], a descriptor array of storage buffers: `gi_shared::elements`), so that a mesh
+//! larger than one storage binding traces; the body reads them as [`Chunked`].
+//!
 //! The texture images stay out of [`Scene`] and [`Tracer`], and out of closures: a composite
 //! holding the bindless array fails SPIR-V validation (VUID-StandaloneSpirv-None-04667) unless
 //! every function that sees it is inlined. Every trace takes them as an argument instead, the
@@ -17,10 +21,73 @@
 
 use crate::texture_images::Bindless;
 pub use crate::texture_images::SceneTextures;
+use gi_shared::elements::{ChunkIndex, Elements};
+use gi_shared::layout::SCENE_BUFFER_CHUNKS;
 use gi_shared::ray::{HitRecord, Ray};
 pub use gi_shared::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
 };
+use spirv_std::{RuntimeArray, TypedBuffer};
+
+/// One of the scene's split arrays as the kernels bind it: one storage buffer per chunk, all
+/// [`SCENE_BUFFER_CHUNKS`] written (`gi_shared::elements`).
+pub type Chunks<T> = RuntimeArray<TypedBuffer<[T]>>;
+
+/// A split array, read through the shared [`Elements`]: its chunks, with the index and the length
+/// found once, when a traced kernel starts.
+pub struct Chunked<'a, T> {
+    chunks: &'a Chunks<T>,
+    index: ChunkIndex,
+    len: usize,
+}
+
+impl<T> Clone for Chunked<'_, T> {
+    #[inline(always)]
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T> Copy for Chunked<'_, T> {}
+
+impl<'a, T> Chunked<'a, T> {
+    /// The array bound as `chunks`.
+    #[inline(always)]
+    pub fn new(chunks: &'a Chunks<T>) -> Self {
+        // SAFETY (here and in `get`): the host writes all `SCENE_BUFFER_CHUNKS` descriptors, the
+        // slots past the last chunk with a buffer too short for one element.
+        let first = unsafe { chunks.index(0) }.len();
+        let mut len = first;
+        let mut k = 1;
+        while k < SCENE_BUFFER_CHUNKS {
+            len += unsafe { chunks.index(k) }.len();
+            k += 1;
+        }
+        Self {
+            chunks,
+            index: ChunkIndex::new(first as u32),
+            len,
+        }
+    }
+}
+
+impl<T: Copy> Elements for Chunked<'_, T> {
+    type Item = T;
+
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.len
+    }
+
+    #[inline(always)]
+    fn get(&self, i: usize) -> T {
+        let (chunk, j) = self.index.locate(i as u32);
+        // SAFETY: callers read below `len`, so `j` is within chunk `chunk` (every chunk but the
+        // last is full). Unchecked: lavapipe gives `OpArrayLength` on a non-uniformly indexed
+        // binding one invocation's length for all, which made bounds checks fail.
+        unsafe { *self.chunks.index(chunk as usize).get_unchecked(j as usize) }
+    }
+}
 
 /// The BVH nodes as the kernels bind them: rows of 16 bytes, one vector load each.
 #[cfg(not(feature = "ray-query"))]
@@ -68,9 +135,9 @@ macro_rules! traced_kernel {
             #[spirv(storage_buffer, descriptor_set = 2, binding = 1)]
             meshes: &[$crate::trace::GpuMesh],
             #[spirv(storage_buffer, descriptor_set = 2, binding = 2)]
-            vertices: &[$crate::trace::GpuVertex],
+            vertices: &$crate::trace::Chunks<$crate::trace::GpuVertex>,
             #[spirv(storage_buffer, descriptor_set = 2, binding = 3)]
-            triangles: &[$crate::trace::GpuTriangle],
+            triangles: &$crate::trace::Chunks<$crate::trace::GpuTriangle>,
             #[spirv(storage_buffer, descriptor_set = 2, binding = 4)]
             materials: &[$crate::trace::GpuMaterial],
             #[spirv(storage_buffer, descriptor_set = 2, binding = 5)]
@@ -83,8 +150,8 @@ macro_rules! traced_kernel {
                 tlas,
                 instances,
                 meshes,
-                vertices,
-                triangles,
+                vertices: $crate::trace::Chunked::new(vertices),
+                triangles: $crate::trace::Chunked::new(triangles),
                 materials,
                 textures,
             };
@@ -99,15 +166,15 @@ macro_rules! traced_kernel {
         )]
         pub fn $name(
             #[spirv(storage_buffer, descriptor_set = 1, binding = 0)]
-            bvh_nodes: &[$crate::trace::BvhNode],
+            bvh_nodes: &$crate::trace::Chunks<$crate::trace::BvhNode>,
             #[spirv(storage_buffer, descriptor_set = 2, binding = 0)]
             instances: &[$crate::trace::GpuInstance],
             #[spirv(storage_buffer, descriptor_set = 2, binding = 1)]
             meshes: &[$crate::trace::GpuMesh],
             #[spirv(storage_buffer, descriptor_set = 2, binding = 2)]
-            vertices: &[$crate::trace::GpuVertex],
+            vertices: &$crate::trace::Chunks<$crate::trace::GpuVertex>,
             #[spirv(storage_buffer, descriptor_set = 2, binding = 3)]
-            triangles: &[$crate::trace::GpuTriangle],
+            triangles: &$crate::trace::Chunks<$crate::trace::GpuTriangle>,
             #[spirv(storage_buffer, descriptor_set = 2, binding = 4)]
             materials: &[$crate::trace::GpuMaterial],
             #[spirv(storage_buffer, descriptor_set = 2, binding = 5)]
@@ -117,11 +184,11 @@ macro_rules! traced_kernel {
             $($(#[$param_attr])* $param: $ty),*
         ) {
             let $scene = $crate::trace::Scene {
-                nodes: bvh_nodes,
+                nodes: $crate::trace::Chunked::new(bvh_nodes),
                 instances,
                 meshes,
-                vertices,
-                triangles,
+                vertices: $crate::trace::Chunked::new(vertices),
+                triangles: $crate::trace::Chunked::new(triangles),
                 materials,
                 textures,
             };
@@ -143,9 +210,9 @@ pub struct Scene<'a> {
     /// Set 2 binding 1: the meshes.
     pub meshes: &'a [GpuMesh],
     /// Set 2 binding 2: every mesh's vertices.
-    pub vertices: &'a [GpuVertex],
+    pub vertices: Chunked<'a, GpuVertex>,
     /// Set 2 binding 3: every mesh's triangles.
-    pub triangles: &'a [GpuTriangle],
+    pub triangles: Chunked<'a, GpuTriangle>,
     /// Set 2 binding 4: the materials.
     pub materials: &'a [GpuMaterial],
     /// Set 2 binding 5: the texture table.
@@ -157,15 +224,15 @@ pub struct Scene<'a> {
 #[derive(Clone, Copy)]
 pub struct Scene<'a> {
     /// The two-level BVH's nodes.
-    pub nodes: &'a [BvhNode],
+    pub nodes: Chunked<'a, BvhNode>,
     /// Set 2 binding 0: the instances.
     pub instances: &'a [GpuInstance],
     /// Set 2 binding 1: the meshes.
     pub meshes: &'a [GpuMesh],
     /// Set 2 binding 2: every mesh's vertices.
-    pub vertices: &'a [GpuVertex],
+    pub vertices: Chunked<'a, GpuVertex>,
     /// Set 2 binding 3: every mesh's triangles, each mesh's in its leaf order.
-    pub triangles: &'a [GpuTriangle],
+    pub triangles: Chunked<'a, GpuTriangle>,
     /// Set 2 binding 4: the materials.
     pub materials: &'a [GpuMaterial],
     /// Set 2 binding 5: the texture table.
@@ -188,8 +255,8 @@ pub struct Tracer<'a> {
 struct Surfaces<'a> {
     instances: &'a [GpuInstance],
     meshes: &'a [GpuMesh],
-    vertices: &'a [GpuVertex],
-    triangles: &'a [GpuTriangle],
+    vertices: Chunked<'a, GpuVertex>,
+    triangles: Chunked<'a, GpuTriangle>,
     materials: &'a [GpuMaterial],
     textures: &'a [GpuTexture],
 }
@@ -198,7 +265,12 @@ struct Surfaces<'a> {
 #[cfg(not(feature = "ray-query"))]
 #[derive(Clone, Copy)]
 pub struct Tracer<'a> {
-    bvh: gi_shared::bvh::BvhScene<'a, BvhNode>,
+    bvh: gi_shared::bvh::BvhScene<
+        'a,
+        Chunked<'a, BvhNode>,
+        Chunked<'a, GpuVertex>,
+        Chunked<'a, GpuTriangle>,
+    >,
 }
 
 #[cfg(feature = "ray-query")]

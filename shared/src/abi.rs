@@ -13,6 +13,8 @@ pub const WORKGROUP_SIZE: u32 = 64;
 ///   kernels (the prefix scan).
 /// - `ShaderNonUniform`, `RuntimeDescriptorArray`, `SampledImageArrayNonUniformIndexing`: the
 ///   scene's bindless texture array, indexed per invocation (`kernels/src/texture_images.rs`).
+/// - `StorageBufferArrayNonUniformIndexing`: the scene's split arrays (vertices, triangles, BVH
+///   nodes), their chunk picked per invocation (`crate::elements`, `kernels/src/trace.rs`).
 pub const KERNEL_CAPABILITIES: &[&str] = &[
     "VulkanMemoryModelDeviceScope",
     "GroupNonUniform",
@@ -20,4 +22,5 @@ pub const KERNEL_CAPABILITIES: &[&str] = &[
     "ShaderNonUniform",
     "RuntimeDescriptorArray",
     "SampledImageArrayNonUniformIndexing",
+    "StorageBufferArrayNonUniformIndexing",
 ];

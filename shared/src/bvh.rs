@@ -99,6 +99,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{UVec4, Vec2, Vec3, Vec4};
 use num_traits::Float;
 
+use crate::elements::Elements;
 use crate::ray::{HitRecord, Ray};
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED,
@@ -261,30 +262,26 @@ impl BvhElement for BvhNodeRows {
 /// What the traversal reads: the two-level node buffer, the shading data's geometry (the
 /// buffers of `crate::scene_data`), and the materials and texture table that the alpha test of
 /// meshes flagged [`MESH_ALPHA_TESTED`] reads.
-pub struct BvhScene<'a, N> {
-    /// Top level at node 0, then the meshes' bottom levels.
-    pub nodes: &'a [N],
+///
+/// The arrays that scale with the triangle count (nodes, vertices, triangles) are read through
+/// [`Elements`]: slices on the CPU, split bindings in the kernels (`crate::elements`).
+#[derive(Clone, Copy)]
+pub struct BvhScene<'a, N, V = &'a [GpuVertex], T = &'a [GpuTriangle]> {
+    /// Top level at node 0, then the meshes' bottom levels ([`BvhElement`]s).
+    pub nodes: N,
     /// The instances; a hit's instance indexes them.
     pub instances: &'a [GpuInstance],
     /// The meshes, with their bottom-level roots.
     pub meshes: &'a [GpuMesh],
     /// Every mesh's vertices.
-    pub vertices: &'a [GpuVertex],
+    pub vertices: V,
     /// Every mesh's triangles, each mesh's in its bottom level's leaf order.
-    pub triangles: &'a [GpuTriangle],
+    pub triangles: T,
     /// The materials, for their alpha cutoffs.
     pub materials: &'a [GpuMaterial],
     /// The texture table, for the base colour textures' alpha.
     pub textures: &'a [GpuTexture],
 }
-
-impl<N> Clone for BvhScene<'_, N> {
-    fn clone(&self) -> Self {
-        *self
-    }
-}
-
-impl<N> Copy for BvhScene<'_, N> {}
 
 /// A ray/triangle intersection before it goes into a [`HitRecord`]; `t` is `+∞` on a miss. No
 /// `bool` fields: rust-gpu would need the `Int8` capability to keep them in memory.
@@ -515,13 +512,14 @@ fn safe_inverse(d: f32) -> f32 {
 /// range); NaN, which misses, for a vertex index out of range.
 #[inline]
 fn triangle_vertices(
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     mesh: &GpuMesh,
     primitive: u32,
 ) -> [Vec3; 3] {
-    // By reference: only the indices are loaded, not the material.
-    let [a, b, c] = triangles[mesh.first_triangle as usize + primitive as usize].indices;
+    let [a, b, c] = triangles
+        .get(mesh.first_triangle as usize + primitive as usize)
+        .indices;
     [
         position(vertices, mesh, a),
         position(vertices, mesh, b),
@@ -531,10 +529,10 @@ fn triangle_vertices(
 
 /// The position of vertex `index` of `mesh`; NaN when out of range.
 #[inline]
-fn position(vertices: &[GpuVertex], mesh: &GpuMesh, index: u32) -> Vec3 {
+fn position(vertices: impl Elements<Item = GpuVertex>, mesh: &GpuMesh, index: u32) -> Vec3 {
     let i = mesh.first_vertex as usize + index as usize;
     if index < mesh.vertex_count && i < vertices.len() {
-        Vec3::from_array(vertices[i].position)
+        Vec3::from_array(vertices.get(i).position)
     } else {
         Vec3::NAN
     }
@@ -574,8 +572,15 @@ fn child_entry(child: &BvhChild, parent: u32, nodes: usize, items: usize, max_co
 /// was dropped because the stack was full. With `ANY`, stops at the first hit and does not order
 /// children.
 #[inline]
-fn walk<const STACK: usize, const ANY: bool, N: BvhElement, I: TextureImages + ?Sized>(
-    scene: BvhScene<'_, N>,
+fn walk<
+    const STACK: usize,
+    const ANY: bool,
+    N: Elements<Item: BvhElement>,
+    V: Elements<Item = GpuVertex>,
+    T: Elements<Item = GpuTriangle>,
+    I: TextureImages + ?Sized,
+>(
+    scene: BvhScene<'_, N, V, T>,
     images: &I,
     world_ray: &Ray,
     world: &TraceRay,
@@ -620,7 +625,7 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement, I: TextureImages + ?
             }
             tri += 1;
         } else if node != NO_CHILD {
-            let n = scene.nodes[node as usize].get();
+            let n = scene.nodes.get(node as usize).get();
             let nodes = scene.nodes.len();
             let max_count = if instance == NO_CHILD {
                 1
@@ -710,8 +715,13 @@ fn walk<const STACK: usize, const ANY: bool, N: BvhElement, I: TextureImages + ?
 /// Whether the hit `h` on triangle `primitive` of `instance` (whose mesh is `mesh`) counts: always
 /// on an unflagged mesh, else where [`alpha_visible`] finds the surface.
 #[inline]
-fn surface_there<N, I: TextureImages + ?Sized>(
-    scene: BvhScene<'_, N>,
+fn surface_there<
+    N,
+    V: Elements<Item = GpuVertex>,
+    T: Elements<Item = GpuTriangle>,
+    I: TextureImages + ?Sized,
+>(
+    scene: BvhScene<'_, N, V, T>,
     images: &I,
     mesh: &GpuMesh,
     instance: u32,
@@ -736,8 +746,14 @@ fn surface_there<N, I: TextureImages + ?Sized>(
 /// Both walks of the module documentation: the short stack, then the long one if the short one
 /// dropped an entry.
 #[inline]
-fn traverse<const ANY: bool, N: BvhElement, I: TextureImages + ?Sized>(
-    scene: BvhScene<'_, N>,
+fn traverse<
+    const ANY: bool,
+    N: Elements<Item: BvhElement>,
+    V: Elements<Item = GpuVertex>,
+    T: Elements<Item = GpuTriangle>,
+    I: TextureImages + ?Sized,
+>(
+    scene: BvhScene<'_, N, V, T>,
     images: &I,
     ray: &Ray,
 ) -> HitRecord {
@@ -746,11 +762,12 @@ fn traverse<const ANY: bool, N: BvhElement, I: TextureImages + ?Sized>(
         return best;
     }
     let world = TraceRay::new(ray);
-    if walk::<BVH_SHORT_STACK_SIZE, ANY, N, I>(scene, images, ray, &world, ray.t_max, &mut best)
-        && !(ANY && best.is_hit())
+    if walk::<BVH_SHORT_STACK_SIZE, ANY, N, V, T, I>(
+        scene, images, ray, &world, ray.t_max, &mut best,
+    ) && !(ANY && best.is_hit())
     {
         let t_max = if best.is_hit() { best.t } else { ray.t_max };
-        walk::<BVH_STACK_SIZE, ANY, N, I>(scene, images, ray, &world, t_max, &mut best);
+        walk::<BVH_STACK_SIZE, ANY, N, V, T, I>(scene, images, ray, &world, t_max, &mut best);
     }
     best
 }
@@ -760,29 +777,44 @@ fn traverse<const ANY: bool, N: BvhElement, I: TextureImages + ?Sized>(
 ///
 /// A ray that is not [`Ray::is_traceable`] misses (as it must with ray queries too),
 /// as does every ray on an empty BVH. See the module documentation for ties.
-pub fn closest_hit<N: BvhElement, I: TextureImages + ?Sized>(
-    scene: BvhScene<'_, N>,
+pub fn closest_hit<
+    N: Elements<Item: BvhElement>,
+    V: Elements<Item = GpuVertex>,
+    T: Elements<Item = GpuTriangle>,
+    I: TextureImages + ?Sized,
+>(
+    scene: BvhScene<'_, N, V, T>,
     images: &I,
     ray: &Ray,
 ) -> HitRecord {
-    traverse::<false, N, I>(scene, images, ray)
+    traverse::<false, N, V, T, I>(scene, images, ray)
 }
 
 /// Whether `ray` hits any triangle with `t_min <= t <= t_max` (shadow rays): stops at the first
 /// that the alpha test lets through.
-pub fn any_hit<N: BvhElement, I: TextureImages + ?Sized>(
-    scene: BvhScene<'_, N>,
+pub fn any_hit<
+    N: Elements<Item: BvhElement>,
+    V: Elements<Item = GpuVertex>,
+    T: Elements<Item = GpuTriangle>,
+    I: TextureImages + ?Sized,
+>(
+    scene: BvhScene<'_, N, V, T>,
     images: &I,
     ray: &Ray,
 ) -> bool {
-    traverse::<true, N, I>(scene, images, ray).is_hit()
+    traverse::<true, N, V, T, I>(scene, images, ray).is_hit()
 }
 
 /// The closest hit by testing every triangle of every instance in order, without the nodes: the
 /// reference for the traversal, with the same transform, triangle test, alpha test, validity
 /// rules and tie-break (the first instance, then the first triangle, wins).
-pub fn closest_hit_brute_force<N, I: TextureImages + ?Sized>(
-    scene: BvhScene<'_, N>,
+pub fn closest_hit_brute_force<
+    N: Copy,
+    V: Elements<Item = GpuVertex>,
+    T: Elements<Item = GpuTriangle>,
+    I: TextureImages + ?Sized,
+>(
+    scene: BvhScene<'_, N, V, T>,
     images: &I,
     ray: &Ray,
 ) -> HitRecord {
@@ -930,7 +962,7 @@ mod tests {
     }
 
     impl TestScene {
-        fn view(&self) -> BvhScene<'_, BvhNode> {
+        fn view(&self) -> BvhScene<'_, &[BvhNode]> {
             BvhScene {
                 nodes: &self.nodes,
                 instances: &self.instances,
@@ -945,7 +977,12 @@ mod tests {
         /// The object-space vertices of triangle `primitive` of instance `instance`'s mesh.
         fn triangle(&self, instance: u32, primitive: u32) -> [Vec3; 3] {
             let mesh = &self.meshes[self.instances[instance as usize].mesh as usize];
-            triangle_vertices(&self.vertices, &self.triangles, mesh, primitive)
+            triangle_vertices(
+                self.vertices.as_slice(),
+                self.triangles.as_slice(),
+                mesh,
+                primitive,
+            )
         }
 
         /// The input index of triangle `primitive` (the builder reorders them), kept in its
@@ -1182,6 +1219,62 @@ mod tests {
         }
         // The rays must actually exercise hits, not just misses.
         assert!(hits > 4000, "{hits}");
+    }
+
+    /// The nodes, vertices and triangles split into chunks as the kernels bind them
+    /// (`crate::elements`) give the very same hits as the whole arrays, chunk boundaries inside
+    /// meshes and leaves included.
+    #[test]
+    fn split_arrays_trace_like_whole_ones() {
+        use crate::elements::ChunkedSlices;
+        use crate::layout::SCENE_BUFFER_CHUNKS;
+        let mut rng = Rng::new(9);
+        let soup = random_soup(&mut rng, 150, 2.0, 0.4);
+        let s = scene(
+            &soup,
+            &[
+                IDENTITY,
+                [
+                    [0.5, 0.0, 0.0, 1.0],
+                    [0.0, 0.5, 0.0, 0.5],
+                    [0.0, 0.0, 0.5, 0.0],
+                ],
+            ],
+        );
+        for chunk in [64, 128, 256, 1024] {
+            let nodes: Vec<&[BvhNode]> = s.nodes.chunks(chunk).collect();
+            let vertices: Vec<&[GpuVertex]> = s.vertices.chunks(chunk).collect();
+            let triangles: Vec<&[GpuTriangle]> = s.triangles.chunks(chunk).collect();
+            assert!(
+                vertices.len() <= SCENE_BUFFER_CHUNKS,
+                "{} chunks",
+                vertices.len()
+            );
+            if chunk == 64 {
+                assert!(nodes.len() > 1 && triangles.len() > 1 && vertices.len() > 1);
+            }
+            let split = BvhScene {
+                nodes: ChunkedSlices::new(&nodes).unwrap(),
+                instances: &s.instances[..],
+                meshes: &s.meshes[..],
+                vertices: ChunkedSlices::new(&vertices).unwrap(),
+                triangles: ChunkedSlices::new(&triangles).unwrap(),
+                materials: &s.materials[..],
+                textures: &s.textures[..],
+            };
+            let mut hits = 0;
+            for _ in 0..2000 {
+                let ray = random_ray(&mut rng);
+                let whole = closest_hit(s.view(), &s.texels[..], &ray);
+                assert_eq!(closest_hit(split, &s.texels[..], &ray), whole, "{ray:?}");
+                assert_eq!(
+                    any_hit(split, &s.texels[..], &ray),
+                    any_hit(s.view(), &s.texels[..], &ray)
+                );
+                hits += usize::from(whole.is_hit());
+            }
+            assert!(hits > 200, "{hits} hits with chunks of {chunk}");
+        }
     }
 
     /// Many placements of one mesh, mirrored, scaled, rotated and sheared ones among them: the

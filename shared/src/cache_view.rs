@@ -73,6 +73,7 @@ use glam::{UVec2, UVec4, Vec2, Vec3, Vec4};
 
 use crate::atomics::AtomicWords;
 use crate::camera::{CameraParams, primary_ray};
+use crate::elements::Elements;
 use crate::hash::pcg_chain;
 use crate::hash_cells::accumulate::accumulate_sample as accumulate_cell_sample;
 use crate::hash_cells::lists::{
@@ -532,8 +533,8 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
     ray_index: u32,
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
     images: &I,
@@ -655,8 +656,8 @@ pub fn primary_direct_light<I: TextureImages + ?Sized>(
     albedo: Vec3,
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
     images: &I,

@@ -39,6 +39,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, UVec2, UVec4, Vec2, Vec3, Vec4};
 
 use crate::camera::{CameraParams, to_clip, uv_of_clip};
+use crate::elements::Elements;
 use crate::ray::{HitRecord, Ray};
 use crate::ray_cone::RayCone;
 use crate::scene_data::{
@@ -277,8 +278,8 @@ pub fn gbuffer_texel<I: TextureImages + ?Sized>(
     previous: &[PreviousTransform],
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
     images: &I,

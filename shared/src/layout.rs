@@ -19,6 +19,11 @@ use crate::reservoir::Reservoir;
 /// Largest storage buffer binding we rely on: lavapipe's (and wgpu's default)
 /// `maxStorageBufferRange` of 128 MiB.
 pub const MAX_STORAGE_BUFFER_BYTES: usize = 128 << 20;
+/// Most buffers (chunks) one of the scene's arrays that scale with its triangle count (vertices,
+/// triangles, BVH nodes) is split into, each one storage binding (`crate::elements`): the length
+/// of the descriptor array that binds it. 8 × [`MAX_STORAGE_BUFFER_BYTES`] = 1 GiB per array on
+/// every device, e.g. 32 M vertices.
+pub const SCENE_BUFFER_CHUNKS: usize = 8;
 /// Push-constant bytes every Vulkan device guarantees (`maxPushConstantsSize` minimum).
 pub const MAX_PUSH_CONSTANT_BYTES: usize = 128;
 

@@ -14,6 +14,7 @@ pub mod cache_view;
 pub mod camera;
 pub mod color;
 pub mod difftest;
+pub mod elements;
 pub mod environment;
 pub mod finite_check;
 pub mod fixed_point;

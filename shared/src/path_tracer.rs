@@ -63,6 +63,7 @@ use glam::{UVec2, Vec2, Vec3};
 
 use crate::camera::{CameraParams, primary_ray};
 use crate::color::luminance;
+use crate::elements::Elements;
 use crate::environment::environment_pdf;
 use crate::hash::pcg_chain;
 use crate::lights::{
@@ -440,8 +441,8 @@ pub fn shade<I: TextureImages + ?Sized>(
     params: &PathTracerParams,
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
     images: &I,
@@ -596,8 +597,8 @@ pub fn sample_direct_light<I: TextureImages + ?Sized>(
     params: &PathTracerParams,
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
     images: &I,

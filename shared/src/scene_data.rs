@@ -23,6 +23,7 @@
 //! default white material, a texture reading as 1), so a malformed upload gives wrong colours,
 //! never a fault.
 
+use crate::elements::Elements;
 use crate::ray::{HitRecord, Ray};
 use crate::ray_cone::RayCone;
 use crate::textures::{TextureImages, texture_lod};
@@ -322,10 +323,10 @@ pub struct Surface {
 
 /// The vertex `index` of `mesh`, or a zero vertex when out of range.
 #[inline]
-fn vertex(vertices: &[GpuVertex], mesh: &GpuMesh, index: u32) -> GpuVertex {
+fn vertex(vertices: impl Elements<Item = GpuVertex>, mesh: &GpuMesh, index: u32) -> GpuVertex {
     let i = mesh.first_vertex as usize + index as usize;
     if index < mesh.vertex_count && i < vertices.len() {
-        vertices[i]
+        vertices.get(i)
     } else {
         GpuVertex::ZERO
     }
@@ -337,8 +338,8 @@ fn vertex(vertices: &[GpuVertex], mesh: &GpuMesh, index: u32) -> GpuVertex {
 fn instance_triangle(
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     instance: u32,
     primitive: u32,
 ) -> (GpuInstance, GpuMesh, GpuTriangle, [GpuVertex; 3]) {
@@ -354,7 +355,7 @@ fn instance_triangle(
     };
     let t = mesh.first_triangle as usize + primitive as usize;
     let tri = if primitive < mesh.triangle_count && t < triangles.len() {
-        triangles[t]
+        triangles.get(t)
     } else {
         GpuTriangle {
             indices: [0; 3],
@@ -373,8 +374,8 @@ fn instance_triangle(
 pub fn object_position(
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     instance: u32,
     primitive: u32,
     barycentrics: Vec2,
@@ -394,8 +395,8 @@ pub fn object_position(
 pub fn fetch_surface(
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     instance: u32,
     primitive: u32,
     barycentrics: Vec2,
@@ -451,8 +452,8 @@ pub fn fetch_surface(
 pub fn alpha_visible<I: TextureImages + ?Sized>(
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
     images: &I,
@@ -505,8 +506,8 @@ pub struct MaterialSample {
 pub fn hit_surface<I: TextureImages + ?Sized>(
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
-    vertices: &[GpuVertex],
-    triangles: &[GpuTriangle],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
     images: &I,

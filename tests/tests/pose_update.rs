@@ -134,7 +134,11 @@ fn lights_on_device(ctx: &Context, gpu: &GpuScene) -> Vec<GpuLight> {
 /// The geometry's buffer and structure handles.
 fn geometry_handles(gpu: &GpuScene) -> Vec<String> {
     match &gpu.geometry.data {
-        GeometryData::Software { nodes } => vec![format!("{:?}", nodes.handle)],
+        GeometryData::Software { nodes } => nodes
+            .chunks()
+            .iter()
+            .map(|c| format!("{:?}", c.handle))
+            .collect(),
         GeometryData::RayQuery { blases, tlas } => blases
             .iter()
             .map(|b| format!("{:?}", b.handle))

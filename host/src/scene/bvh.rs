@@ -30,7 +30,7 @@ use gi_shared::bvh::{
     BVH_BLAS_MAX_DEPTH, BVH_MAX_INDEX, BVH_MAX_LEAF_TRIANGLES, BVH_TLAS_MAX_DEPTH, BvhChild,
     BvhNode, BvhScene, any_hit, closest_hit,
 };
-use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
+use gi_shared::layout::{MAX_STORAGE_BUFFER_BYTES, SCENE_BUFFER_CHUNKS};
 use gi_shared::ray::{HitRecord, Ray};
 use glam::{DMat4, DVec3, Vec3};
 use rayon::prelude::*;
@@ -253,9 +253,10 @@ impl Bvh {
     ///
     /// Errors with [`Error::InvalidArgument`] when the scene's bottom levels do not match its
     /// meshes (a scene built in code must call [`Scene::update_derived`]), or when the node
-    /// buffer would exceed the 128 MiB storage-buffer limit.
+    /// buffer would exceed what every device binds of it: [`SCENE_BUFFER_CHUNKS`] storage
+    /// bindings of 128 MiB ([`MAX_STORAGE_BUFFER_BYTES`]).
     pub fn new(scene: &Scene) -> Result<Self> {
-        Self::new_with_limit(scene, MAX_STORAGE_BUFFER_BYTES)
+        Self::new_with_limit(scene, SCENE_BUFFER_CHUNKS * MAX_STORAGE_BUFFER_BYTES)
     }
 
     fn new_with_limit(scene: &Scene, max_buffer_bytes: usize) -> Result<Self> {
@@ -317,7 +318,7 @@ impl Bvh {
 
     /// What the traversal reads: these nodes and `shading`'s geometry (laid out from the same
     /// scene).
-    pub fn scene<'a>(&'a self, shading: &'a ShadingData) -> BvhScene<'a, BvhNode> {
+    pub fn scene<'a>(&'a self, shading: &'a ShadingData) -> BvhScene<'a, &'a [BvhNode]> {
         BvhScene {
             nodes: &self.nodes,
             instances: &shading.instances,

@@ -4,17 +4,20 @@
 //!
 //! Only what the scene has is stored: without textures there is no texture table (the kernels'
 //! binding then gets a 16-byte placeholder, since a Vulkan buffer cannot be empty) and the
-//! texture array stays unwritten. Every buffer must fit one storage binding
-//! ([`MAX_STORAGE_BUFFER_BYTES`]); a scene that does not is an error naming the scene and the
-//! buffer. Textures are images, one each, so their total size has no such bound.
+//! texture array stays unwritten. The vertices and triangles, which scale with the triangle
+//! count, are split over up to [`SCENE_BUFFER_CHUNKS`] storage bindings ([`SplitBuffer`]); every
+//! other buffer must fit one ([`MAX_STORAGE_BUFFER_BYTES`]). A scene that does not fit is an
+//! error naming the scene and the buffer. Textures are images, one each, so their total size has
+//! no such bound.
 
 use super::{Instance, Scene, Wrap};
 use crate::error::{Error, Result};
 use crate::vulkan::{
-    Buffer, Context, Resource, Samplers, TextureImage, TextureLevels, upload_textures,
+    Buffer, Context, Resource, Samplers, SplitBuffer, TRIANGLES_BINDING, TextureImage,
+    TextureLevels, VERTICES_BINDING, upload_textures,
 };
 use ash::vk;
-use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
+use gi_shared::layout::{MAX_STORAGE_BUFFER_BYTES, SCENE_BUFFER_CHUNKS};
 use gi_shared::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED, NONE,
     WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT,
@@ -55,27 +58,33 @@ fn u32_index(scene: &Scene, what: &str, n: usize) -> Result<u32> {
 }
 
 fn too_big(scene: &Scene, buffer: &str, bytes: u64) -> Error {
+    too_big_for(scene, buffer, bytes, MAX_STORAGE_BUFFER_BYTES as u64)
+}
+
+fn too_big_for(scene: &Scene, buffer: &str, bytes: u64, limit: u64) -> Error {
     Error::Scene {
         file: scene.source.clone(),
         element: format!("shading data buffer {buffer:?}"),
         why: format!(
-            "{bytes} bytes exceed the {} MiB a storage buffer binding may hold on every device",
-            MAX_STORAGE_BUFFER_BYTES >> 20
+            "{bytes} bytes exceed the {} MiB that every device can bind of it",
+            limit >> 20
         ),
     }
 }
 
-fn check_size<T>(scene: &Scene, buffer: &str, data: &[T]) -> Result<()> {
+/// Errors when `data` exceeds `limit` bytes.
+fn check_size<T>(scene: &Scene, buffer: &str, data: &[T], limit: usize) -> Result<()> {
     let bytes = std::mem::size_of_val(data) as u64;
-    if bytes > MAX_STORAGE_BUFFER_BYTES as u64 {
-        return Err(too_big(scene, buffer, bytes));
+    if bytes > limit as u64 {
+        return Err(too_big_for(scene, buffer, bytes, limit as u64));
     }
     Ok(())
 }
 
 impl ShadingData {
-    /// Lays out `scene`'s shading data. Errors when a buffer would exceed
-    /// [`MAX_STORAGE_BUFFER_BYTES`], naming the scene and the buffer.
+    /// Lays out `scene`'s shading data. Errors when a buffer would exceed what every device can
+    /// bind of it ([`MAX_STORAGE_BUFFER_BYTES`], [`SCENE_BUFFER_CHUNKS`] times that for the
+    /// vertices and triangles), naming the scene and the buffer.
     pub fn new(scene: &Scene) -> Result<Self> {
         let mut data = Self::default();
         let roots = super::bvh::mesh_roots(scene);
@@ -166,12 +175,16 @@ impl ShadingData {
             }
             u32_index(scene, "texels", data.texels.len())?;
         }
-        check_size(scene, "instances", &data.instances)?;
-        check_size(scene, "meshes", &data.meshes)?;
-        check_size(scene, "vertices", &data.vertices)?;
-        check_size(scene, "triangles", &data.triangles)?;
-        check_size(scene, "materials", &data.materials)?;
-        check_size(scene, "textures", &data.textures)?;
+        let (one, split) = (
+            MAX_STORAGE_BUFFER_BYTES,
+            SCENE_BUFFER_CHUNKS * MAX_STORAGE_BUFFER_BYTES,
+        );
+        check_size(scene, "instances", &data.instances, one)?;
+        check_size(scene, "meshes", &data.meshes, one)?;
+        check_size(scene, "vertices", &data.vertices, split)?;
+        check_size(scene, "triangles", &data.triangles, split)?;
+        check_size(scene, "materials", &data.materials, one)?;
+        check_size(scene, "textures", &data.textures, one)?;
         Ok(data)
     }
 }
@@ -208,15 +221,18 @@ pub const BUFFER_NAMES: [&str; 6] = [
 ];
 
 /// The shading data on the device: storage buffers bound as the first six bindings of the
-/// scene's set 2 in the order of [`BUFFER_NAMES`], then the texture array
-/// ([`crate::vulkan::TEXTURES_BINDING`]).
+/// scene's set 2 in the order of [`BUFFER_NAMES`] (the vertices and triangles split), then the
+/// texture array ([`crate::vulkan::TEXTURES_BINDING`]).
 pub struct GpuShadingData {
     /// One per name of [`BUFFER_NAMES`]; `None` for a kind the scene does not have (the texture
-    /// table of a scene without textures).
+    /// table of a scene without textures), and for the vertices and triangles.
     buffers: [Option<Buffer>; 6],
-    /// 16 zero bytes, bound in place of absent kinds: too short for one record of any kind but
-    /// triangles, so the kernels' bounds checks see an empty array. `None` when every kind is
-    /// present.
+    /// The vertices, split.
+    vertices: SplitBuffer,
+    /// The triangles, split.
+    triangles: SplitBuffer,
+    /// 16 zero bytes, bound in place of absent kinds: too short for one record of any of them,
+    /// so the kernels' bounds checks see an empty array. `None` when every kind is present.
     placeholder: Option<Buffer>,
     /// One image per texture, in table order.
     images: Vec<TextureImage>,
@@ -229,6 +245,20 @@ pub struct GpuShadingData {
 impl GpuShadingData {
     /// Uploads `data` to device-local storage buffers and one sampled image per texture.
     pub fn new(ctx: &Context, data: &ShadingData) -> Result<Self> {
+        Self::with_binding_limit(ctx, data, u64::MAX)
+    }
+
+    /// [`Self::new`], with the vertices and triangles split into bindings of at most
+    /// `max_binding_bytes` (and the device's `maxStorageBufferRange`): what the tests of the
+    /// splitting use. Errors when [`SCENE_BUFFER_CHUNKS`] such bindings cannot hold them.
+    pub fn with_binding_limit(
+        ctx: &Context,
+        data: &ShadingData,
+        max_binding_bytes: u64,
+    ) -> Result<Self> {
+        let limit = max_binding_bytes.min(ctx.capabilities().max_storage_buffer_range);
+        let vertices = SplitBuffer::device_local(ctx, "vertices", &data.vertices, limit)?;
+        let triangles = SplitBuffer::device_local(ctx, "triangles", &data.triangles, limit)?;
         let contents: [&[u8]; 6] = [
             bytemuck::cast_slice(&data.instances),
             bytemuck::cast_slice(&data.meshes),
@@ -242,7 +272,7 @@ impl GpuShadingData {
             .iter_mut()
             .zip(BUFFER_NAMES.into_iter().zip(contents))
         {
-            if bytes.is_empty() {
+            if bytes.is_empty() || [BUFFER_NAMES[2], BUFFER_NAMES[3]].contains(&name) {
                 continue;
             }
             *slot = Some(Buffer::device_local(
@@ -252,7 +282,10 @@ impl GpuShadingData {
                 vk::BufferUsageFlags::empty(),
             )?);
         }
-        let placeholder = match buffers.iter().any(Option::is_none) {
+        let absent = |(i, b): (usize, &Option<Buffer>)| {
+            b.is_none() && i != VERTICES_BINDING && i != TRIANGLES_BINDING
+        };
+        let placeholder = match buffers.iter().enumerate().any(absent) {
             true => Some(Buffer::device_zeroed::<[u32; 4]>(
                 ctx,
                 "shading data placeholder",
@@ -307,6 +340,8 @@ impl GpuShadingData {
             .collect::<Result<Vec<_>>>()?;
         Ok(Self {
             buffers,
+            vertices,
+            triangles,
             placeholder,
             images,
             descriptors,
@@ -320,8 +355,15 @@ impl GpuShadingData {
         let mut resources: Vec<Resource<'_>> = self
             .buffers
             .iter()
-            .filter_map(|b| b.as_ref().or(self.placeholder.as_ref()))
-            .map(Resource::Buffer)
+            .enumerate()
+            .filter_map(|(i, b)| match i {
+                VERTICES_BINDING => Some(Resource::Split(&self.vertices)),
+                TRIANGLES_BINDING => Some(Resource::Split(&self.triangles)),
+                _ => b
+                    .as_ref()
+                    .or(self.placeholder.as_ref())
+                    .map(Resource::Buffer),
+            })
             .collect();
         resources.push(Resource::Textures(&self.descriptors));
         resources
@@ -330,10 +372,14 @@ impl GpuShadingData {
     /// Whether the device holds buffer `name` of [`BUFFER_NAMES`] (false for the texture table of
     /// a scene without textures).
     pub fn has_buffer(&self, name: &str) -> bool {
-        BUFFER_NAMES
-            .iter()
-            .zip(&self.buffers)
-            .any(|(n, b)| *n == name && b.is_some())
+        match name {
+            "vertices" => !self.vertices.chunks().is_empty(),
+            "triangles" => !self.triangles.chunks().is_empty(),
+            _ => BUFFER_NAMES
+                .iter()
+                .zip(&self.buffers)
+                .any(|(n, b)| *n == name && b.is_some()),
+        }
     }
 
     /// The instances buffer (`GpuInstance`s, see [`gpu_instance`]); `None` for a scene without
@@ -351,7 +397,13 @@ impl GpuShadingData {
     /// Bytes of device memory of the geometry and materials: instances, meshes, vertices,
     /// triangles, materials.
     pub fn geometry_bytes(&self) -> u64 {
-        self.buffers[..5].iter().flatten().map(|b| b.size).sum()
+        let whole: u64 = self.buffers[..5].iter().flatten().map(|b| b.size).sum();
+        whole + self.vertices.bytes() + self.triangles.bytes()
+    }
+
+    /// Chunks (storage bindings) of the vertices and of the triangles.
+    pub fn chunk_counts(&self) -> [usize; 2] {
+        [self.vertices.chunks().len(), self.triangles.chunks().len()]
     }
 }
 
@@ -418,16 +470,16 @@ mod tests {
 
     #[test]
     fn a_buffer_over_the_binding_limit_is_an_error_naming_scene_and_buffer() {
-        let mut s = test_scene("textured.gltf");
+        let s = test_scene("textured.gltf");
         // 2²² vertices of 32 bytes: 128 MiB, and one more.
-        let mesh = &mut s.meshes[0];
-        let count = MAX_STORAGE_BUFFER_BYTES / 32 + 1;
-        mesh.positions.resize(count, glam::Vec3::ZERO);
-        mesh.normals.resize(count, glam::Vec3::Z);
-        let err = ShadingData::new(&s).unwrap_err().to_string();
+        let vertices = vec![GpuVertex::ZERO; MAX_STORAGE_BUFFER_BYTES / 32 + 1];
+        let err = check_size(&s, "vertices", &vertices, MAX_STORAGE_BUFFER_BYTES)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("textured.gltf"), "{err}");
         assert!(err.contains("\"vertices\""), "{err}");
         assert!(err.contains("128 MiB"), "{err}");
+        assert!(check_size(&s, "vertices", &vertices[1..], MAX_STORAGE_BUFFER_BYTES).is_ok());
     }
 
     #[test]

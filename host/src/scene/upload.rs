@@ -14,9 +14,8 @@ use crate::error::{Error, Result};
 use crate::kernels::KernelVariant;
 use crate::vulkan::{
     AccelerationStructure, Buffer, Context, DescriptorSet, Instance, Resource, SceneSet, SceneSets,
-    StagedWrites, TopLevel,
+    SplitBuffer, StagedWrites, TopLevel,
 };
-use ash::vk;
 use gi_shared::gbuffer::PreviousTransform;
 use gi_shared::scene_data::GpuInstance;
 use glam::Mat4;
@@ -41,8 +40,8 @@ pub enum GeometryData {
     },
     /// Software traversal of the two-level BVH.
     Software {
-        /// `gi_shared::bvh::BvhNode`s ([`Bvh::nodes`]).
-        nodes: Buffer,
+        /// `gi_shared::bvh::BvhNode`s ([`Bvh::nodes`]), split.
+        nodes: SplitBuffer,
     },
 }
 
@@ -50,14 +49,31 @@ impl SceneGeometry {
     /// Uploads `scene` for the context's variant, with its descriptor set. The software variant
     /// uses `bvh` when given (built from this scene by [`Bvh::new`]) and builds it otherwise.
     pub fn new(ctx: &Context, scene: &Scene, bvh: Option<&Bvh>) -> Result<Self> {
-        let data = GeometryData::new(ctx, scene, bvh)?;
+        Self::with_binding_limit(ctx, scene, bvh, u64::MAX)
+    }
+
+    /// [`Self::new`], the software variant's nodes split into bindings of at most
+    /// `max_binding_bytes` (and the device's `maxStorageBufferRange`): what the tests of the
+    /// splitting use.
+    pub fn with_binding_limit(
+        ctx: &Context,
+        scene: &Scene,
+        bvh: Option<&Bvh>,
+        max_binding_bytes: u64,
+    ) -> Result<Self> {
+        let data = GeometryData::new(ctx, scene, bvh, max_binding_bytes)?;
         let set = DescriptorSet::new(ctx, SceneSet::Geometry, &data.resources())?;
         Ok(Self { data, set })
     }
 }
 
 impl GeometryData {
-    fn new(ctx: &Context, scene: &Scene, bvh: Option<&Bvh>) -> Result<Self> {
+    fn new(
+        ctx: &Context,
+        scene: &Scene,
+        bvh: Option<&Bvh>,
+        max_binding_bytes: u64,
+    ) -> Result<Self> {
         match ctx.variant() {
             KernelVariant::RayQuery => {
                 let blases = scene
@@ -94,9 +110,9 @@ impl GeometryData {
                         &built
                     }
                 };
-                let usage = vk::BufferUsageFlags::empty();
+                let limit = max_binding_bytes.min(ctx.capabilities().max_storage_buffer_range);
                 Ok(Self::Software {
-                    nodes: Buffer::device_local(ctx, "bvh nodes", &bvh.nodes, usage)?,
+                    nodes: SplitBuffer::device_local(ctx, "bvh nodes", &bvh.nodes, limit)?,
                 })
             }
         }
@@ -109,14 +125,14 @@ impl GeometryData {
             Self::RayQuery { blases, tlas } => {
                 blases.iter().map(|b| b.bytes()).sum::<u64>() + tlas.bytes()
             }
-            Self::Software { nodes } => nodes.size,
+            Self::Software { nodes } => nodes.bytes(),
         }
     }
 
     fn resources(&self) -> Vec<Resource<'_>> {
         match self {
             Self::RayQuery { tlas, .. } => vec![Resource::AccelerationStructure(tlas.handle())],
-            Self::Software { nodes } => vec![Resource::Buffer(nodes)],
+            Self::Software { nodes } => vec![Resource::Split(nodes)],
         }
     }
 }
@@ -282,7 +298,7 @@ impl GpuScene {
             GeometryData::Software { nodes } => {
                 // The top level is the first `tlas_node_count` nodes, whatever the pose.
                 let (top, _) = build_tlas(&instance_bounds(scene));
-                writes.write(nodes, 0, &top)?;
+                nodes.stage(&mut writes, 0, &top)?;
                 None
             }
             GeometryData::RayQuery { tlas, .. } => {
@@ -375,8 +391,24 @@ impl GpuScene {
         shading: &ShadingData,
         lights: &LightSet,
     ) -> Result<Self> {
-        let geometry = SceneGeometry::new(ctx, scene, bvh)?;
-        let shading = GpuShadingData::new(ctx, shading)?;
+        Self::upload_with_binding_limit(ctx, scene, bvh, shading, lights, u64::MAX)
+    }
+
+    /// [`Self::upload`], with the arrays that scale with the triangle count (vertices,
+    /// triangles, the software variant's BVH nodes) split into storage bindings of at most
+    /// `max_binding_bytes` (and the device's `maxStorageBufferRange`, which alone decides in
+    /// [`Self::upload`]): the tests force tiny bindings with it. Errors, naming the array and
+    /// its size, when `gi_shared::layout::SCENE_BUFFER_CHUNKS` bindings cannot hold one.
+    pub fn upload_with_binding_limit(
+        ctx: &Context,
+        scene: &Scene,
+        bvh: Option<&Bvh>,
+        shading: &ShadingData,
+        lights: &LightSet,
+        max_binding_bytes: u64,
+    ) -> Result<Self> {
+        let geometry = SceneGeometry::with_binding_limit(ctx, scene, bvh, max_binding_bytes)?;
+        let shading = GpuShadingData::with_binding_limit(ctx, shading, max_binding_bytes)?;
         let lights = GpuLights::new(ctx, lights)?;
         Self::new(ctx, scene, geometry, shading, lights)
     }

@@ -75,6 +75,9 @@ pub struct Capabilities {
     /// `runtimeDescriptorArray`, `shaderSampledImageArrayNonUniformIndexing` and
     /// `descriptorBindingPartiallyBound`: the bindless texture array.
     pub bindless_textures: bool,
+    /// `shaderStorageBufferArrayNonUniformIndexing`: the scene's split arrays, their chunk picked
+    /// per invocation.
+    pub storage_buffer_arrays: bool,
 }
 
 /// Device feature structs: what a probe found, what device creation enables (trimmed to what
@@ -285,6 +288,8 @@ impl Capabilities {
             bindless_textures: chain.v12.runtime_descriptor_array == vk::TRUE
                 && chain.v12.shader_sampled_image_array_non_uniform_indexing == vk::TRUE
                 && chain.v12.descriptor_binding_partially_bound == vk::TRUE,
+            storage_buffer_arrays: chain.v12.shader_storage_buffer_array_non_uniform_indexing
+                == vk::TRUE,
         };
         (caps, extensions)
     }
@@ -346,6 +351,7 @@ impl Capabilities {
             max_image_dimension_2d: 16384,
             max_sampled_images: 1 << 20,
             bindless_textures: true,
+            storage_buffer_arrays: true,
         }
     }
 }

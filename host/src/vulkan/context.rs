@@ -832,6 +832,10 @@ fn required_features(caps: &Capabilities, variant: KernelVariant) -> Result<Feat
                 caps.bindless_textures,
                 "runtimeDescriptorArray and shaderSampledImageArrayNonUniformIndexing",
             ),
+            "StorageBufferArrayNonUniformIndexing" => (
+                caps.storage_buffer_arrays,
+                "shaderStorageBufferArrayNonUniformIndexing (the scene's split arrays)",
+            ),
             other => (false, other),
         };
         if !have {
@@ -842,6 +846,9 @@ fn required_features(caps: &Capabilities, variant: KernelVariant) -> Result<Feat
             "Int16" => f.core.shader_int16 = vk::TRUE,
             "Int64" => f.core.shader_int64 = vk::TRUE,
             "VulkanMemoryModelDeviceScope" => f.v12.vulkan_memory_model_device_scope = vk::TRUE,
+            "StorageBufferArrayNonUniformIndexing" => {
+                f.v12.shader_storage_buffer_array_non_uniform_indexing = vk::TRUE
+            }
             // Subgroup operations are properties, not features: nothing to enable.
             _ => {}
         }
@@ -936,7 +943,8 @@ mod tests {
                     "GroupNonUniformArithmetic",
                     "ShaderNonUniform",
                     "RuntimeDescriptorArray",
-                    "SampledImageArrayNonUniformIndexing"
+                    "SampledImageArrayNonUniformIndexing",
+                    "StorageBufferArrayNonUniformIndexing"
                 ]
                 .contains(cap),
                 "capability {cap} has no device feature mapping"

@@ -9,6 +9,7 @@ mod memory;
 mod ping_pong;
 mod pipeline;
 mod sampled_image;
+mod split_buffer;
 mod texture_image;
 mod timing;
 mod validation;
@@ -27,8 +28,10 @@ pub use memory::{
 pub use ping_pong::PingPong;
 pub use pipeline::{
     BindingKind, DescriptorSet, Kernel, KernelModule, MAX_PUSH_BINDINGS, MAX_SCENE_TEXTURES,
-    Resource, SHADING_BINDINGS, SceneSet, SceneSets, TEXTURES_BINDING, compute_barrier,
+    Resource, SHADING_BINDINGS, SceneSet, SceneSets, TEXTURES_BINDING, TRIANGLES_BINDING,
+    VERTICES_BINDING, compute_barrier,
 };
 pub use sampled_image::SampledImage;
+pub use split_buffer::{SplitBuffer, split_layout};
 pub use texture_image::{STAGING_BYTES, Samplers, TextureImage, TextureLevels, upload_textures};
 pub use timing::{FrameTimings, GpuTimer, PassTiming, submit_timed};

@@ -23,9 +23,11 @@
 use super::context::{Context, SharedDevice};
 use super::image::Image;
 use super::memory::{Buffer, memory_barrier};
+use super::split_buffer::SplitBuffer;
 use crate::error::{Error, Result, VkContext};
 use crate::kernels::KernelVariant;
 use ash::vk;
+use gi_shared::layout::SCENE_BUFFER_CHUNKS;
 use std::ffi::CString;
 use std::sync::Arc;
 
@@ -37,6 +39,9 @@ pub const MAX_PUSH_BINDINGS: usize = 32;
 pub enum BindingKind {
     /// A storage buffer (`#[spirv(storage_buffer)]`).
     StorageBuffer,
+    /// One of the scene's split arrays: an array of [`SCENE_BUFFER_CHUNKS`] storage buffers
+    /// (`#[spirv(storage_buffer)]` on a `RuntimeArray<TypedBuffer<[T]>>`), every one written.
+    SplitBuffer,
     /// A top-level acceleration structure (ray-query variant only).
     AccelerationStructure,
     /// A storage image in the `GENERAL` layout (`Image!(2D, format = ..., sampled = false)`).
@@ -60,6 +65,8 @@ pub const MAX_SCENE_TEXTURES: u32 = 1 << 14;
 pub enum Resource<'a> {
     /// A whole storage buffer.
     Buffer(&'a Buffer),
+    /// A split array, one whole buffer per slot.
+    Split(&'a SplitBuffer),
     /// An acceleration structure handle.
     AccelerationStructure(vk::AccelerationStructureKHR),
     /// The scene's textures, each image view with its sampler (possibly none).
@@ -437,10 +444,10 @@ pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SceneSet {
     /// Set 1: the geometry that kernels trace against (variant-dependent bindings, see
-    /// [`SceneSet::binding_kinds`]).
+    /// [`SceneSet::binding_kinds`]; the software traversal's nodes split).
     Geometry,
     /// Set 2: the shading data and lights, [`SHADING_BINDINGS`] bindings: instances, meshes,
-    /// vertices, triangles, materials, texture table (storage buffers), the textures
+    /// vertices, triangles (split), materials, texture table (storage buffers), the textures
     /// ([`BindingKind::Textures`], binding [`TEXTURES_BINDING`]), lights, triangle→light table,
     /// environment texels, environment distribution (storage buffers).
     Shading,
@@ -452,14 +459,22 @@ pub const SHADING_BINDINGS: usize = 11;
 /// The binding of the textures in [`SceneSet::Shading`].
 pub const TEXTURES_BINDING: usize = 6;
 
+/// The binding of the vertices in [`SceneSet::Shading`], split ([`BindingKind::SplitBuffer`]).
+pub const VERTICES_BINDING: usize = 2;
+
+/// The binding of the triangles in [`SceneSet::Shading`], split ([`BindingKind::SplitBuffer`]).
+pub const TRIANGLES_BINDING: usize = 3;
+
 impl SceneSet {
     /// The set's bindings in `variant`.
     pub fn binding_kinds(self, variant: KernelVariant, texture_slots: u32) -> Vec<BindingKind> {
         match (self, variant) {
             (Self::Geometry, KernelVariant::RayQuery) => vec![BindingKind::AccelerationStructure],
-            (Self::Geometry, KernelVariant::Software) => vec![BindingKind::StorageBuffer],
+            (Self::Geometry, KernelVariant::Software) => vec![BindingKind::SplitBuffer],
             (Self::Shading, _) => {
                 let mut kinds = vec![BindingKind::StorageBuffer; SHADING_BINDINGS];
+                kinds[VERTICES_BINDING] = BindingKind::SplitBuffer;
+                kinds[TRIANGLES_BINDING] = BindingKind::SplitBuffer;
                 kinds[TEXTURES_BINDING] = BindingKind::Textures(texture_slots);
                 kinds
             }
@@ -601,16 +616,20 @@ fn with_writes<R>(
             kinds.len()
         ));
     }
-    let buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = resources
+    let whole = |b: &Buffer| {
+        vk::DescriptorBufferInfo::default()
+            .buffer(b.handle)
+            .range(vk::WHOLE_SIZE)
+    };
+    let buffer_infos: Vec<Vec<vk::DescriptorBufferInfo>> = resources
         .iter()
         .map(|r| match r {
-            Resource::Buffer(b) => [vk::DescriptorBufferInfo::default()
-                .buffer(b.handle)
-                .range(vk::WHOLE_SIZE)],
+            Resource::Buffer(b) => vec![whole(b)],
+            Resource::Split(s) => s.slots().map(whole).collect(),
             Resource::AccelerationStructure(_)
             | Resource::Image(_)
             | Resource::Textures(_)
-            | Resource::SampledImage { .. } => [vk::DescriptorBufferInfo::default()],
+            | Resource::SampledImage { .. } => vec![],
         })
         .collect();
     let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = resources
@@ -620,9 +639,10 @@ fn with_writes<R>(
             Resource::SampledImage { view, layout } => [vk::DescriptorImageInfo::default()
                 .image_view(*view)
                 .image_layout(*layout)],
-            Resource::Buffer(_) | Resource::AccelerationStructure(_) | Resource::Textures(_) => {
-                [vk::DescriptorImageInfo::default()]
-            }
+            Resource::Buffer(_)
+            | Resource::Split(_)
+            | Resource::AccelerationStructure(_)
+            | Resource::Textures(_) => [vk::DescriptorImageInfo::default()],
         })
         .collect();
     let accels: Vec<[vk::AccelerationStructureKHR; 1]> = resources
@@ -630,6 +650,7 @@ fn with_writes<R>(
         .map(|r| match r {
             Resource::AccelerationStructure(a) => [*a],
             Resource::Buffer(_)
+            | Resource::Split(_)
             | Resource::Image(_)
             | Resource::Textures(_)
             | Resource::SampledImage { .. } => [vk::AccelerationStructureKHR::null()],
@@ -652,7 +673,8 @@ fn with_writes<R>(
             .dst_binding(i as u32)
             .descriptor_type(descriptor_type(*kind));
         let w = match (kind, res) {
-            (BindingKind::StorageBuffer, Resource::Buffer(_)) => w.buffer_info(&buffer_infos[i]),
+            (BindingKind::StorageBuffer, Resource::Buffer(_))
+            | (BindingKind::SplitBuffer, Resource::Split(_)) => w.buffer_info(&buffer_infos[i]),
             (BindingKind::StorageImage, Resource::Image(_))
             | (BindingKind::SampledImage, Resource::SampledImage { .. }) => {
                 w.image_info(&image_infos[i])
@@ -682,7 +704,7 @@ fn with_writes<R>(
 
 fn descriptor_type(kind: BindingKind) -> vk::DescriptorType {
     match kind {
-        BindingKind::StorageBuffer => vk::DescriptorType::STORAGE_BUFFER,
+        BindingKind::StorageBuffer | BindingKind::SplitBuffer => vk::DescriptorType::STORAGE_BUFFER,
         BindingKind::AccelerationStructure => vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
         BindingKind::StorageImage => vk::DescriptorType::STORAGE_IMAGE,
         BindingKind::SampledImage => vk::DescriptorType::SAMPLED_IMAGE,
@@ -693,6 +715,7 @@ fn descriptor_type(kind: BindingKind) -> vk::DescriptorType {
 fn descriptor_count(kind: BindingKind) -> u32 {
     match kind {
         BindingKind::Textures(slots) => slots,
+        BindingKind::SplitBuffer => SCENE_BUFFER_CHUNKS as u32,
         _ => 1,
     }
 }
