@@ -108,8 +108,9 @@ mod tests {
         let lines = vec!["GI 12.3 ms".to_string(), "F feedback on".to_string()];
         overlay.draw(&mut pixels, w as u32, h as u32, &lines);
         let box_w = overlay.width(&lines[1]) + 2.0 * PAD;
-        let white = pixels.iter().filter(|&&p| p == 0x00ff_ffff).count();
-        assert!(white > 20, "{white} fully covered text pixels");
+        // Text is white over a box dimmed to 0x26: count the pixels it mostly covers.
+        let text = pixels.iter().filter(|&&p| p & 0xff > 0xc0).count();
+        assert!(text > 50, "{text} text pixels");
         for y in 0..h {
             for x in 0..w {
                 let p = pixels[y * w + x];
