@@ -108,12 +108,23 @@ fn the_window_shows_the_headless_render() {
     let shot = dir.join("window.png");
     let render = dir.join("render.exr");
     let scene = cornell_box();
+    // Dropped on the window after the first frame: a broken scene, which must leave the
+    // current scene and its GI history as they were (the comparison below), with its error
+    // reported instead of a panic.
+    std::fs::create_dir_all(&dir).unwrap();
+    let broken = dir.join("broken.gltf");
+    std::fs::write(&broken, "{ not glTF").unwrap();
     let size = ["--width", "64", "--height", "48", "--frames", "4"];
     let mut view = vec!["--validation", "view", scene.as_str(), "--no-overlay"];
     view.extend(size);
     view.extend(["--screenshot", shot.to_str().unwrap()]);
-    let out = check(&gi(&view, Some(&x.display)), "gi view");
+    view.extend(["--drop", broken.to_str().unwrap()]);
+    let run = gi(&view, Some(&x.display));
+    let out = check(&run, "gi view");
     assert!(out.contains("wrote"), "{out}");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("broken.gltf"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
     let mut headless = vec!["--validation", "render", scene.as_str(), "--method", "gi"];
     headless.extend(size);
     headless.extend(["--out", render.to_str().unwrap()]);

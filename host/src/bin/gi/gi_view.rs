@@ -106,6 +106,9 @@ pub struct ViewerArgs {
     /// Start with the overlay hidden (H shows it).
     #[arg(long)]
     no_overlay: bool,
+    /// Scripted: after the first frame, load these files as if dropped on the window.
+    #[arg(long, requires = "frames")]
+    drop: Vec<PathBuf>,
 }
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
@@ -175,6 +178,8 @@ struct Viewer<'a> {
     message: Option<String>,
     frames_left: Option<u32>,
     screenshot: Option<PathBuf>,
+    /// Files a scripted run drops after its first frame.
+    drops: Vec<PathBuf>,
     held: HashSet<KeyCode>,
     modifiers: ModifiersState,
     drag: Option<PhysicalPosition<f64>>,
@@ -215,6 +220,7 @@ impl<'a> Viewer<'a> {
             message: None,
             frames_left: args.frames,
             screenshot: args.screenshot.clone(),
+            drops: args.drop.clone(),
             held: HashSet::new(),
             modifiers: ModifiersState::empty(),
             drag: None,
@@ -555,8 +561,9 @@ impl<'a> Viewer<'a> {
             )
             .into()),
         };
+        // The loaders' errors name the file.
         self.message = loaded.err().map(|e| {
-            let m = format!("{}: {e}", path.display());
+            let m = e.to_string();
             eprintln!("{m}");
             m
         });
@@ -652,6 +659,11 @@ impl App<'_> {
     /// Renders, presents, and in a scripted run counts down and takes the screenshot.
     fn redraw(&mut self, event_loop: &ActiveEventLoop) -> Result<(), Box<dyn std::error::Error>> {
         let now = Instant::now();
+        if self.viewer.last_frame.is_some() {
+            for path in std::mem::take(&mut self.viewer.drops) {
+                self.viewer.drop_file(&path);
+            }
+        }
         if let Some(last) = self.viewer.last_frame.replace(now) {
             let seconds = (now - last).as_secs_f32();
             self.viewer.frame_ms = f64::from(seconds) * 1e3;
