@@ -73,4 +73,18 @@ SRC
     exit 1
   fi
 fi
+# 3. `gi view` and its CI test: the X server Xvfb, and the X client libraries winit loads at run
+# time (winit and softbuffer dlopen them: Xlib, Xlib-xcb, xcb, Xcursor, XInput2, Xrandr, xkbcommon).
+x11_pkgs=(xvfb libx11-6 libx11-xcb1 libxcb1 libxcursor1 libxi6 libxrandr2 libxkbcommon0 libxkbcommon-x11-0)
+missing=()
+for p in "${x11_pkgs[@]}"; do pkg_ok "$p" || missing+=("$p"); done
+if [ "${#missing[@]}" -gt 0 ]; then
+  if ! command -v apt-get >/dev/null; then
+    log "error: apt-get not found; install ${missing[*]} by hand"
+    exit 1
+  fi
+  log "installing ${missing[*]} (apt)"
+  as_root apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive as_root apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
 log "ok: ${NIGHTLY}, Mesa $(dpkg-query -W -f='${Version}' mesa-vulkan-drivers)"

@@ -20,6 +20,7 @@ pub mod scene;
 pub mod smoke;
 pub mod soak;
 pub mod trace_rays;
+pub mod viewer;
 pub mod vulkan;
 
 pub use error::{Error, Result};

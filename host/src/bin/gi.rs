@@ -6,6 +6,8 @@ mod gi_render;
 mod gi_soak;
 #[path = "gi/gi_sweep.rs"]
 mod gi_sweep;
+#[path = "gi/gi_view.rs"]
+mod gi_view;
 
 use clap::{Parser, Subcommand};
 use gi_host::gbuffer::{GBufferData, GBufferImages, GBufferPass, scene_camera, write_debug_pngs};
@@ -26,6 +28,7 @@ use gi_render::{GiArgs, Method, render_gi};
 use gi_shared::camera::CameraParams;
 use gi_soak::{SoakArgs, run_soak};
 use gi_sweep::{SweepArgs, run_sweep};
+use gi_view::{ViewerArgs, run_view};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -191,6 +194,11 @@ enum Command {
     /// frame, and host and device memory are sampled; cache occupancy and frame time are recorded
     /// every frame. Prints a summary table; exits non-zero when a check fails.
     Soak(SoakArgs),
+    /// Open a scene in a window: a fly camera (WASD, mouse drag), GI or the path tracer
+    /// (accumulating while the camera stands still) or the cache view, every technique's
+    /// toggle and debug view, a timing overlay; drop a scene or an environment on the window
+    /// to load it. With --frames (and --screenshot) it renders that many frames and closes.
+    View(ViewerArgs),
     /// Write a synthetic instanced scene (GLB) for scaling tests: a closed room lit by an
     /// emissive ceiling panel, a camera, and many instances of a few tessellated meshes (spheres,
     /// tori, boxes) on a seeded grid, up to the requested world triangle count.
@@ -472,6 +480,9 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             debug_views: debug_views.as_deref(),
         };
         cache_view(&ctx, scene, &output, view.camera(), view.sky()?, &run)?;
+    }
+    if let Some(Command::View(args)) = &cli.command {
+        run_view(&ctx, args)?;
     }
     check_validation(&ctx)
 }

@@ -395,9 +395,6 @@ impl Context {
     /// of the instance, queue of the device and family, allocator of the device), and outlive
     /// the context and every resource made from it.
     pub unsafe fn from_external(device: ExternalDevice, trace: TraceMode) -> Result<Self> {
-        if !crate::kernels::BUILT {
-            return Err(Error::NoKernels);
-        }
         let ExternalDevice {
             instance,
             physical_device,
