@@ -53,12 +53,18 @@ for v in probe_atlas probe_mask spawn_and_patch_tiles ray_guiding_pdf blur_mask 
   view debug "$v"
 done
 
-# Disocclusion: a fast pan (2°/frame) of indirect-room. Patching moves the spawns of tiles that
-# still hold a probe to the disoccluded ones; without it, and with a low spawn rate, the new
-# tiles wait for their turn.
-gi_render disocclusion indirect-room --camera-path orbit:2 --frames 8 --debug-views "$OUT/disocclusion-debug"
-gi_render disocclusion-unpatched indirect-room --camera-path orbit:2 --frames 8 --spawn-rate 1/16 \
-  --no patching --debug-views "$OUT/disocclusion-unpatched-debug"
+# Disocclusion: indirect-room's camera still for 12 frames, then turned 10° at once (a camera
+# path file: one camera per frame, the last line held). The last frame shows the jump: patching
+# moves the spawns of tiles that still hold a probe to the disoccluded ones; without it, at a
+# low spawn rate, the new tiles wait for their turn.
+{
+  for _ in $(seq 12); do echo "-2.6 1.6 2.6  -1.901464 1.444771 1.901464"; done
+  echo "-2.6 1.6 2.6  -2.033376 1.444771 1.790777"
+} > "$OUT/jump.path"
+gi_render disocclusion indirect-room --camera-path "$OUT/jump.path" --frames 13 --exposure 2 \
+  --debug-views "$OUT/disocclusion-debug"
+gi_render disocclusion-unpatched indirect-room --camera-path "$OUT/jump.path" --frames 13 \
+  --exposure 2 --spawn-rate 1/16 --no patching --debug-views "$OUT/disocclusion-unpatched-debug"
 for n in disocclusion disocclusion-unpatched; do
   view "$n" spawn_and_patch_tiles
   view "$n" irradiance_before_denoiser
@@ -66,8 +72,13 @@ done
 
 # Ghosting and hysteresis lag: the box of moving-box crosses the room. Without object motion the
 # probes and the denoiser's history stay where the box was, and the hysteresis holds its shadow.
-gi_render ghosting moving-box --frames 40
-gi_render ghosting-no-object-motion moving-box --frames 40 --no object-motion
+gi_render ghosting moving-box --frames 40 --debug-views "$OUT/ghosting-debug"
+gi_render ghosting-no-object-motion moving-box --frames 40 --no object-motion \
+  --debug-views "$OUT/ghosting-no-object-motion-debug"
+for n in ghosting ghosting-no-object-motion; do view "$n" irradiance_after_denoiser; done
+# Where the two differ (FLIP): the trail.
+"$GI" compare "$OUT/ghosting.exr" "$OUT/ghosting-no-object-motion.exr" \
+  --heat-map "$IMG/ghosting-difference.png" > "$OUT/ghosting-difference.log"
 
 # Light leaks through a thin wall: light-leak's dark room beside a lit one.
 gi_reference leak-reference light-leak 256
