@@ -80,15 +80,25 @@ for n in ghosting ghosting-no-object-motion; do view "$n" irradiance_after_denoi
 "$GI" compare "$OUT/ghosting.exr" "$OUT/ghosting-no-object-motion.exr" \
   --heat-map "$IMG/ghosting-difference.png" > "$OUT/ghosting-difference.log"
 
-# Light leaks through a thin wall: light-leak's dark room beside a lit one.
+# Light leaks through a thin wall: light-leak's dark room beside a lit one, in the whole frame and
+# in the world cache alone (where the leak fixes act).
 gi_reference leak-reference light-leak 256
 gi_render leak light-leak --reference "$OUT/leak-reference.exr"
 gi_render leak-no-fixes light-leak --no leak-fixes --reference "$OUT/leak-reference.exr"
+cache_view leak-cache light-leak --frames 32
+cache_view leak-cache-no-fixes light-leak --frames 32 --no-leak-fixes
+for n in leak leak-no-fixes leak-cache leak-cache-no-fixes; do
+  "$GI" compare "$OUT/leak-reference.exr" "$OUT/$n.exr" --heat-map "$IMG/$n-flip.png" > "$OUT/$n-flip.log"
+done
 
 # Fireflies: single bright probe rays reach the image when the hysteresis is off (the denoiser
-# off in both, to see the probes).
+# off in both, to see the probes); FLIP against the path tracer shows where.
+gi_reference cornell-reference cornell-box 256
 gi_render fireflies cornell-box --frames 16 --no temporal,spatial
 gi_render fireflies-no-hysteresis cornell-box --frames 16 --no hysteresis,temporal,spatial
+for n in fireflies fireflies-no-hysteresis; do
+  "$GI" compare "$OUT/cornell-reference.exr" "$OUT/$n.exr" --heat-map "$IMG/$n-flip.png" > "$OUT/$n-flip.log"
+done
 
 # Cell size: the cache's radiance at each pixel's cell, at 8, 32 (default) and 128 pixels.
 for c in 8 32 128; do
@@ -113,12 +123,16 @@ for v in irradiance_before_denoiser irradiance_after_denoiser blur_mask; do
 done
 
 # The probe filter's blur across probes: a bias (darker, smoother) traded for less noise.
-gi_reference filter-reference cornell-box 256
-gi_render filter cornell-box --reference "$OUT/filter-reference.exr"
-gi_render filter-off cornell-box --no filter --reference "$OUT/filter-reference.exr"
+gi_render filter cornell-box --reference "$OUT/cornell-reference.exr"
+gi_render filter-off cornell-box --no filter --reference "$OUT/cornell-reference.exr"
 
 echo "against the path tracer:"
 for n in leak leak-no-fixes restir-off restir-on filter filter-off; do mean "$n"; done
+echo "FLIP against the path tracer (gi compare):"
+for n in leak leak-no-fixes leak-cache leak-cache-no-fixes fireflies fireflies-no-hysteresis; do
+  echo "  $n: $(tail -n 1 "$OUT/$n-flip.log")"
+done
+echo "  ghosting against no object motion: $(tail -n 1 "$OUT/ghosting-difference.log")"
 for n in overflow overflow-default; do
   echo "  $n: $(grep -E '^frame +31' "$OUT/$n.log" || tail -n 1 "$OUT/$n.log")"
 done
