@@ -25,11 +25,12 @@ gi_render() {
   "$GI" render "scenes/$scene.gltf" --method gi "${SIZE[@]}" --out "$OUT/$name.exr" "$@" > "$OUT/$name.log"
   cp "$OUT/$name.png" "$IMG/$name.png"
 }
-# gi_reference NAME SCENE SPP: the path tracer's image, for comparison.
+# gi_reference NAME SCENE SPP ARGS...: the path tracer's image, for comparison (kept once made).
 gi_reference() {
   local name=$1 scene=$2 spp=$3
-  echo "gi render $scene --spp $spp -> $IMG/$name.png"
-  [ -f "$OUT/$name.exr" ] || "$GI" render "scenes/$scene.gltf" --spp "$spp" "${SIZE[@]}" --out "$OUT/$name.exr" > "$OUT/$name.log"
+  shift 3
+  echo "gi render $scene --spp $spp $* -> $IMG/$name.png"
+  [ -f "$OUT/$name.exr" ] || "$GI" render "scenes/$scene.gltf" --spp "$spp" "${SIZE[@]}" --out "$OUT/$name.exr" "$@" > "$OUT/$name.log"
   cp "$OUT/$name.png" "$IMG/$name.png"
 }
 # cache_view NAME SCENE ARGS...: the world cache on its own (`gi cache-view`), with its debug views.
@@ -103,18 +104,19 @@ done
 # Cell size: the cache's radiance at each pixel's cell, at 8, 32 (default) and 128 pixels.
 for c in 8 32 128; do
   cache_view "cells-$c" cornell-box --frames 32 --cell-size-pixels "$c"
+  view "cells-$c" cells_by_hash
   view "cells-$c" cached_radiance
 done
 
 # Overflow: a cache of 2 buckets × 4 tiles for a scene that needs hundreds of tiles.
-cache_view overflow indirect-room --frames 32 --buckets-log2 1 --tiles-per-bucket-log2 2
-cache_view overflow-default indirect-room --frames 32
+cache_view overflow indirect-room --frames 32 --exposure 2 --buckets-log2 1 --tiles-per-bucket-log2 2
+cache_view overflow-default indirect-room --frames 32 --exposure 2
 
 # ReSTIR bias, without temporal feedback (where it shows most): reservoirs shared by hits that
 # see different lights darken the closed indirect-room.
-gi_reference restir-reference indirect-room 256
-gi_render restir-off indirect-room --no feedback --reference "$OUT/restir-reference.exr"
-gi_render restir-on indirect-room --no feedback --restir --reference "$OUT/restir-reference.exr"
+gi_reference restir-reference indirect-room 256 --exposure 2
+gi_render restir-off indirect-room --exposure 2 --no feedback --reference "$OUT/restir-reference.exr"
+gi_render restir-on indirect-room --exposure 2 --no feedback --restir --reference "$OUT/restir-reference.exr"
 
 # Denoiser blur: young history under motion gets the widest spatial filter.
 gi_render denoiser textured --camera-path orbit:1 --frames 8 --debug-views "$OUT/denoiser-debug"
@@ -130,9 +132,9 @@ echo "against the path tracer:"
 for n in leak leak-no-fixes restir-off restir-on filter filter-off; do mean "$n"; done
 echo "FLIP against the path tracer (gi compare):"
 for n in leak leak-no-fixes leak-cache leak-cache-no-fixes fireflies fireflies-no-hysteresis; do
-  echo "  $n: $(tail -n 1 "$OUT/$n-flip.log")"
+  echo "  $n: $(head -n 1 "$OUT/$n-flip.log")"
 done
-echo "  ghosting against no object motion: $(tail -n 1 "$OUT/ghosting-difference.log")"
+echo "  ghosting against no object motion: $(head -n 1 "$OUT/ghosting-difference.log")"
 for n in overflow overflow-default; do
   echo "  $n: $(grep -E '^frame +31' "$OUT/$n.log" || tail -n 1 "$OUT/$n.log")"
 done
