@@ -8,6 +8,7 @@
 pub mod bench;
 pub mod error;
 pub mod frame;
+pub mod fuzzing;
 pub mod gbuffer;
 pub mod gi;
 pub mod image_io;

@@ -34,7 +34,10 @@ mod cache_view;
 mod difftest;
 #[cfg(not(feature = "ray-query"))]
 mod finite_check;
+#[macro_use]
 mod gbuffer;
+#[cfg(not(feature = "ray-query"))]
+mod gbuffer_import;
 #[cfg(not(feature = "ray-query"))]
 pub mod gi_denoiser;
 mod hash_cells;
@@ -62,6 +65,8 @@ pub use difftest::difftest;
 #[cfg(not(feature = "ray-query"))]
 pub use finite_check::count_non_finite;
 pub use gbuffer::gbuffer;
+#[cfg(not(feature = "ray-query"))]
+pub use gbuffer_import::import_gbuffer;
 pub use hash_cells::populate::populate_radiance_cache;
 #[cfg(not(feature = "ray-query"))]
 pub use hash_cells::{

@@ -18,6 +18,7 @@ pub mod environment;
 pub mod finite_check;
 pub mod fixed_point;
 pub mod gbuffer;
+pub mod gbuffer_import;
 pub mod gi_denoiser;
 pub mod hash;
 pub mod hash_cells;

@@ -7,6 +7,7 @@
 pub mod cache_view;
 pub mod camera_path;
 pub mod debug_views;
+pub mod gbuffer_import;
 pub mod gi_denoiser;
 pub mod hash_cells;
 pub mod lighting;

@@ -8,6 +8,7 @@ mod image;
 mod memory;
 mod ping_pong;
 mod pipeline;
+mod sampled_image;
 mod texture_image;
 mod timing;
 mod validation;
@@ -25,5 +26,6 @@ pub use pipeline::{
     BindingKind, DescriptorSet, Kernel, KernelModule, MAX_PUSH_BINDINGS, MAX_SCENE_TEXTURES,
     Resource, SHADING_BINDINGS, SceneSet, SceneSets, TEXTURES_BINDING, compute_barrier,
 };
+pub use sampled_image::SampledImage;
 pub use texture_image::{STAGING_BYTES, Samplers, TextureImage, TextureLevels, upload_textures};
 pub use timing::{FrameTimings, GpuTimer, PassTiming, submit_timed};

@@ -41,6 +41,10 @@ pub enum BindingKind {
     AccelerationStructure,
     /// A storage image in the `GENERAL` layout (`Image!(2D, format = ..., sampled = false)`).
     StorageImage,
+    /// A sampled image without a sampler, read by texel fetch (`Image!(2D, type = f32,
+    /// sampled)`), in the layout its [`Resource::SampledImage`] names: any depth or colour
+    /// format that supports sampling.
+    SampledImage,
     /// The scene's textures: an array of this many combined image samplers in
     /// `SHADER_READ_ONLY_OPTIMAL`, partially bound (entries past the scene's textures stay
     /// unwritten and are never read).
@@ -62,6 +66,13 @@ pub enum Resource<'a> {
     Textures(&'a [vk::DescriptorImageInfo]),
     /// A whole storage image.
     Image(&'a Image),
+    /// A sampled image's view, in `layout` whenever the dispatch runs.
+    SampledImage {
+        /// The view.
+        view: vk::ImageView,
+        /// Its layout.
+        layout: vk::ImageLayout,
+    },
 }
 
 /// The kernel code of the context's variant: the common module (every kernel, tracing in
@@ -596,15 +607,19 @@ fn with_writes<R>(
             Resource::Buffer(b) => [vk::DescriptorBufferInfo::default()
                 .buffer(b.handle)
                 .range(vk::WHOLE_SIZE)],
-            Resource::AccelerationStructure(_) | Resource::Image(_) | Resource::Textures(_) => {
-                [vk::DescriptorBufferInfo::default()]
-            }
+            Resource::AccelerationStructure(_)
+            | Resource::Image(_)
+            | Resource::Textures(_)
+            | Resource::SampledImage { .. } => [vk::DescriptorBufferInfo::default()],
         })
         .collect();
     let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = resources
         .iter()
         .map(|r| match r {
             Resource::Image(image) => [image.descriptor()],
+            Resource::SampledImage { view, layout } => [vk::DescriptorImageInfo::default()
+                .image_view(*view)
+                .image_layout(*layout)],
             Resource::Buffer(_) | Resource::AccelerationStructure(_) | Resource::Textures(_) => {
                 [vk::DescriptorImageInfo::default()]
             }
@@ -614,9 +629,10 @@ fn with_writes<R>(
         .iter()
         .map(|r| match r {
             Resource::AccelerationStructure(a) => [*a],
-            Resource::Buffer(_) | Resource::Image(_) | Resource::Textures(_) => {
-                [vk::AccelerationStructureKHR::null()]
-            }
+            Resource::Buffer(_)
+            | Resource::Image(_)
+            | Resource::Textures(_)
+            | Resource::SampledImage { .. } => [vk::AccelerationStructureKHR::null()],
         })
         .collect();
     let mut accel_writes: Vec<vk::WriteDescriptorSetAccelerationStructureKHR<'_>> = accels
@@ -637,7 +653,10 @@ fn with_writes<R>(
             .descriptor_type(descriptor_type(*kind));
         let w = match (kind, res) {
             (BindingKind::StorageBuffer, Resource::Buffer(_)) => w.buffer_info(&buffer_infos[i]),
-            (BindingKind::StorageImage, Resource::Image(_)) => w.image_info(&image_infos[i]),
+            (BindingKind::StorageImage, Resource::Image(_))
+            | (BindingKind::SampledImage, Resource::SampledImage { .. }) => {
+                w.image_info(&image_infos[i])
+            }
             // Nothing to write for a scene without textures (a write needs one descriptor).
             (BindingKind::Textures(_), Resource::Textures([])) => continue,
             (BindingKind::Textures(slots), Resource::Textures(infos)) => {
@@ -666,6 +685,7 @@ fn descriptor_type(kind: BindingKind) -> vk::DescriptorType {
         BindingKind::StorageBuffer => vk::DescriptorType::STORAGE_BUFFER,
         BindingKind::AccelerationStructure => vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
         BindingKind::StorageImage => vk::DescriptorType::STORAGE_IMAGE,
+        BindingKind::SampledImage => vk::DescriptorType::SAMPLED_IMAGE,
         BindingKind::Textures(_) => vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
     }
 }
