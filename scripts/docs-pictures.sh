@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The pictures of docs/integration.md: the debug views of a healthy frame ("Debugging") and each
 # GI-1.0 technique's failure beside the setting that mitigates it ("Failure modes"), rendered by
-# `gi render` and `gi cache-view` at 128×128 (small PNGs, about 3 minutes on lavapipe once built).
+# `gi render` and `gi cache-view` at 128×128 (small PNGs, under 1 MiB in all; about 25 minutes on
+# lavapipe on 2 cores shared with other builds).
 # Every render's log, EXR and debug views go to out/docs-pictures/; the PNGs the guide shows are
 # copied to docs/images/ under the names it uses.
 #
