@@ -2,9 +2,10 @@
 //! device-built acceleration structure (feature `ray-query`), or the shared crate's BVH walked in
 //! software. Both return the same [`HitRecord`].
 //!
-//! A kernel that traces is written once, with [`traced_kernel!`]: the macro emits its entry point
-//! for the variant being built, binding the scene's geometry as set 1 (the top-level acceleration
-//! structure at binding 0 with ray queries; the two-level BVH's nodes at binding 0 in software)
+//! A kernel that traces is written once, with [`traced_kernel!`](crate::traced_kernel): the macro
+//! emits its entry point for the variant being built, binding the scene's geometry as set 1 (the
+//! top-level acceleration structure at binding 0 with ray queries; the two-level BVH's nodes at
+//! binding 0 in software)
 //! and the shading data that tracing reads, set 2 bindings 0 to 6 (instances, meshes, vertices,
 //! triangles: the software traversal reads its triangles there; materials, texture table and
 //! texture images: the alpha test of meshes flagged `MESH_ALPHA_TESTED` reads them), and handing
@@ -17,7 +18,7 @@
 //! The texture images stay out of [`Scene`] and [`Tracer`], and out of closures: a composite
 //! holding the bindless array fails SPIR-V validation (VUID-StandaloneSpirv-None-04667) unless
 //! every function that sees it is inlined. Every trace takes them as an argument instead, the
-//! way shading reads them ([`Bindless`], a bare reference).
+//! way shading reads them (`texture_images::Bindless`, a bare reference).
 
 use crate::texture_images::Bindless;
 pub use crate::texture_images::SceneTextures;
@@ -219,7 +220,8 @@ pub struct Scene<'a> {
     pub textures: &'a [GpuTexture],
 }
 
-/// The scene's geometry and materials as a tracing kernel sees it (built by [`traced_kernel!`]).
+/// The scene's geometry and materials as a tracing kernel sees it (built by
+/// [`traced_kernel!`](crate::traced_kernel)).
 #[cfg(not(feature = "ray-query"))]
 #[derive(Clone, Copy)]
 pub struct Scene<'a> {

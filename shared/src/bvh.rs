@@ -126,7 +126,7 @@ pub const BVH_TLAS_MAX_DEPTH: u32 = 24;
 pub const BVH_BLAS_MAX_DEPTH: u32 = BVH_MAX_DEPTH - BVH_TLAS_MAX_DEPTH;
 
 /// Most triangles in one bottom-level leaf: the stack packs a leaf's count into
-/// [`STACK_COUNT_BITS`] bits.
+/// `STACK_COUNT_BITS` (4) bits.
 pub const BVH_MAX_LEAF_TRIANGLES: u32 = (1 << STACK_COUNT_BITS) - 1;
 
 /// Node, instance and triangle indices must stay below this: the stack packs an index with a

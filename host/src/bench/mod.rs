@@ -1,6 +1,6 @@
 //! `gi bench`: what each knob costs and what it buys, measured on the device at hand.
 //!
-//! For each scene, a path-traced reference ([`reference`]) at the last frame's camera of each
+//! For each scene, a path-traced reference ([`reference`](mod@reference)) at the last frame's camera of each
 //! camera path (static, and an orbit for "under motion"), then every point of the sweep
 //! ([`sweep`]: the presets, each knob one at a time from `balanced`, other resolutions, the other
 //! tracing variant) rendered for a number of frames ([`measure`]: GPU ms per frame and per pass,

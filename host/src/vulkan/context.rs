@@ -42,7 +42,7 @@ pub struct ContextOptions {
 
 /// One Vulkan device ready to run the kernels.
 ///
-/// Every resource made from it (buffers, images, kernels, ...) holds the [`SharedDevice`] and
+/// Every resource made from it (buffers, images, kernels, ...) holds the `SharedDevice` and
 /// frees itself when dropped; the device and instance go when the context and the last resource
 /// are gone, whatever the order.
 pub struct Context {

@@ -8,7 +8,7 @@
 //!    the pixel's plane; the jitter turns the probe grid's blockiness into noise the denoiser
 //!    removes.
 //! 2. **Probes** ([`gather_probes`]): the lookup pixel's probe tile in the mask's mip 0, or the
-//!    first seed going coarser through the mip chain ([`closest_probe_seed`]); then the mip-0
+//!    first seed going coarser through the mip chain ([`nearest_probe_seed`]); then the mip-0
 //!    probes of the tiles beside the closest probe's toward ±x, ±y and the diagonal, the side
 //!    chosen by where the lookup pixel lies relative to that probe's seed. Duplicates removed, at
 //!    most [`MAX_INTERPOLATION_PROBES`].
