@@ -134,24 +134,30 @@ fn the_window_shows_the_headless_render() {
     let reference = rgb8(&render.with_extension("png"));
     assert_eq!(window.dimensions(), (64, 48));
     assert_eq!(window.dimensions(), reference.dimensions());
-    // Both are the same linear image quantised by the same tone map to 8 bits (the viewer's
-    // window pixels and the PNG go through ToneMap::to_srgb8), and the X server stores 8 bits
-    // per channel at depth 24: the pixels are equal unless the two GPU runs differ.
-    let diffs: Vec<i32> = window
-        .as_raw()
-        .iter()
-        .zip(reference.as_raw())
-        .map(|(&a, &b)| (i32::from(a) - i32::from(b)).abs())
-        .collect();
-    let max = diffs.iter().copied().max().unwrap_or(0);
-    let differing = diffs.iter().filter(|&&d| d > 0).count();
+    // Both are the same view quantised by the same tone map to 8 bits (the viewer's window
+    // pixels and the PNG go through ToneMap::to_srgb8; the X server stores 8 bits per channel at
+    // depth 24), but two GI runs are not bit-identical on lavapipe: cells claim hash slots in
+    // the order its threads reach the atomics. Between headless runs of this view we measured
+    // relMSE up to 1.6e-3 and means within 0.42 %; a flipped, shifted or channel-swapped window
+    // is far beyond these bounds.
+    let linear = |path: &Path| {
+        gi_host::image_io::HdrImage::read(path)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    };
+    let (window_linear, reference_linear) = (linear(&shot), linear(&render.with_extension("png")));
+    let rel_mse = gi_host::metrics::relative_mse(&reference_linear, &window_linear).unwrap();
+    let bias = gi_host::metrics::mean_bias(&reference_linear, &window_linear).unwrap();
+    println!(
+        "window vs headless render: relMSE {rel_mse:.3e}, mean {:+.2} %",
+        100.0 * bias
+    );
     assert!(
-        max <= 1 && differing * 100 <= diffs.len(),
-        "window vs headless render: max difference {max}, {differing} of {} channels differ",
-        diffs.len()
+        rel_mse <= 5e-3 && bias.abs() <= 0.015,
+        "window vs headless render: relMSE {rel_mse:.3e}, mean {:+.2} %",
+        100.0 * bias
     );
     // Not a black window that matches a black render.
-    let mean = window.as_raw().iter().map(|&c| f64::from(c)).sum::<f64>() / diffs.len() as f64;
+    let mean = window.as_raw().iter().map(|&c| f64::from(c)).sum::<f64>() / window.len() as f64;
     assert!(mean > 20.0, "mean channel value {mean}");
     let _ = std::fs::remove_dir_all(&dir);
 }

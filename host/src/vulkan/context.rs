@@ -138,6 +138,29 @@ impl Drop for Instance {
     }
 }
 
+/// Our own memory allocator for `device` (buffer device addresses for the ray-query variant's
+/// acceleration structures).
+fn new_allocator(
+    instance: &ash::Instance,
+    device: &ash::Device,
+    physical_device: vk::PhysicalDevice,
+    variant: KernelVariant,
+) -> Result<Allocator> {
+    Allocator::new(&AllocatorCreateDesc {
+        instance: instance.clone(),
+        device: device.clone(),
+        physical_device,
+        debug_settings: Default::default(),
+        buffer_device_address: variant == KernelVariant::RayQuery,
+        allocation_sizes: Default::default(),
+    })
+    .map_err(|e| Error::Allocation {
+        what: "allocator".into(),
+        bytes: None,
+        why: e.to_string(),
+    })
+}
+
 fn device_rank(t: vk::PhysicalDeviceType) -> u32 {
     match t {
         vk::PhysicalDeviceType::DISCRETE_GPU => 4,
@@ -293,20 +316,7 @@ impl Context {
             .vk("vkCreateDevice")?;
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
 
-        let allocator = Allocator::new(&AllocatorCreateDesc {
-            instance: instance.clone(),
-            device: device.clone(),
-            physical_device,
-            debug_settings: Default::default(),
-            buffer_device_address: variant == KernelVariant::RayQuery,
-            allocation_sizes: Default::default(),
-        })
-        .map_err(|e| Error::Allocation {
-            what: "allocator".into(),
-            bytes: None,
-            why: e.to_string(),
-        });
-        let allocator = match allocator {
+        let allocator = match new_allocator(&instance, &device, physical_device, variant) {
             Ok(a) => a,
             Err(e) => {
                 unsafe { device.destroy_device(None) };
@@ -441,21 +451,12 @@ impl Context {
         let variant = required.variant;
         let allocator = match allocator {
             Some(a) => a,
-            None => Arc::new(Mutex::new(
-                Allocator::new(&AllocatorCreateDesc {
-                    instance: instance.clone(),
-                    device: device.clone(),
-                    physical_device,
-                    debug_settings: Default::default(),
-                    buffer_device_address: variant == KernelVariant::RayQuery,
-                    allocation_sizes: Default::default(),
-                })
-                .map_err(|e| Error::Allocation {
-                    what: "allocator".into(),
-                    bytes: None,
-                    why: e.to_string(),
-                })?,
-            )),
+            None => Arc::new(Mutex::new(new_allocator(
+                &instance,
+                &device,
+                physical_device,
+                variant,
+            )?)),
         };
         let shared = Arc::new(SharedDevice {
             device: device.clone(),
