@@ -4,7 +4,8 @@
 use gi_host::KernelVariant;
 use gi_host::vulkan::{
     AccelerationStructure, BindingKind, Buffer, DescriptorSet, Instance, Kernel, KernelModule,
-    Resource, SHADING_BINDINGS, SceneSet, SceneSets, TEXTURES_BINDING, TopLevel,
+    Resource, SHADING_BINDINGS, SceneSet, SceneSets, SplitBuffer, TEXTURES_BINDING,
+    TRIANGLES_BINDING, TopLevel, VERTICES_BINDING,
 };
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::finite_check::FiniteCheckPush;
@@ -173,8 +174,11 @@ fn ray_queries_hit_the_expected_triangles() {
     assert!(err.to_string().contains("dispatch_traced"), "{err}");
     // The shading data a kernel that traces binds too: nothing here reads it.
     let placeholder = Buffer::device_zeroed::<[u32; 4]>(&ctx, "placeholder", 1).unwrap();
+    let empty = SplitBuffer::device_local::<[u32; 4]>(&ctx, "placeholder", &[], 1 << 20).unwrap();
     let mut shading_data = [Resource::Buffer(&placeholder); SHADING_BINDINGS];
     shading_data[TEXTURES_BINDING] = Resource::Textures(&[]);
+    shading_data[VERTICES_BINDING] = Resource::Split(&empty);
+    shading_data[TRIANGLES_BINDING] = Resource::Split(&empty);
     let shading = DescriptorSet::new(&ctx, SceneSet::Shading, &shading_data).unwrap();
     let scene = SceneSets {
         geometry: &geometry,
@@ -222,6 +226,7 @@ fn ray_queries_hit_the_expected_triangles() {
     drop(geometry);
     drop(shading);
     drop(placeholder);
+    drop(empty);
     drop(ray_buf);
     drop(hit_buf);
     drop(tlas);
