@@ -138,7 +138,7 @@ fn the_window_shows_the_headless_render() {
     // pixels and the PNG go through ToneMap::to_srgb8; the X server stores 8 bits per channel at
     // depth 24), but two GI runs are not bit-identical on lavapipe: cells claim hash slots in
     // the order its threads reach the atomics. Between headless runs of this view we measured
-    // relMSE up to 1.6e-3 and means up to 1.7 % apart; a flipped, shifted or channel-swapped window
+    // relMSE up to 2.4e-3 and means up to 1.7 % apart (under CI load); a flipped, shifted or channel-swapped window
     // is far beyond these bounds.
     let linear = |path: &Path| {
         gi_host::image_io::HdrImage::read(path)
@@ -152,7 +152,7 @@ fn the_window_shows_the_headless_render() {
         100.0 * bias
     );
     assert!(
-        rel_mse <= 5e-3 && bias.abs() <= 0.05,
+        rel_mse <= 1e-2 && bias.abs() <= 0.05,
         "window vs headless render: relMSE {rel_mse:.3e}, mean {:+.2} %",
         100.0 * bias
     );
