@@ -138,8 +138,8 @@ fn the_window_shows_the_headless_render() {
     // pixels and the PNG go through ToneMap::to_srgb8; the X server stores 8 bits per channel at
     // depth 24), but two GI runs are not bit-identical on lavapipe: cells claim hash slots in
     // the order its threads reach the atomics. Between headless runs of this view we measured
-    // relMSE up to 2.4e-3 and means up to 1.7 % apart (under CI load); a flipped, shifted or channel-swapped window
-    // is far beyond these bounds.
+    // relMSE up to 2.4e-3 and means up to 1.7 % apart (under CI load); a flipped, shifted or
+    // channel-swapped window is far beyond these bounds.
     let linear = |path: &Path| {
         gi_host::image_io::HdrImage::read(path)
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
