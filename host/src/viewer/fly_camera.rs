@@ -9,9 +9,9 @@ const TURN_PER_PIXEL: f32 = 0.004;
 /// Pitch stays this far from straight up or down, where yaw would be undefined.
 const MAX_PITCH: f32 = 89.0 * std::f32::consts::PI / 180.0;
 /// Factor on the speed per wheel step.
-const SPEED_PER_STEP: f32 = 1.25;
+pub const SPEED_PER_STEP: f32 = 1.25;
 /// Factor on the speed while Shift is held.
-const FAST: f32 = 4.0;
+pub const FAST: f32 = 4.0;
 
 /// Which way the held keys push the camera, each in `[-1, 1]`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

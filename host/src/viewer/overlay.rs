@@ -10,7 +10,7 @@ const TEXT_PX: f32 = 13.0;
 /// Margin around the text, in pixels.
 const PAD: f32 = 4.0;
 /// What remains of the image under the box.
-const BOX_DIM: f32 = 0.3;
+pub const BOX_DIM: f32 = 0.3;
 
 /// The overlay's font at its size.
 pub struct Overlay {
