@@ -29,8 +29,8 @@ flip() { sed -n 's/.*FLIP \([0-9.]*\).*/\1/p' | tail -1; }
 } > "$OUT/table.md"
 for s in "${SCENES[@]}"; do
   scene=scenes/$s.gltf
-  ref=$OUT/$s-ref.exr
-  [ -f "$ref" ] || "$GI" render "$scene" --width "$W" --height "$H" --spp "$REF_SPP" --out "$ref" > "$OUT/$s-ref.log"
+  ref=$OUT/$s-ref-centre.exr
+  [ -f "$ref" ] || "$GI" render "$scene" --width "$W" --height "$H" --spp "$REF_SPP" --pixel-centre --out "$ref" > "$OUT/$s-ref.log"
   "$GI" render "$scene" --method gi --width "$W" --height "$H" --frames "$FRAMES" --reference "$ref" \
     --out "$OUT/$s-gi.exr" --debug-views "$OUT/$s-debug" > "$OUT/$s-gi.log"
   gi_ms=$(awk '/^total/ && NF == 3 { print $3 }' "$OUT/$s-gi.log" | head -1)
@@ -41,7 +41,7 @@ for s in "${SCENES[@]}"; do
   max=${PT_MAX_SPP:-$((REF_SPP / 4))}
   spp=1; pt_spp=">$max"; pt_ms="-"
   while [ "$spp" -le "$max" ]; do
-    "$GI" render "$scene" --width "$W" --height "$H" --spp "$spp" --seed 7 --out "$OUT/$s-pt$spp.exr" > "$OUT/$s-pt$spp.log"
+    "$GI" render "$scene" --width "$W" --height "$H" --spp "$spp" --seed 7 --pixel-centre --out "$OUT/$s-pt$spp.exr" > "$OUT/$s-pt$spp.log"
     rel=$("$GI" compare "$ref" "$OUT/$s-pt$spp.exr" | relmse)
     ms=$(sed -n 's/.*spp, [0-9]* bounces in .* s, \([0-9.]*\) Mpaths\/s GPU time.*/\1/p' "$OUT/$s-pt$spp.log" \
       | awk -v px=$((W * H * spp)) '{ printf "%.1f", px / $1 / 1e3 }')

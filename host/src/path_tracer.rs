@@ -17,8 +17,8 @@ use crate::vulkan::{
 use gi_shared::camera::CameraParams;
 use gi_shared::lights::MAX_LIGHT_CANDIDATES;
 use gi_shared::path_tracer::{
-    MAX_BOUNCES, PATH_TRACER_TILE, PathTracerParams, STRATEGY_BSDF_ONLY, STRATEGY_LIGHTS_ONLY,
-    STRATEGY_MIS, begin_path, finite_radiance, shade,
+    MAX_BOUNCES, PATH_TRACER_TILE, PRIMARY_JITTERED, PRIMARY_PIXEL_CENTRE, PathTracerParams,
+    STRATEGY_BSDF_ONLY, STRATEGY_LIGHTS_ONLY, STRATEGY_MIS, begin_path, finite_radiance, shade,
 };
 use glam::{UVec2, Vec3};
 
@@ -66,11 +66,14 @@ pub struct PathTracerSettings {
     pub light_candidates: u32,
     /// How light sampling and BSDF sampling are combined.
     pub strategy: Strategy,
+    /// Every path through its pixel's centre (no antialiasing): the GI frame's primary
+    /// visibility, so that relMSE and FLIP against GI measure its lighting, not its edges.
+    pub pixel_centre: bool,
 }
 
 impl Default for PathTracerSettings {
     /// 64 paths per pixel, 30 bounces (as AMD's reference), no sky, emission as in the file, 8
-    /// light candidates, MIS.
+    /// light candidates, MIS, antialiased.
     fn default() -> Self {
         Self {
             samples: 64,
@@ -80,6 +83,7 @@ impl Default for PathTracerSettings {
             seed: 0,
             light_candidates: 8,
             strategy: Strategy::Mis,
+            pixel_centre: false,
         }
     }
 }
@@ -102,7 +106,12 @@ impl PathTracerSettings {
                 Strategy::LightsOnly => STRATEGY_LIGHTS_ONLY,
                 Strategy::BsdfOnly => STRATEGY_BSDF_ONLY,
             },
-            _pad: [0; 3],
+            primary: if self.pixel_centre {
+                PRIMARY_PIXEL_CENTRE
+            } else {
+                PRIMARY_JITTERED
+            },
+            _pad: [0; 2],
         }
     }
 }

@@ -71,7 +71,7 @@ pub use hash_cells::populate::populate_radiance_cache;
 #[cfg(not(feature = "ray-query"))]
 pub use hash_cells::{
     insert::insert_radiance_cache,
-    purge::{begin_frame, purge_tiles},
+    purge::{begin_frame, carry_queries, purge_tiles},
     resolve::resolve_radiance_cache,
     update_tiles::update_radiance_cache,
 };

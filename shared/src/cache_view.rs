@@ -15,8 +15,8 @@
 //! 2. **GBuffer**.
 //! 3. **TraceCacheRays** (the stand-in for PopulateScreenProbes): [`primary_surface`] from the
 //!    G-buffer, [`cache_ray`], then [`shade_cache_hit`]: a miss takes the environment, a
-//!    front-facing emissive hit its emission (bypassing the cache), both MIS-weighted, any other
-//!    hit appends a [`CacheQuery`]. The same pass samples the primary hit's direct light
+//!    front-facing emissive hit its emission (never put in a cell), both MIS-weighted, and every
+//!    hit appends a [`CacheQuery`] for the light it reflects. The same pass samples the primary hit's direct light
 //!    ([`primary_direct_light`]) and traces its shadow ray.
 //! 4. **InsertRadianceCache**: each query's tile is found or inserted, touched, and its cell written
 //!    into the query.
@@ -43,8 +43,8 @@
 //! front-facing emitter adds the sky or emission × its power-heuristic weight against that light
 //! sample's density ([`shade_cache_hit`]), so emissive triangles and a sampled environment are
 //! shared between the two strategies with weights summing to one. Punctual lights, which no ray
-//! can hit, come from the light sample alone (weight 1). An emitter hit still stops the ray (no
-//! cache query). At the secondary hit, RIS samples every light of the light buffer through the
+//! can hit, come from the light sample alone (weight 1). An emitter hit also queries the cache,
+//! for the light the emitter reflects (cells hold reflected light only). At the secondary hit, RIS samples every light of the light buffer through the
 //! light grid and the hit's own emission is never added. `gi` turns a constant `--sky` into a
 //! uniform environment image (`Environment::constant` on the host), so both hits sample it; a
 //! constant [`CacheViewParams::sky`] alone is not in the light buffer: the cosine ray alone finds
@@ -52,17 +52,15 @@
 //!
 //! With temporal feedback, a secondary hit that reprojects into the previous frame's image takes
 //! that image's radiance instead of a light sample: the image holds direct + indirect light, so
-//! this adds further bounces ("(limited) infinite multi-bounce for free").
+//! this adds further bounces ("(limited) infinite multi-bounce for free"). Every other hit, on
+//! screen or not, gets them through the cache itself: with multi-bounce (`crate::multi_bounce`)
+//! its sample adds `albedo ×` the previous frame's cell where its bounce ray lands.
 //!
 //! # Known bias
 //!
-//! * Multi-bounce light exists only through feedback: an off-screen secondary hit gets direct
-//!   light alone. Measured on 64 × 64 images after 64 frames against the path tracer at 1024
-//!   samples, the image mean is 1.6% below the path tracer's in the Cornell box (where the camera
-//!   sees most of what rays hit; relMSE 0.020; 11.9% below without feedback) and 16% below in
-//!   the closed `indirect-room` (relMSE 0.0037; 23% below without feedback). Where light is
-//!   direct, the view matches: `textured` −0.2% (relMSE 5e-4), `many-lights` +0.6% (relMSE
-//!   0.085, the 256 lights' sampling noise).
+//! * Without multi-bounce, further bounces exist only through feedback: an off-screen secondary
+//!   hit gets direct light alone (a closed furnace of albedo 0.5 reads 1.75 of its exact 2.0;
+//!   with multi-bounce it converges within 2%: `tests/tests/gi_furnace.rs`).
 //! * A pixel that sees an emitter is no feedback source ([`feedback_texel`]): a hit that is not an
 //!   emitter but reprojects onto one lies beside it and would take its emission (this brightened
 //!   the Cornell box by 7%).
@@ -102,7 +100,8 @@ use crate::random::Random;
 use crate::ray::{HitRecord, Ray, offset_ray_origin};
 use crate::ray_cone::RayCone;
 use crate::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, NONE, hit_surface,
+    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, MaterialSample, NONE,
+    Surface, hit_surface,
 };
 use crate::screen_probes::PROBE_CELLS;
 use crate::textures::TextureImages;
@@ -124,6 +123,14 @@ pub const QUERY_FED_BACK: u32 = 1;
 /// [`CacheQuery::flags`]: the hit is closer to the ray's origin than its cell's size, so its ray
 /// uses its own unfiltered light sample, not the cell's filtered radiance (light-leak fix 2).
 pub const QUERY_BYPASS: u32 = 2;
+
+/// [`CacheQuery::flags`]: a query carried over from the previous frame by multi-bounce
+/// (`crate::multi_bounce`): it refreshes the cell a bounce ray read, and has no ray of its own
+/// (its `ray_index` has [`CARRIED_QUERY_BIT`] set, past every ray record).
+pub const QUERY_CARRIED: u32 = 4;
+/// Set in a carried query's `ray_index` (its parent's, so that its random streams stay keyed by
+/// a ray, not by a list slot): no ray record is that large.
+pub const CARRIED_QUERY_BIT: u32 = 1 << 31;
 
 /// [`ShadowRay::flags`]: the query's ray takes the shadow ray's result itself (see
 /// [`QUERY_BYPASS`]).
@@ -150,6 +157,9 @@ pub const FLAG_ENVIRONMENT_LIGHT: u32 = 64;
 /// and no environment (the GI frame's primary hit samples punctual lights alone), so a miss and
 /// an emissive hit count in full rather than MIS-weighted.
 pub const FLAG_PROBE_RAYS: u32 = 128;
+/// [`CacheViewParams::flags`]: multi-bounce through the world cache (`crate::multi_bounce`):
+/// every query that takes a light sample also traces a bounce ray and adds the cell it hits.
+pub const FLAG_MULTI_BOUNCE: u32 = 256;
 
 /// Counter words of the cache view's counter buffer (the hash grid keeps its own counters in its
 /// list buffer, `hash_cells::lists`): queries appended this frame.
@@ -162,8 +172,18 @@ pub const FEEDBACK_COUNT: usize = 2;
 pub const INSERTED_TILES: usize = 3;
 /// Queries flagged [`QUERY_BYPASS`] this frame.
 pub const BYPASS_COUNT: usize = 4;
-/// Words of the cache view's counter buffer (5 used, rounded up to 8).
-pub const CACHE_COUNTER_WORDS: usize = 8;
+/// Bounce rays traced this frame (`crate::multi_bounce`).
+pub const BOUNCE_RAYS: usize = 5;
+/// Bounce rays that hit a surface whose cell the cache did not have, or had without a sample:
+/// they added nothing (`crate::multi_bounce`).
+pub const BOUNCE_MISSES: usize = 6;
+/// Queries carried to the next frame (appended by PopulateRadianceCache; the one counter that
+/// outlives its frame, read by [`begin_cache_frame`]).
+pub const CARRIED_NEXT: usize = 7;
+/// Queries carried into this frame: the first this many of the query list.
+pub const CARRIED_QUERIES: usize = 8;
+/// Words of the cache view's counter buffer (9 used, rounded up to 12).
+pub const CACHE_COUNTER_WORDS: usize = 12;
 
 /// Indirect dispatches of a frame, as indices into the arguments buffer: the previous live list.
 pub const ARGS_PURGE: u32 = 0;
@@ -178,22 +198,50 @@ pub const ARGS_UPDATE: u32 = 4;
 /// Number of indirect argument slots.
 pub const ARGS_COUNT: u32 = 5;
 
-const _: () = assert!(BYPASS_COUNT < CACHE_COUNTER_WORDS);
+const _: () = assert!(CARRIED_QUERIES < CACHE_COUNTER_WORDS);
 const _: () = assert!(ARGS_UPDATE < ARGS_COUNT);
 
 /// Start of frame `frame` (one invocation): zeroes the cache view's counters and the hash grid's
-/// (all but the previous live list, which the purge reads: [`begin_frame`]).
+/// (all but the previous live list, which the purge reads: [`begin_frame`]). The queries the
+/// previous frame carried over (at most `carried_capacity`) become the first of this frame's
+/// query list: [`CARRIED_QUERIES`] and [`QUERY_COUNT`] start at their count, and
+/// [`carry_query`] copies them there.
 #[inline]
 pub fn begin_cache_frame<L: AtomicWords + ?Sized, C: AtomicWords + ?Sized>(
     lists: &mut L,
     counters: &mut C,
     frame: u32,
+    carried_capacity: u32,
 ) {
     begin_frame(lists, frame);
+    let carried = if CARRIED_NEXT < counters.word_count() {
+        crate::math::min_u32(counters.load(CARRIED_NEXT), carried_capacity)
+    } else {
+        0
+    };
     let mut i = 0;
     while i < CACHE_COUNTER_WORDS && i < counters.word_count() {
         counters.store(i, 0);
         i += 1;
+    }
+    if CARRIED_QUERIES < counters.word_count() {
+        counters.store(CARRIED_QUERIES, carried);
+        counters.store(QUERY_COUNT, carried);
+    }
+}
+
+/// The carried query `index` of the previous frame (from `carried`, the list PopulateRadianceCache
+/// appended to) as query `index` of this frame, when [`begin_cache_frame`] counted it.
+#[inline]
+pub fn carry_query<C: AtomicWords + ?Sized>(
+    counters: &C,
+    carried: &[CacheQuery],
+    queries: &mut [CacheQuery],
+    index: u32,
+) {
+    let i = index as usize;
+    if index < counters.load(CARRIED_QUERIES) && i < carried.len() && i < queries.len() {
+        queries[i] = carried[i];
     }
 }
 
@@ -229,7 +277,7 @@ pub struct CacheViewParams {
     /// Seed of every random stream.
     pub seed: u32,
     /// [`FLAG_FEEDBACK`], [`FLAG_HISTORY`], [`FLAG_SHORT_RAY`], [`FLAG_BYPASS`], [`FLAG_RESTIR`],
-    /// [`FLAG_RESTIR_HISTORY`], [`FLAG_ENVIRONMENT_LIGHT`], [`FLAG_PROBE_RAYS`].
+    /// [`FLAG_RESTIR_HISTORY`], [`FLAG_ENVIRONMENT_LIGHT`], [`FLAG_PROBE_RAYS`], [`FLAG_MULTI_BOUNCE`].
     pub flags: u32,
     /// Width and height of the environment image (zero for none: misses see `sky`).
     pub environment_size: [u32; 2],
@@ -463,6 +511,8 @@ pub const PASS_GENERATE: u32 = 1;
 pub const PASS_LIGHT_GRID: u32 = 2;
 /// [`pass_random`]'s stream of ResampleReservoirs.
 pub const PASS_RESTIR: u32 = 3;
+/// [`pass_random`]'s stream of the bounce rays of PopulateRadianceCache.
+pub const PASS_BOUNCE: u32 = 4;
 
 /// The primary hit's emission toward the camera: the G-buffer's `emissive` (× the multiplier)
 /// when the camera sees the triangle's front face or the material is double-sided (`ids` as the
@@ -517,10 +567,12 @@ pub struct CacheHit {
 }
 
 /// Shades the cosine ray `ray` of `primary`, pixel `ray_index`, with closest hit `hit`: a miss
-/// sees the sky; a hit on a side that emits takes its emission (× the multiplier) and stops there
-/// (bypassing the cache: "adding emissive to cells enlarges the light and leaks"); both are
-/// MIS-weighted against [`primary_direct_light`] as the path tracer weighs them. Any other hit
-/// becomes a query of a diffuse surface (normals facing the ray's origin).
+/// sees the sky; a hit on a side that emits takes its emission (× the multiplier) straight into
+/// the ray, never into a cell ("adding emissive to cells enlarges the light and leaks"); both are
+/// MIS-weighted against [`primary_direct_light`] as the path tracer weighs them. Every hit,
+/// emitter or not, also becomes a query of a diffuse surface (normals facing the ray's origin):
+/// an emitter reflects light too, and dropping it darkened every emissive surface's
+/// surroundings (a closed furnace whose walls all emit got no reflected light at all).
 #[allow(
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
@@ -589,9 +641,29 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
             surface.geometric_normal.dot(direction),
             Vec3::from_array(ray.direction).length(),
         );
+        // The emitter's light, MIS-weighted; what it reflects still comes from its cell below
+        // (a cell never holds emission, so neither is counted twice).
         out.radiance = emission * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
-        return out;
     }
+    if let Some(query) = surface_query(ray, hit, &surface, &material, ray_index) {
+        out.query = query;
+        out.has_query = true;
+    }
+    out
+}
+
+/// The query of `ray`'s closest hit `hit` on `surface` with `material`: a diffuse surface at
+/// the offset hit, its normals facing the ray's origin; `None` for a degenerate triangle or a
+/// non-finite hit.
+#[inline]
+pub fn surface_query(
+    ray: &Ray,
+    hit: &HitRecord,
+    surface: &Surface,
+    material: &MaterialSample,
+    ray_index: u32,
+) -> Option<CacheQuery> {
+    let direction = Vec3::from_array(ray.direction).normalize_or_zero();
     let mut ng = surface.geometric_normal;
     let mut ns = surface.shading_normal;
     if ng.dot(direction) > 0.0 {
@@ -599,13 +671,13 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
         ns = -ns;
     }
     if ng == Vec3::ZERO {
-        return out;
+        return None;
     }
     if ns.dot(ng) <= 0.0 {
         ns = ng;
     }
     let distance = hit.t * Vec3::from_array(ray.direction).length();
-    out.query = CacheQuery {
+    let query = CacheQuery {
         hit_position: offset_ray_origin(surface.position, ng, surface.size).to_array(),
         ray_index,
         direction: direction.to_array(),
@@ -618,8 +690,11 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
         flags: 0,
         _pad: [0; 2],
     };
-    out.has_query = distance.is_finite() && out.query.position().is_finite();
-    out
+    if distance.is_finite() && query.position().is_finite() {
+        Some(query)
+    } else {
+        None
+    }
 }
 
 /// The path tracer's parameters that its light sampling and MIS read, from the view's: the
@@ -1174,13 +1249,42 @@ mod tests {
         for frame in [0u32, 1, 2, 77, u32::MAX] {
             let mut lists = [7u32; COUNTER_WORDS as usize];
             let mut counters = [7u32; CACHE_COUNTER_WORDS];
-            begin_cache_frame(&mut lists[..], &mut counters[..], frame);
+            begin_cache_frame(&mut lists[..], &mut counters[..], frame, 5);
             let kept = previous_live_list(frame) as usize;
             for (i, &v) in lists.iter().enumerate() {
                 assert_eq!(v, if i == kept { 7 } else { 0 }, "frame {frame} word {i}");
             }
+            // The 7 carried queries, cut to the capacity of 5, open the query list.
+            let mut expected = [0; CACHE_COUNTER_WORDS];
+            expected[CARRIED_QUERIES] = 5;
+            expected[QUERY_COUNT] = 5;
+            assert_eq!(counters, expected);
+            // Without carried queries every counter starts at zero.
+            begin_cache_frame(&mut lists[..], &mut counters[..], frame, 5);
             assert_eq!(counters, [0; CACHE_COUNTER_WORDS]);
         }
+    }
+
+    #[test]
+    fn carried_queries_are_copied_once_counted() {
+        let mut counters = [0u32; CACHE_COUNTER_WORDS];
+        counters[CARRIED_NEXT] = 2;
+        let mut lists = [0u32; crate::hash_cells::lists::COUNTER_WORDS as usize];
+        begin_cache_frame(&mut lists[..], &mut counters[..], 3, 8);
+        let carried: Vec<CacheQuery> = (0..4)
+            .map(|i| CacheQuery {
+                ray_index: CARRIED_QUERY_BIT | i,
+                flags: QUERY_CARRIED,
+                ..Default::default()
+            })
+            .collect();
+        let mut queries = vec![CacheQuery::default(); 4];
+        for i in 0..6 {
+            carry_query(&counters[..], &carried, &mut queries, i);
+        }
+        assert_eq!(&queries[..2], &carried[..2]);
+        assert_eq!(queries[2], CacheQuery::default());
+        assert_eq!(counters[QUERY_COUNT], 2);
     }
 
     fn camera() -> CameraParams {

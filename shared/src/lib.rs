@@ -29,6 +29,7 @@ pub mod light_grid;
 pub mod lights;
 pub mod machinery_tests;
 pub mod math;
+pub mod multi_bounce;
 pub mod octahedral;
 pub mod packing;
 pub mod path_tracer;

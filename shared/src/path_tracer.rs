@@ -112,7 +112,8 @@ pub const STRATEGY_BSDF_ONLY: u32 = 2;
 /// | 40     | `environment_light`   |
 /// | 44     | `light_candidates`    |
 /// | 48     | `strategy`            |
-/// | 52     | `_pad`                |
+/// | 52     | `primary`             |
+/// | 56     | `_pad`                |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PathTracerParams {
@@ -138,9 +139,18 @@ pub struct PathTracerParams {
     pub light_candidates: u32,
     /// [`STRATEGY_MIS`], [`STRATEGY_LIGHTS_ONLY`] or [`STRATEGY_BSDF_ONLY`].
     pub strategy: u32,
+    /// [`PRIMARY_JITTERED`] (antialiased) or [`PRIMARY_PIXEL_CENTRE`].
+    pub primary: u32,
     /// Explicit padding.
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 2],
 }
+
+/// [`PathTracerParams::primary`]: each path starts through a uniformly jittered point of its
+/// pixel (an antialiased image).
+pub const PRIMARY_JITTERED: u32 = 0;
+/// [`PathTracerParams::primary`]: every path starts through the pixel's centre, the one primary
+/// sample the GI frame's G-buffer takes, so that a comparison measures lighting, not edges.
+pub const PRIMARY_PIXEL_CENTRE: u32 = 1;
 
 /// Radiance arriving from the sky along the unit `direction` (pointing away from the scene): the
 /// environment image's texel when there is one ([`crate::environment`] gives the mapping), else
@@ -185,10 +195,15 @@ pub fn path_random(params: &PathTracerParams, pixel: UVec2) -> Random {
     )
 }
 
-/// A new path through a uniformly jittered point of `pixel`.
+/// A new path through a uniformly jittered point of `pixel`, or its centre
+/// ([`PRIMARY_PIXEL_CENTRE`]; the jitter is drawn all the same, so the rest of the path takes
+/// the same random numbers either way).
 pub fn begin_path(camera: &CameraParams, params: &PathTracerParams, pixel: UVec2) -> PathState {
     let mut rng = path_random(params, pixel);
-    let jitter = rng.next_vec2() - Vec2::splat(0.5);
+    let mut jitter = rng.next_vec2() - Vec2::splat(0.5);
+    if params.primary == PRIMARY_PIXEL_CENTRE {
+        jitter = Vec2::ZERO;
+    }
     let ray = primary_ray(camera, pixel, jitter);
     PathState {
         ray,
@@ -695,7 +710,8 @@ mod tests {
         assert_eq!(offset_of!(PathTracerParams, environment_light), 40);
         assert_eq!(offset_of!(PathTracerParams, light_candidates), 44);
         assert_eq!(offset_of!(PathTracerParams, strategy), 48);
-        assert_eq!(offset_of!(PathTracerParams, _pad), 52);
+        assert_eq!(offset_of!(PathTracerParams, primary), 52);
+        assert_eq!(offset_of!(PathTracerParams, _pad), 56);
     }
 
     #[test]
@@ -830,5 +846,24 @@ mod tests {
             ..params
         };
         assert_ne!(again.ray, begin_path(&camera, &other, UVec2::new(1, 2)).ray);
+        // Pixel-centre primaries: every sample through the centre, the same stream after it.
+        let centre = PathTracerParams {
+            primary: PRIMARY_PIXEL_CENTRE,
+            ..params
+        };
+        let a = begin_path(&camera, &centre, UVec2::new(1, 2));
+        let b = begin_path(
+            &camera,
+            &PathTracerParams {
+                sample_index: 5,
+                ..centre
+            },
+            UVec2::new(1, 2),
+        );
+        assert_eq!(a.ray, b.ray);
+        assert_eq!(a.ray, primary_ray(&camera, UVec2::new(1, 2), Vec2::ZERO));
+        let mut jittered = begin_path(&camera, &params, UVec2::new(1, 2)).rng;
+        let mut centred = a.rng;
+        assert_eq!(jittered.next_vec2(), centred.next_vec2());
     }
 }

@@ -298,7 +298,7 @@ pub struct GpuTexture {
 }
 
 /// The surface at a hit, in world space.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Surface {
     /// Position interpolated from the world-space vertices.
     pub position: Vec3,

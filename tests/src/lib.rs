@@ -2,9 +2,10 @@
 //! silent, and the check that long-lived buffers are device-local.
 
 use gi_host::image_io::HdrImage;
-use gi_host::scene::Scene;
+use gi_host::scene::{Aabb, Instance, Light, Material, Mesh, Scene};
 use gi_host::vulkan::{BufferInfo, Context, ContextOptions, MemoryLocation};
 use gi_host::{KernelVariant, TraceMode};
+use glam::{Mat4, Vec3, Vec4};
 
 /// A context on the test device with the validation layer on, running `variant`.
 pub fn context(variant: KernelVariant) -> Context {
@@ -81,4 +82,83 @@ pub fn assert_device_local_except(live: &[BufferInfo], host_visible: &[&str]) {
         "buffers in host-visible memory that are not parameters or staging:\n{}",
         offenders.join("\n")
     );
+}
+
+/// A scene of quads (each `[corner, edge u, edge v]`, wound towards `u × v`) with one material
+/// per quad.
+pub fn quad_scene(
+    name: &str,
+    quads: &[[Vec3; 3]],
+    materials: Vec<Material>,
+    lights: Vec<Light>,
+) -> Scene {
+    let mut mesh = Mesh {
+        name: name.to_owned(),
+        ..Default::default()
+    };
+    for (i, [o, u, v]) in quads.iter().enumerate() {
+        let n = u.cross(*v).normalize();
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend([*o, *o + *u, *o + *u + *v, *o + *v]);
+        mesh.normals.extend([n; 4]);
+        mesh.triangles
+            .extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+        mesh.materials
+            .extend([i.min(materials.len() - 1) as u32; 2]);
+    }
+    let mut scene = Scene {
+        source: name.into(),
+        meshes: vec![mesh],
+        instances: vec![Instance {
+            name: name.to_owned(),
+            node: 0,
+            mesh: 0,
+            transform: Mat4::IDENTITY,
+        }],
+        materials,
+        textures: vec![],
+        lights,
+        cameras: vec![],
+        emissive_triangles: vec![],
+        bounds: Aabb::EMPTY,
+        animation: None,
+        load_stages: Vec::new(),
+        blases: Vec::new(),
+    };
+    scene.update_derived();
+    scene
+}
+
+/// A Lambertian material of grey `albedo` emitting `emission` (grey).
+pub fn lambertian(albedo: f32, emission: f32) -> Material {
+    Material {
+        base_color: Vec4::new(albedo, albedo, albedo, 1.0),
+        emissive: Vec3::splat(emission),
+        metallic: 0.0,
+        ..Default::default()
+    }
+}
+
+/// A closed cube `[-1, 1]³` of albedo `albedo` emitting `emission` inwards on every face. Faces
+/// are wound alternately inwards and outwards; those wound outwards are double-sided, so that
+/// every face emits inwards: both the front-face and the double-sided rule are exercised, and
+/// every surface is shaded from its inner side whatever its winding.
+pub fn furnace(albedo: f32, emission: f32) -> Scene {
+    let quads = [
+        [Vec3::new(-1.0, -1.0, -1.0), Vec3::X * 2.0, Vec3::Y * 2.0],
+        [Vec3::new(-1.0, -1.0, 1.0), Vec3::X * 2.0, Vec3::Y * 2.0],
+        [Vec3::new(-1.0, -1.0, -1.0), Vec3::Z * 2.0, Vec3::X * 2.0],
+        [Vec3::new(-1.0, 1.0, -1.0), Vec3::Z * 2.0, Vec3::X * 2.0],
+        [Vec3::new(-1.0, -1.0, -1.0), Vec3::Y * 2.0, Vec3::Z * 2.0],
+        [Vec3::new(1.0, -1.0, -1.0), Vec3::Y * 2.0, Vec3::Z * 2.0],
+    ];
+    let inwards = lambertian(albedo, emission);
+    let outwards = Material {
+        double_sided: true,
+        ..inwards.clone()
+    };
+    let materials = (0..6)
+        .map(|i| if i % 2 == 0 { &inwards } else { &outwards }.clone())
+        .collect();
+    quad_scene("furnace", &quads, materials, vec![])
 }

@@ -132,10 +132,13 @@ fn errors(reference: &HdrImage, test: &HdrImage) -> (f64, f64, f64) {
 
 #[test]
 fn gi_converges_to_the_path_tracer() {
-    // Bounds: measured values (printed) × about 1.5, so that 2× fails.
+    // Bounds: measured values (printed) × about 1.5, so that 2× fails. The references trace
+    // pixel centres as the G-buffer does; the Cornell box's mean is then dominated by the 34
+    // pixels that see its light (which GI matches within 0.5%): the rest of its image is 44%
+    // too dark (an open defect, README "Bias budget").
     for (file, max_relmse, max_flip, max_bias) in [
-        ("cornell-box", 0.12, 0.57, 0.11),
-        ("indirect-room", 0.009, 0.12, 0.22),
+        ("cornell-box", 0.11, 0.56, 0.27),
+        ("indirect-room", 0.0025, 0.085, 0.16),
     ] {
         let scene = load_scene(&format!("{file}.gltf"));
         let gpu = Gpu::new(KernelVariant::Software, &scene);
@@ -295,11 +298,17 @@ fn switching_a_technique_off_moves_the_error_the_expected_way() {
         "on {holes_on}, off {holes_off}"
     );
     gpu.finish();
-    // The leak fixes: light from the lit room crosses the thin wall without them.
+    // The leak fixes: light from the lit room crosses the thin wall without them. Measured with
+    // multi-bounce off: its bounce rays read cells that straddle the wall whatever the fixes
+    // (a known bias, README "Bias budget"), printed for the record.
     let scene = load_scene("light-leak.gltf");
     let reference = reference_image("light-leak", SIDE);
     let gpu = Gpu::new(KernelVariant::Software, &scene);
-    let on = dark_ratio(&reference, &gpu.converged(&scene, base, FRAMES));
+    let single = GiSettings {
+        multi_bounce: false,
+        ..base
+    };
+    let on = dark_ratio(&reference, &gpu.converged(&scene, single, FRAMES));
     let off = dark_ratio(
         &reference,
         &gpu.converged(
@@ -307,14 +316,15 @@ fn switching_a_technique_off_moves_the_error_the_expected_way() {
             GiSettings {
                 short_ray_flag: false,
                 bypass: false,
-                ..base
+                ..single
             },
             FRAMES,
         ),
     );
+    let multi = dark_ratio(&reference, &gpu.converged(&scene, base, FRAMES));
     println!(
         "light-leak scene, light in the dark room over the path tracer's: leak fixes on {on:.3}, \
-         off {off:.3}"
+         off {off:.3}; with multi-bounce {multi:.3}"
     );
     assert!(off > on + 0.03, "on {on}, off {off}");
     gpu.finish();
@@ -449,6 +459,88 @@ fn both_tracing_variants_render_the_same_frame_cleanly() {
         relmse < 1e-3 && bias.abs() < 0.01,
         "relMSE {relmse}, bias {bias}"
     );
+}
+
+/// Identical frames (issue 22): the same scene, settings, camera path and device give the same
+/// image bit for bit, run after run, in each tracing variant: the GI frame along a pan (so that
+/// reprojection fails at the edge and patching moves spawns) with multi-bounce carrying queries
+/// over, and the cache view. Random streams are keyed by spawn tile, ray and frame, spawns own
+/// fixed slots, and patching decides its winners by tile index, not by the GPU's order. (A full
+/// cache bucket refuses whichever insert comes last: the runs assert the cache never overflows.)
+#[test]
+fn the_same_run_twice_gives_the_same_image_bit_for_bit() {
+    let scene = load_scene("indirect-room.gltf");
+    let base = scene_camera(&scene, SIDE, SIDE);
+    let pan = |f: u32| {
+        let yaw = Quat::from_rotation_y(0.02 * f as f32);
+        let forward = yaw * base.forward();
+        CameraParams::new(
+            base.position(),
+            forward,
+            Vec3::Y,
+            2.0 * base.tan_half_fov_y.atan(),
+            SIDE,
+            SIDE,
+        )
+    };
+    for variant in KernelVariant::ALL {
+        let gpu = Gpu::new(variant, &scene);
+        let runs: Vec<(HdrImage, HdrImage)> = (0..3)
+            .map(|_| {
+                let mut gi = gpu.renderer(settings());
+                let stats = gpu.run(&mut gi, 12, pan);
+                assert_eq!(
+                    stats.cache.failed_inserts, 0,
+                    "the cache overflowed: {stats:?}"
+                );
+                let frame = gi.image(&gpu.ctx).unwrap();
+                drop(gi);
+                let mut view = gi_host::gi::CacheView::new(
+                    &gpu.ctx,
+                    &gpu.lights,
+                    SIDE,
+                    SIDE,
+                    settings(),
+                    ViewOptions::default(),
+                )
+                .unwrap();
+                for f in 0..12 {
+                    let o = view.render_frame(&gpu.ctx, &gpu.scene, &pan(f)).unwrap();
+                    // Which inserts a full bucket refuses depends on the GPU's order.
+                    assert_eq!(o.failed_inserts, 0, "the cache overflowed: {o:?}");
+                }
+                let cached = view.image(&gpu.ctx).unwrap();
+                println!("{variant}: last frame {stats:?}");
+                (frame, cached)
+            })
+            .collect();
+        gpu.finish();
+        for (i, run) in runs.iter().enumerate().skip(1) {
+            let same = |a: &HdrImage, b: &HdrImage| {
+                a.pixels()
+                    .iter()
+                    .zip(b.pixels())
+                    .filter(|(x, y)| {
+                        x.iter()
+                            .zip(y.iter())
+                            .any(|(p, q)| p.to_bits() != q.to_bits())
+                    })
+                    .count()
+            };
+            let (gi_diff, view_diff) = (same(&runs[0].0, &run.0), same(&runs[0].1, &run.1));
+            println!(
+                "{variant} run {i}: {gi_diff} GI pixels and {view_diff} cache-view pixels differ"
+            );
+            assert_eq!(
+                gi_diff, 0,
+                "{variant}: run {i}'s GI frame differs in {gi_diff} pixels"
+            );
+            assert_eq!(
+                view_diff, 0,
+                "{variant}: run {i}'s cache view differs in {view_diff} pixels"
+            );
+        }
+    }
 }
 
 /// The light grid's build on the GPU (one workgroup per cell, the lanes sharing the pass over the

@@ -18,11 +18,13 @@ use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::{Environment, LightSet};
 use gi_host::scene::procedural::transformed;
 use gi_host::scene::upload::GpuScene;
-use gi_host::scene::{Aabb, Instance, Light, LightKind, Material, Mesh, Scene};
+use gi_host::scene::{Light, LightKind, Scene};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::path_tracer::path_random;
-use gi_tests::{context, finish_without_validation_messages, scene_path};
-use glam::{Mat4, UVec2, Vec2, Vec3, Vec4};
+use gi_tests::{
+    context, finish_without_validation_messages, furnace, lambertian, quad_scene, scene_path,
+};
+use glam::{Mat4, UVec2, Vec2, Vec3};
 use std::f32::consts::PI;
 
 const VARIANTS: [KernelVariant; 2] = [KernelVariant::RayQuery, KernelVariant::Software];
@@ -107,84 +109,6 @@ fn rmse(a: &HdrImage, b: &HdrImage) -> f64 {
         .map(|(&x, &y)| f64::from(x - y).powi(2))
         .sum();
     (sum / (3 * a.pixels().len()) as f64).sqrt()
-}
-
-/// A scene of quads (each `[corner, edge u, edge v]`, wound towards `u × v`) with one material
-/// per quad.
-fn quad_scene(
-    name: &str,
-    quads: &[[Vec3; 3]],
-    materials: Vec<Material>,
-    lights: Vec<Light>,
-) -> Scene {
-    let mut mesh = Mesh {
-        name: name.to_owned(),
-        ..Default::default()
-    };
-    for (i, [o, u, v]) in quads.iter().enumerate() {
-        let n = u.cross(*v).normalize();
-        let base = mesh.positions.len() as u32;
-        mesh.positions.extend([*o, *o + *u, *o + *u + *v, *o + *v]);
-        mesh.normals.extend([n; 4]);
-        mesh.triangles
-            .extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
-        mesh.materials
-            .extend([i.min(materials.len() - 1) as u32; 2]);
-    }
-    let mut scene = Scene {
-        source: name.into(),
-        meshes: vec![mesh],
-        instances: vec![Instance {
-            name: name.to_owned(),
-            node: 0,
-            mesh: 0,
-            transform: Mat4::IDENTITY,
-        }],
-        materials,
-        textures: vec![],
-        lights,
-        cameras: vec![],
-        emissive_triangles: vec![],
-        bounds: Aabb::EMPTY,
-        animation: None,
-        load_stages: Vec::new(),
-        blases: Vec::new(),
-    };
-    scene.update_derived();
-    scene
-}
-
-fn lambertian(albedo: f32, emission: f32) -> Material {
-    Material {
-        base_color: Vec4::new(albedo, albedo, albedo, 1.0),
-        emissive: Vec3::splat(emission),
-        metallic: 0.0,
-        ..Default::default()
-    }
-}
-
-/// A closed cube `[-1, 1]³` of albedo `albedo` emitting `emission` inwards on every face. Faces
-/// are wound alternately inwards and outwards; those wound outwards are double-sided, so that
-/// every face emits inwards: both the front-face and the double-sided rule are exercised, and
-/// every surface is shaded from its inner side whatever its winding.
-fn furnace(albedo: f32, emission: f32) -> Scene {
-    let quads = [
-        [Vec3::new(-1.0, -1.0, -1.0), Vec3::X * 2.0, Vec3::Y * 2.0],
-        [Vec3::new(-1.0, -1.0, 1.0), Vec3::X * 2.0, Vec3::Y * 2.0],
-        [Vec3::new(-1.0, -1.0, -1.0), Vec3::Z * 2.0, Vec3::X * 2.0],
-        [Vec3::new(-1.0, 1.0, -1.0), Vec3::Z * 2.0, Vec3::X * 2.0],
-        [Vec3::new(-1.0, -1.0, -1.0), Vec3::Y * 2.0, Vec3::Z * 2.0],
-        [Vec3::new(1.0, -1.0, -1.0), Vec3::Y * 2.0, Vec3::Z * 2.0],
-    ];
-    let inwards = lambertian(albedo, emission);
-    let outwards = Material {
-        double_sided: true,
-        ..inwards.clone()
-    };
-    let materials = (0..6)
-        .map(|i| if i % 2 == 0 { &inwards } else { &outwards }.clone())
-        .collect();
-    quad_scene("furnace", &quads, materials, vec![])
 }
 
 /// White furnace: radiance `E / (1 - a)` everywhere inside, whatever the view, in both variants

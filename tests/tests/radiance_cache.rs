@@ -499,8 +499,15 @@ impl Replay {
             transfer_barrier(ctx, cmd);
             self.passes.record_insert(ctx, cmd, res, params)?;
             self.passes.record_shadow_ray_args(ctx, cmd, res)?;
-            self.passes
-                .record_populate(ctx, cmd, gpu.scene.sets(), res, reservoirs, params)?;
+            self.passes.record_populate(
+                ctx,
+                cmd,
+                gpu.scene.sets(),
+                res,
+                reservoirs,
+                &gpu.scene.lights,
+                params,
+            )?;
             if update {
                 self.passes.record_update(ctx, cmd, res, params)?;
                 self.passes.record_resolve(ctx, cmd, res, params)?;

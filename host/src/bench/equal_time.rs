@@ -90,6 +90,8 @@ pub fn measure(
         let settings = PathTracerSettings {
             samples: spp,
             seed: REFERENCE_SEED ^ spp.wrapping_mul(0x9e37_79b9),
+            // As the reference and GI: pixel-centre primaries, so both compare lighting alone.
+            pixel_centre: true,
             ..PathTracerSettings::default()
         };
         let render = pass.render(ctx, &scene.gpu, &camera, &settings, |_, _| {})?;

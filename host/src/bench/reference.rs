@@ -23,7 +23,7 @@ pub fn reference_path(
         Motion::Orbit => format!("-frame{}", frames - 1),
     };
     config.out.join("references").join(format!(
-        "{}-{}{last}-{}x{}-{}spp.exr",
+        "{}-{}{last}-{}x{}-{}spp-centre.exr",
         bench.name,
         motion.name(),
         config.width,
@@ -69,9 +69,11 @@ fn render(
     path: &std::path::Path,
 ) -> Result<HdrImage> {
     let camera = scene.camera_at(motion, frames - 1, config.width, config.height);
+    // The GI frame's primary visibility (pixel centres): errors measure lighting, not edges.
     let settings = PathTracerSettings {
         samples: config.reference_spp,
         seed: REFERENCE_SEED,
+        pixel_centre: true,
         ..PathTracerSettings::default()
     };
     let render =

@@ -150,10 +150,11 @@ pub fn points(
                 },
             ));
         }
-        let switches: [Switch; 5] = [
+        let switches: [Switch; 6] = [
             ("probe_filter", "off", |s| s.probe_filter = false),
             ("restir", "on", |s| s.restir = true),
             ("temporal_feedback", "off", |s| s.temporal_feedback = false),
+            ("multi_bounce", "off", |s| s.multi_bounce = false),
             ("hysteresis", "off", |s| s.hysteresis = false),
             ("denoiser", "off", |s| {
                 s.denoiser_temporal = false;
@@ -212,6 +213,7 @@ mod tests {
             "probe_filter",
             "restir",
             "temporal_feedback",
+            "multi_bounce",
             "hysteresis",
             "denoiser",
             "resolution",

@@ -112,6 +112,10 @@ enum Command {
         /// (one technique alone, for comparisons).
         #[arg(long, default_value = "mis", value_parser = parse_strategy)]
         strategy: Strategy,
+        /// Trace every path through its pixel's centre (no antialiasing): the GI frame's primary
+        /// visibility, the reference to measure GI's lighting error against.
+        #[arg(long)]
+        pixel_centre: bool,
         #[command(flatten)]
         gi: GiArgs,
     },
@@ -151,6 +155,9 @@ enum Command {
         /// Turn temporal radiance feedback off (secondary hits then get direct light only).
         #[arg(long)]
         no_feedback: bool,
+        /// Turn multi-bounce through the cache off (cells then hold direct light only).
+        #[arg(long)]
+        no_multi_bounce: bool,
         /// Turn the descriptor's short-ray flag and the short-ray bypass off (light-leak fixes).
         #[arg(long)]
         no_leak_fixes: bool,
@@ -396,6 +403,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         view,
         light_candidates,
         strategy,
+        pixel_centre,
         gi,
     }) = &cli.command
     {
@@ -425,6 +433,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             seed: view.seed,
             light_candidates: *light_candidates,
             strategy: *strategy,
+            pixel_centre: *pixel_centre,
         };
         let output = view.output(out, *width, *height);
         render(&ctx, scene, &output, view.camera(), view.sky()?, &settings)?;
@@ -447,6 +456,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         cell_size_pixels,
         min_cell_size,
         no_feedback,
+        no_multi_bounce,
         no_leak_fixes,
         restir,
         debug_views,
@@ -462,6 +472,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             cell_size_pixels: *cell_size_pixels,
             min_cell_size: *min_cell_size,
             temporal_feedback: !*no_feedback,
+            multi_bounce: !*no_multi_bounce,
             short_ray_flag: !*no_leak_fixes,
             bypass: !*no_leak_fixes,
             restir: *restir,
@@ -901,13 +912,14 @@ fn cache_view(
     let s = &run.settings;
     println!(
         "cache:               {} buckets x {} tiles = {} tiles, cells of {} px (min {} m), \
-         feedback {}, short-ray flag {}, bypass {}, ReSTIR {}",
+         feedback {}, multi-bounce {}, short-ray flag {}, bypass {}, ReSTIR {}",
         1u32 << s.buckets_log2,
         1u32 << s.tiles_per_bucket_log2,
         s.tile_count(),
         s.cell_size_pixels,
         s.min_cell_size,
         on_off(s.temporal_feedback),
+        on_off(s.multi_bounce),
         on_off(s.short_ray_flag),
         on_off(s.bypass),
         on_off(s.restir)
@@ -922,7 +934,8 @@ fn cache_view(
             let o = cache.render_frame(ctx, &gpu, &camera)?;
             println!(
                 "frame {:>5}: live tiles {:>6}  inserted {:>5}  failed inserts {:>5}  evicted {:>5}  \
-                 | queries {:>7}  fed back {:>7}  shadow rays {:>7}  bypassed {:>6}",
+                 | queries {:>7}  fed back {:>7}  shadow rays {:>7}  bypassed {:>6}  \
+                 bounce rays {:>7}  bounce misses {:>6}  carried {:>6}",
                 o.frame,
                 o.live_tiles,
                 o.inserted,
@@ -931,7 +944,10 @@ fn cache_view(
                 o.queries,
                 o.fed_back,
                 o.shadow_rays,
-                o.bypassed
+                o.bypassed,
+                o.bounce_rays,
+                o.bounce_misses,
+                o.carried
             );
         }
         let image = cache.image(ctx)?;

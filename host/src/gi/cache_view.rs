@@ -111,14 +111,20 @@ pub struct Occupancy {
     pub evicted: u32,
     /// Tiles updated this frame.
     pub updated: u32,
-    /// Queries (secondary hits that are not emitters).
+    /// Queries (secondary hits, and the queries carried over).
     pub queries: u32,
+    /// Queries multi-bounce carried over from the previous frame (among `queries`).
+    pub carried: u32,
     /// Queries lit by temporal feedback.
     pub fed_back: u32,
     /// Shadow rays traced.
     pub shadow_rays: u32,
     /// Queries that bypassed their cell (light-leak fix 2).
     pub bypassed: u32,
+    /// Bounce rays traced (multi-bounce through the cache, [`GiSettings::multi_bounce`]).
+    pub bounce_rays: u32,
+    /// Bounce rays whose hit had no cell with a sample: they added nothing.
+    pub bounce_misses: u32,
     /// Samples dropped as not finite.
     pub dropped: u32,
 }
@@ -482,7 +488,7 @@ impl CacheView {
     pub fn read_back_queries(&self, ctx: &Context) -> Result<Vec<CacheQuery>> {
         let counters: Vec<u32> = self.res.counters.read_back(ctx)?;
         let mut queries: Vec<CacheQuery> = self.res.queries.read_back(ctx)?;
-        queries.truncate(counters[QUERY_COUNT].min(self.res.ray_capacity()) as usize);
+        queries.truncate(counters[QUERY_COUNT].min(self.res.query_capacity()) as usize);
         Ok(queries)
     }
 

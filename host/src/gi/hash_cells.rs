@@ -6,6 +6,7 @@
 use super::resources::CacheResources;
 use crate::error::Result;
 use crate::frame::{DispatchFromCounter, indirect_offset};
+use crate::scene::lights::GpuLights;
 use crate::vulkan::{
     BindingKind, Buffer, Context, Kernel, KernelModule, Resource, SceneSets, compute_barrier,
 };
@@ -38,6 +39,7 @@ pub(crate) fn buffers_kernel(
 /// The pipelines of the hash-grid passes.
 pub struct HashCellPasses {
     begin_frame: Kernel,
+    carry: Kernel,
     purge: Kernel,
     insert: Kernel,
     populate: Kernel,
@@ -51,14 +53,15 @@ impl HashCellPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
         Ok(Self {
-            begin_frame: buffers_kernel(ctx, module, "hash_cells::purge::begin_frame", 3)?,
+            begin_frame: buffers_kernel(ctx, module, "hash_cells::purge::begin_frame", 4)?,
+            carry: buffers_kernel(ctx, module, "hash_cells::purge::carry_queries", 3)?,
             purge: buffers_kernel(ctx, module, "hash_cells::purge::purge_tiles", 3)?,
             insert: buffers_kernel(ctx, module, "hash_cells::insert::insert_radiance_cache", 6)?,
             populate: buffers_kernel(
                 ctx,
                 module,
                 "hash_cells::populate::populate_radiance_cache",
-                7,
+                12,
             )?,
             update: buffers_kernel(
                 ctx,
@@ -76,8 +79,9 @@ impl HashCellPasses {
         })
     }
 
-    /// PurgeRadianceCache: resets the frame's counters and the light grid's bounds, then evicts
-    /// the previous live list's expired tiles and carries the others into this frame's list.
+    /// PurgeRadianceCache: resets the frame's counters and the light grid's bounds, opens the
+    /// query list with the queries multi-bounce carried over, then evicts the previous live
+    /// list's expired tiles and carries the others into this frame's list.
     pub fn record_purge(
         &self,
         ctx: &Context,
@@ -93,11 +97,23 @@ impl HashCellPasses {
                 Resource::Buffer(&res.lists),
                 Resource::Buffer(&res.counters),
                 Resource::Buffer(&res.bounds),
+                Resource::Buffer(&res.carried),
             ],
             push,
             [1, 1, 1],
         )?;
         compute_barrier(ctx, cmd);
+        self.carry.dispatch(
+            ctx,
+            cmd,
+            &[
+                Resource::Buffer(&res.counters),
+                Resource::Buffer(&res.carried),
+                Resource::Buffer(&res.queries),
+            ],
+            push,
+            [res.carried_capacity().div_ceil(64), 1, 1],
+        )?;
         self.dispatch.record(
             ctx,
             cmd,
@@ -136,7 +152,7 @@ impl HashCellPasses {
             cmd,
             &res.counters,
             QUERY_COUNT as u32,
-            res.ray_capacity(),
+            res.query_capacity(),
             &res.args,
             ARGS_QUERIES,
         )?;
@@ -172,15 +188,17 @@ impl HashCellPasses {
             cmd,
             &res.counters,
             SHADOW_RAY_COUNT as u32,
-            res.ray_capacity(),
+            res.query_capacity(),
             &res.args,
             ARGS_SHADOW_RAYS,
         )
     }
 
     /// PopulateRadianceCache: traces the frame's shadow rays (`reservoirs`: this frame's ReSTIR
-    /// reservoirs, whose occluded samples it invalidates), one invocation per shadow ray from the
-    /// arguments [`Self::record_shadow_ray_args`] wrote.
+    /// reservoirs, whose occluded samples it invalidates) and, with multi-bounce, each one's
+    /// bounce ray (which reads the cells and, on a miss, the environment of `lights`), one
+    /// invocation per shadow ray from the arguments [`Self::record_shadow_ray_args`] wrote.
+    #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_populate(
         &self,
         ctx: &Context,
@@ -188,8 +206,10 @@ impl HashCellPasses {
         scene: SceneSets<'_>,
         res: &CacheResources,
         reservoirs: &Buffer,
+        lights: &GpuLights,
         params: &CachePassParams,
     ) -> Result<()> {
+        let [_, _, environment, _] = lights.resources();
         self.populate.dispatch_indirect_traced(
             ctx,
             cmd,
@@ -202,6 +222,11 @@ impl HashCellPasses {
                 Resource::Buffer(&res.ray_records),
                 Resource::Buffer(&res.lists),
                 Resource::Buffer(reservoirs),
+                Resource::Buffer(&res.keys),
+                Resource::Buffer(&res.values),
+                environment,
+                Resource::Buffer(&res.last_touch),
+                Resource::Buffer(&res.carried),
             ],
             bytemuck::bytes_of(params),
             &res.args,

@@ -9,10 +9,10 @@ use crate::image_io::HdrImage;
 use crate::vulkan::Context;
 use gi_shared::color::luminance;
 use gi_shared::layout::HashCellValue;
-use gi_shared::packing::unpack_seed;
+use gi_shared::packing::{SEED_NONE, unpack_seed};
 use gi_shared::screen_probes::hemisphere::{ProbeFrame, cell_coords};
 use gi_shared::screen_probes::{
-    EMPTY_COUNT, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRecord, SPAWN_COUNT, cell_is_filled,
+    EMPTY_COUNT, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRecord, cell_is_filled,
 };
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -115,11 +115,8 @@ pub fn gi_debug_views(ctx: &Context, gi: &GiRenderer) -> Result<Vec<GiDebugView>
     for &t in empty.iter().take(counters[EMPTY_COUNT] as usize) {
         paint(t, [0.8, 0.1, 0.1]);
     }
-    let spawned: Vec<u32> = spawns
-        .iter()
-        .take(counters[SPAWN_COUNT] as usize)
-        .copied()
-        .collect();
+    // Each spawn tile owns its slot; sky spawns hold no seed.
+    let spawned: Vec<u32> = spawns.iter().copied().filter(|&s| s != SEED_NONE).collect();
     for &s in &spawned {
         let p = unpack_seed(s);
         paint((p.y / PROBE_SIZE) * gx + p.x / PROBE_SIZE, [0.1, 0.6, 0.1]);

@@ -14,9 +14,9 @@ use crate::frame::indirect_args;
 use crate::vulkan::{Buffer, Context, PingPong};
 use ash::vk;
 use gi_shared::cache_view::{
-    ARGS_COUNT, BYPASS_COUNT, CACHE_COUNTER_WORDS, CacheQuery, CacheViewPixel, FEEDBACK_COUNT,
-    FeedbackTexel, INSERTED_TILES, QUERY_COUNT, SHADOW_RAY_COUNT, ShadowRay,
-    reservoir_grid_buckets,
+    ARGS_COUNT, BOUNCE_MISSES, BOUNCE_RAYS, BYPASS_COUNT, CACHE_COUNTER_WORDS, CARRIED_QUERIES,
+    CacheQuery, CacheViewPixel, FEEDBACK_COUNT, FeedbackTexel, INSERTED_TILES, QUERY_COUNT,
+    SHADOW_RAY_COUNT, ShadowRay, reservoir_grid_buckets,
 };
 use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::lists::{
@@ -29,6 +29,7 @@ use gi_shared::light_grid::{
     LIGHT_GRID_BOUNDS_WORDS, LIGHT_GRID_MAX_CELLS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry,
     LightGridParams,
 };
+use gi_shared::multi_bounce::carried_capacity;
 use gi_shared::world_restir::{PackedReservoir, RESERVOIR_GRID_SLOTS_PER_BUCKET, ReservoirHit};
 
 /// Every buffer of a cache-view frame.
@@ -66,13 +67,17 @@ pub struct CacheResources {
     pub light_grid_entries: Buffer,
     /// Indirect dispatch arguments (`ARGS_COUNT` of them).
     pub args: Buffer,
+    /// Queries multi-bounce carries to the next frame (`gi_shared::multi_bounce`):
+    /// `carried_capacity(rays)` of them.
+    pub carried: Buffer,
     tile_count: u32,
     pixel_count: u32,
     ray_capacity: u32,
+    carried_capacity: u32,
 }
 
 /// Each resource's name, in the order [`CacheResources::buffers`] lists them.
-pub const RESOURCE_NAMES: [&str; 16] = [
+pub const RESOURCE_NAMES: [&str; 17] = [
     "cache-view camera",
     "hash grid keys",
     "hash grid last touch",
@@ -89,6 +94,7 @@ pub const RESOURCE_NAMES: [&str; 16] = [
     "light grid",
     "light grid entries",
     "indirect arguments",
+    "carried queries",
 ];
 
 impl CacheResources {
@@ -107,6 +113,7 @@ impl CacheResources {
         let tiles = settings.tile_count() as usize;
         let pixels = width as usize * height as usize;
         let rays = (rays as usize).max(1);
+        let carried = carried_capacity(rays as u32) as usize;
         let cells = tiles * CELLS_PER_TILE as usize;
         let accumulator_words = tiles * MIP0_CELLS_PER_TILE as usize * ACCUMULATOR_WORDS;
         debug_assert!(accumulator_words * 4 <= MAX_STORAGE_BUFFER_BYTES);
@@ -125,8 +132,8 @@ impl CacheResources {
             accumulators: Buffer::device_zeroed::<u32>(ctx, n[4], accumulator_words)?,
             lists: Buffer::device_zeroed::<u32>(ctx, n[5], list_buffer_words(tiles as u32))?,
             counters: Buffer::device_zeroed::<u32>(ctx, n[6], CACHE_COUNTER_WORDS)?,
-            queries: Buffer::device_zeroed::<CacheQuery>(ctx, n[7], rays)?,
-            shadow_rays: Buffer::device_zeroed::<ShadowRay>(ctx, n[8], rays)?,
+            queries: Buffer::device_zeroed::<CacheQuery>(ctx, n[7], rays + carried)?,
+            shadow_rays: Buffer::device_zeroed::<ShadowRay>(ctx, n[8], rays + carried)?,
             ray_records: Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], rays)?,
             history: Buffer::device_zeroed::<FeedbackTexel>(ctx, n[10], pixels)?,
             accumulation: Buffer::device_zeroed::<[f32; 4]>(ctx, n[11], pixels)?,
@@ -134,32 +141,41 @@ impl CacheResources {
             light_grid: Buffer::device_zeroed::<LightGridParams>(ctx, n[13], 1)?,
             light_grid_entries: Buffer::device_zeroed::<LightGridEntry>(ctx, n[14], entries)?,
             args: indirect_args(ctx, n[15], ARGS_COUNT as usize)?,
+            carried: Buffer::device_zeroed::<CacheQuery>(ctx, n[16], carried)?,
             tile_count: tiles as u32,
             pixel_count: pixels as u32,
             ray_capacity: rays as u32,
+            carried_capacity: carried as u32,
         })
     }
 
-    /// Reallocates what depends on the frame's size (queries, shadow rays and ray records for
-    /// `rays` rays; feedback history and accumulation for `width × height` pixels, zeroed) and
-    /// keeps the hash grid, the light grid and the counters: the world cache survives a resize.
-    /// On an error nothing changed.
+    /// Reallocates what depends on the frame's size (queries, shadow rays, ray records and
+    /// carried queries for `rays` rays; feedback history and accumulation for `width × height`
+    /// pixels, zeroed; the counters, zeroed, so that no query is carried into the new lists) and
+    /// keeps the hash grid and the light grid: the world cache survives a resize. On an error
+    /// nothing changed.
     pub fn resize(&mut self, ctx: &Context, width: u32, height: u32, rays: u32) -> Result<()> {
         let pixels = width as usize * height as usize;
         let rays = (rays as usize).max(1);
+        let carried = carried_capacity(rays as u32) as usize;
         let n = &RESOURCE_NAMES;
-        let queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[7], rays)?;
-        let shadow_rays = Buffer::device_zeroed::<ShadowRay>(ctx, n[8], rays)?;
+        let counters = Buffer::device_zeroed::<u32>(ctx, n[6], CACHE_COUNTER_WORDS)?;
+        let queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[7], rays + carried)?;
+        let shadow_rays = Buffer::device_zeroed::<ShadowRay>(ctx, n[8], rays + carried)?;
         let ray_records = Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], rays)?;
         let history = Buffer::device_zeroed::<FeedbackTexel>(ctx, n[10], pixels)?;
         let accumulation = Buffer::device_zeroed::<[f32; 4]>(ctx, n[11], pixels)?;
+        let carried_queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[16], carried)?;
+        self.counters = counters;
         self.queries = queries;
         self.shadow_rays = shadow_rays;
         self.ray_records = ray_records;
         self.history = history;
         self.accumulation = accumulation;
+        self.carried = carried_queries;
         self.pixel_count = pixels as u32;
         self.ray_capacity = rays as u32;
+        self.carried_capacity = carried as u32;
         Ok(())
     }
 
@@ -173,13 +189,24 @@ impl CacheResources {
         self.pixel_count
     }
 
-    /// Rays per frame at most: the capacity of the query, shadow-ray and ray-record buffers.
+    /// Rays per frame at most: the capacity of the ray-record buffer.
     pub fn ray_capacity(&self) -> u32 {
         self.ray_capacity
     }
 
+    /// Queries per frame at most (one per ray and the carried ones): the capacity of the query
+    /// and shadow-ray buffers.
+    pub fn query_capacity(&self) -> u32 {
+        self.ray_capacity + self.carried_capacity
+    }
+
+    /// Queries multi-bounce can carry to the next frame.
+    pub fn carried_capacity(&self) -> u32 {
+        self.carried_capacity
+    }
+
     /// Every buffer, in [`RESOURCE_NAMES`] order.
-    pub fn buffers(&self) -> [&Buffer; 16] {
+    pub fn buffers(&self) -> [&Buffer; 17] {
         [
             &self.camera,
             &self.keys,
@@ -197,6 +224,7 @@ impl CacheResources {
             &self.light_grid,
             &self.light_grid_entries,
             &self.args,
+            &self.carried,
         ]
     }
 
@@ -205,7 +233,7 @@ impl CacheResources {
         let counters: Vec<u32> = self.counters.read_back(ctx)?;
         let lists: Vec<u32> = self.lists.read_back(ctx)?;
         let tiles = self.tile_count();
-        let pixels = self.ray_capacity();
+        let queries = self.query_capacity();
         let word = |list: u32| lists.get(list as usize).copied().unwrap_or(0);
         Ok(Occupancy {
             frame,
@@ -214,10 +242,13 @@ impl CacheResources {
             failed_inserts: word(FAILED_INSERTS),
             evicted: word(EVICTED_TILES),
             updated: word(UPDATE_TILES).min(tiles),
-            queries: counters[QUERY_COUNT].min(pixels),
+            queries: counters[QUERY_COUNT].min(queries),
+            carried: counters[CARRIED_QUERIES],
             fed_back: counters[FEEDBACK_COUNT],
-            shadow_rays: counters[SHADOW_RAY_COUNT].min(pixels),
+            shadow_rays: counters[SHADOW_RAY_COUNT].min(queries),
             bypassed: counters[BYPASS_COUNT],
+            bounce_rays: counters[BOUNCE_RAYS],
+            bounce_misses: counters[BOUNCE_MISSES],
             dropped: word(DROPPED_SAMPLES),
         })
     }

@@ -96,7 +96,8 @@ pub struct ScreenProbeResources {
     pub spawns: Buffer,
     /// Disoccluded tiles without a probe or a spawn.
     pub empty_tiles: Buffer,
-    /// Spawns whose tile still held a reprojected probe (patching takes them over).
+    /// One override word per spawn slot: open where the spawn's tile still held a reprojected
+    /// probe (patching takes such spawns over), then the index + 1 of the tile that claimed it.
     pub overrides: Buffer,
     /// The gathered history hemisphere of every spawned probe (64 cells each).
     pub history: Buffer,
@@ -184,6 +185,7 @@ impl ScreenProbeResources {
 pub struct ScreenProbePasses {
     reproject: Kernel,
     spawn: Kernel,
+    claim: Kernel,
     patch: Kernel,
     sample: Kernel,
     populate: Kernel,
@@ -215,6 +217,13 @@ impl ScreenProbePasses {
                 "bbiibbbb",
                 0,
             )?,
+            claim: kernel(
+                ctx,
+                module,
+                &format!("{sp}patch::claim_override_slots"),
+                "bbiibbbb",
+                0,
+            )?,
             patch: kernel(
                 ctx,
                 module,
@@ -226,21 +235,21 @@ impl ScreenProbePasses {
                 ctx,
                 module,
                 &format!("{sp}sample::sample_screen_probes"),
-                "bbiibbbbbb",
+                "bbiibbbbb",
                 0,
             )?,
             populate: kernel(
                 ctx,
                 module,
                 &format!("{sp}populate::populate_screen_probes"),
-                "bbiibbbbbbb",
+                "bbiibbbbbb",
                 PUSH_BYTES,
             )?,
             blend: kernel(
                 ctx,
                 module,
                 &format!("{sp}blend::blend_screen_probes"),
-                "bbiibbbbbbbb",
+                "bbiibbbbbbb",
                 0,
             )?,
             probe_mask: kernel(
@@ -333,7 +342,8 @@ impl ScreenProbePasses {
         Ok(())
     }
 
-    /// PatchScreenProbes: disoccluded tiles take over override slots.
+    /// PatchScreenProbes: disoccluded tiles claim open spawn slots (ClaimOverrideSlots), then
+    /// take the first they won.
     pub fn record_patch(
         &self,
         ctx: &Context,
@@ -343,22 +353,20 @@ impl ScreenProbePasses {
         gbuffer: &GBufferImages,
     ) -> Result<()> {
         let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
-        self.patch.dispatch(
-            ctx,
-            cmd,
-            &[
-                Resource::Buffer(&res.frame),
-                Resource::Buffer(camera),
-                Resource::Image(depth),
-                Resource::Image(normal),
-                Resource::Buffer(&res.empty_tiles),
-                Resource::Buffer(&res.overrides),
-                Resource::Buffer(&res.spawns),
-                Resource::Buffer(&res.counters),
-            ],
-            &[],
-            [res.layout.probe_count().div_ceil(64), 1, 1],
-        )?;
+        let resources = [
+            Resource::Buffer(&res.frame),
+            Resource::Buffer(camera),
+            Resource::Image(depth),
+            Resource::Image(normal),
+            Resource::Buffer(&res.empty_tiles),
+            Resource::Buffer(&res.overrides),
+            Resource::Buffer(&res.spawns),
+            Resource::Buffer(&res.counters),
+        ];
+        let groups = [res.layout.probe_count().div_ceil(64), 1, 1];
+        self.claim.dispatch(ctx, cmd, &resources, &[], groups)?;
+        compute_barrier(ctx, cmd);
+        self.patch.dispatch(ctx, cmd, &resources, &[], groups)?;
         compute_barrier(ctx, cmd);
         Ok(())
     }
@@ -383,7 +391,6 @@ impl ScreenProbePasses {
                 Resource::Image(depth),
                 Resource::Image(normal),
                 Resource::Buffer(&res.spawns),
-                Resource::Buffer(&res.counters),
                 Resource::Buffer(res.records.current()),
                 Resource::Buffer(res.atlas.current()),
                 Resource::Buffer(&res.history),
@@ -421,7 +428,6 @@ impl ScreenProbePasses {
                 Resource::Image(depth),
                 Resource::Image(normal),
                 Resource::Buffer(&res.spawns),
-                Resource::Buffer(&res.counters),
                 Resource::Buffer(&res.rays),
                 Resource::Buffer(&cache.ray_records),
                 Resource::Buffer(&cache.queries),
@@ -456,7 +462,6 @@ impl ScreenProbePasses {
                 Resource::Image(depth),
                 Resource::Image(normal),
                 Resource::Buffer(&res.spawns),
-                Resource::Buffer(&res.counters),
                 Resource::Buffer(&res.rays),
                 Resource::Buffer(&cache.ray_records),
                 Resource::Buffer(&res.history),

@@ -17,7 +17,7 @@ use crate::vulkan::{Context, GpuTimer, KernelModule};
 use ash::vk;
 use gi_shared::cache_view::{
     CachePassParams, CacheViewParams, FLAG_BYPASS, FLAG_ENVIRONMENT_LIGHT, FLAG_FEEDBACK,
-    FLAG_HISTORY, FLAG_RESTIR, FLAG_RESTIR_HISTORY, FLAG_SHORT_RAY,
+    FLAG_HISTORY, FLAG_MULTI_BOUNCE, FLAG_RESTIR, FLAG_RESTIR_HISTORY, FLAG_SHORT_RAY,
 };
 use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::cell_size_const;
@@ -156,6 +156,7 @@ impl WorldCache {
             (s.restir, FLAG_RESTIR),
             (s.restir && frame.restir_history, FLAG_RESTIR_HISTORY),
             (lighting.environment_light, FLAG_ENVIRONMENT_LIGHT),
+            (s.multi_bounce, FLAG_MULTI_BOUNCE),
         ] {
             if on {
                 flags |= flag;
@@ -229,6 +230,7 @@ impl WorldCache {
                 scene.sets(),
                 res,
                 &restir.grids.current().reservoirs,
+                &scene.lights,
                 params,
             )
         })?;

@@ -33,6 +33,8 @@ pub enum Toggle {
     DenoiserSpatial,
     /// [`GiSettings::temporal_feedback`].
     TemporalFeedback,
+    /// [`GiSettings::multi_bounce`].
+    MultiBounce,
     /// [`GiSettings::short_ray_flag`].
     ShortRayFlag,
     /// [`GiSettings::bypass`].
@@ -45,7 +47,7 @@ pub enum Toggle {
 
 impl Toggle {
     /// Every toggle, in the frame's order.
-    pub const ALL: [Self; 16] = [
+    pub const ALL: [Self; 17] = [
         Self::Reprojection,
         Self::Parallax,
         Self::RadianceBackup,
@@ -58,6 +60,7 @@ impl Toggle {
         Self::DenoiserTemporal,
         Self::DenoiserSpatial,
         Self::TemporalFeedback,
+        Self::MultiBounce,
         Self::ShortRayFlag,
         Self::Bypass,
         Self::Restir,
@@ -79,6 +82,7 @@ impl Toggle {
             Self::DenoiserTemporal => "denoise temporal",
             Self::DenoiserSpatial => "denoise spatial",
             Self::TemporalFeedback => "feedback",
+            Self::MultiBounce => "multi-bounce",
             Self::ShortRayFlag => "short-ray flag",
             Self::Bypass => "bypass",
             Self::Restir => "ReSTIR",
@@ -101,6 +105,7 @@ impl Toggle {
             Self::DenoiserTemporal => KeyCode::Digit0,
             Self::DenoiserSpatial => KeyCode::Minus,
             Self::TemporalFeedback => KeyCode::KeyF,
+            Self::MultiBounce => KeyCode::KeyN,
             Self::ShortRayFlag => KeyCode::KeyL,
             Self::Bypass => KeyCode::KeyB,
             Self::Restir => KeyCode::KeyT,
@@ -123,6 +128,7 @@ impl Toggle {
             Self::DenoiserTemporal => &mut s.denoiser_temporal,
             Self::DenoiserSpatial => &mut s.denoiser_spatial,
             Self::TemporalFeedback => &mut s.temporal_feedback,
+            Self::MultiBounce => &mut s.multi_bounce,
             Self::ShortRayFlag => &mut s.short_ray_flag,
             Self::Bypass => &mut s.bypass,
             Self::Restir => &mut s.restir,

@@ -1,20 +1,31 @@
 //! PopulateRadianceCache: one invocation per shadow ray traces it and accumulates what it carries
 //! into the query's cell: its contribution when the light sample is visible, else zero (one sample
-//! either way, so the cell's mean is not taken over lit samples alone). A bypassing ray also adds
-//! it to its own pixel's ray (light-leak fix 2). An occluded sample's stored ReSTIR reservoir is
-//! invalidated (its `W` zeroed).
+//! either way, so the cell's mean is not taken over lit samples alone). With multi-bounce
+//! (`gi_shared::multi_bounce`) the query's bounce ray adds `albedo ×` the previous frame's cell at
+//! its hit to the same sample, and carries that hit over to the next frame as a query when its
+//! cell is missing or stale. A bypassing ray also adds it to its own pixel's ray (light-leak
+//! fix 2). An occluded sample's stored ReSTIR reservoir is invalidated (its `W` zeroed).
 //!
 //! Set 0: cache-view counters, shadow rays, queries, accumulators, pixels, lists (for the count of
-//! dropped samples), this frame's ReSTIR reservoirs. Set 1: the scene's geometry; set 2 as
-//! `traced_kernel!` binds it.
+//! dropped samples), this frame's ReSTIR reservoirs, the hash grid's keys and values, the
+//! environment image, the hash grid's last touch, the carried queries. Set 1: the scene's geometry; set 2 as `traced_kernel!` binds it.
 
 use crate::atomics::DeviceWords;
+use crate::texture_images::Bindless;
+use gi_shared::append_list::append;
+use gi_shared::atomics::AtomicWords;
 use gi_shared::cache_view::{
-    CacheQuery, CacheViewPixel, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay, accumulate_into_cell,
-    shadow_ray_radiance,
+    BOUNCE_MISSES, BOUNCE_RAYS, CARRIED_NEXT, CachePassParams, CacheQuery, CacheViewPixel,
+    FLAG_MULTI_BOUNCE, PASS_BOUNCE, QUERY_CARRIED, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay,
+    accumulate_into_cell, pass_random, shadow_ray_radiance,
 };
 use gi_shared::hash_cells::lists::{DROPPED_SAMPLES, count};
+use gi_shared::layout::HashCellValue;
 use gi_shared::math::min_u32;
+use gi_shared::multi_bounce::{bounce_radiance, bounce_ray, carried_query};
+use gi_shared::ray_cone::RayCone;
+use gi_shared::scene_data::hit_surface;
+use gi_shared::screen_probes::PROBE_CELLS;
 use gi_shared::world_restir::PackedReservoir;
 use spirv_std::glam::{UVec3, Vec3};
 use spirv_std::spirv;
@@ -25,15 +36,22 @@ traced_kernel! {
     pub fn populate_radiance_cache(
         scene, texture_images;
         #[spirv(global_invocation_id)] id: UVec3,
-        #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] counters: &[u32],
+        #[spirv(push_constant)] params: &CachePassParams,
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] counters: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] shadow_rays: &[ShadowRay],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] queries: &[CacheQuery],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] accumulators: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] pixels: &mut [CacheViewPixel],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] lists: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] reservoirs: &mut [PackedReservoir],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] keys: &[u32],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] values: &[HashCellValue],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] environment: &[[f32; 4]],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] last_touch: &[u32],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] carried: &mut [CacheQuery],
     ) {
-        let n = min_u32(counters[SHADOW_RAY_COUNT], shadow_rays.len() as u32);
+        let mut counters = DeviceWords(counters);
+        let n = min_u32(counters.load(SHADOW_RAY_COUNT), shadow_rays.len() as u32);
         if id.x >= n {
             return;
         }
@@ -50,7 +68,43 @@ traced_kernel! {
             reservoirs[i] = r;
         }
         let query = queries[shadow.query as usize];
-        let radiance = shadow_ray_radiance(&shadow, occluded);
+        let mut radiance = shadow_ray_radiance(&shadow, occluded);
+        if params.view.has(FLAG_MULTI_BOUNCE) {
+            let view = params.view;
+            let mut rng = pass_random(view.seed, query.ray_index, PASS_BOUNCE, view.frame_index);
+            let ray = bounce_ray(&query, rng.next_vec2());
+            let hit = scene.closest_hit(&ray, texture_images);
+            // Inserts and touches finished in an earlier dispatch: plain loads see them.
+            let bounce = bounce_radiance(
+                keys,
+                last_touch,
+                values,
+                params,
+                environment,
+                &query,
+                &ray,
+                &hit,
+            );
+            radiance += bounce.radiance;
+            counters.fetch_add(BOUNCE_RAYS, 1);
+            if bounce.missed_cell {
+                counters.fetch_add(BOUNCE_MISSES, 1);
+            }
+            // Carried queries carry none of their own: at most one per ray, so the list never
+            // overflows and no frame depends on which appends came first.
+            if bounce.carry && hit.is_hit() && query.flags & QUERY_CARRIED == 0 {
+                let cone = RayCone::hemisphere_share(0.0, PROBE_CELLS);
+                let (surface, material) = hit_surface(
+                    scene.instances, scene.meshes, scene.vertices, scene.triangles,
+                    scene.materials, scene.textures, &Bindless(texture_images), &ray, cone, &hit,
+                );
+                if let Some(next) = carried_query(&query, &ray, &hit, &surface, &material)
+                    && let Some(slot) = append(&mut counters, CARRIED_NEXT, carried.len() as u32)
+                {
+                    carried[slot as usize] = next;
+                }
+            }
+        }
         if !accumulate_into_cell(&mut DeviceWords(accumulators), &query, radiance) {
             count(&mut DeviceWords(lists), DROPPED_SAMPLES);
             return;

@@ -4,13 +4,12 @@
 //! writes the probe tile's cells, record and mask texel.
 //!
 //! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns (packed
-//! seeds), GI counters, probe rays, ray records (`CacheViewPixel`, the rays' radiance), probe
+//! seeds), probe rays, ray records (`CacheViewPixel`, the rays' radiance), probe
 //! history, current records (written), current mask (mip 0 written), current atlas (written).
 //! `[spawn_grid.x, spawn_grid.y, 1]` workgroups of 8 × 8; spawn index =
 //! `workgroup.y × spawn_grid.x + workgroup.x`.
 
 use crate::gbuffer::{DepthImage, HalfImage};
-use gi_shared::append_list::clamped_count;
 use gi_shared::cache_view::CacheViewPixel;
 use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
@@ -19,9 +18,8 @@ use gi_shared::screen_probes::LANES;
 use gi_shared::screen_probes::blend::{blend_cell, finish_cell, ray_source, spawned_record};
 use gi_shared::screen_probes::hemisphere::UNMAPPED;
 use gi_shared::screen_probes::hemisphere::gather_mapped;
-use gi_shared::screen_probes::{
-    EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord, SPAWN_COUNT,
-};
+use gi_shared::screen_probes::spawn::spawned_seed;
+use gi_shared::screen_probes::{EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::{UVec3, Vec4};
 use spirv_std::spirv;
@@ -41,25 +39,19 @@ pub fn blend_screen_probes(
     #[spirv(descriptor_set = 0, binding = 2)] depth: &DepthImage,
     #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spawns: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] counters: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] probe_rays: &[ProbeRay],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] ray_records: &[CacheViewPixel],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] probe_history: &[[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] records: &mut [ProbeRecord],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] mask: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] atlas: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] probe_rays: &[ProbeRay],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] ray_records: &[CacheViewPixel],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] probe_history: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] records: &mut [ProbeRecord],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] mask: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] atlas: &mut [[f32; 4]],
     #[spirv(workgroup)] mapped: &mut [u32; LANES],
     #[spirv(workgroup)] cells: &mut [[f32; 4]; LANES],
     #[spirv(workgroup)] blended: &mut [[f32; 4]; LANES],
 ) {
     let spawn = group.y * frame.spawn_grid[0] + group.x;
-    let counter = if SPAWN_COUNT < counters.len() {
-        counters[SPAWN_COUNT]
-    } else {
-        0
-    };
     // Uniform over the workgroup: the whole group leaves before any barrier.
-    if spawn >= clamped_count(counter, spawns.len() as u32) {
+    if spawned_seed(spawns, spawn).is_none() {
         return;
     }
     let lane = local % PROBE_CELLS;

@@ -4,8 +4,8 @@
 //! `CacheQuery`, which the cache passes (InsertRadianceCache ... ResolveRadianceCache) complete
 //! into the ray's record.
 //!
-//! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns, GI
-//! counters, probe rays, ray records (`CacheViewPixel`), queries, cache counters, light-grid
+//! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns, probe
+//! rays, ray records (`CacheViewPixel`), queries, cache counters, light-grid
 //! bounds. Set 1: the scene's geometry. Set 2: its shading data and lights. Push constants:
 //! `CachePassParams`. One workgroup of 64 invocations per spawn slot, `[spawn_grid.x,
 //! spawn_grid.y]` groups.
@@ -21,7 +21,8 @@ use gi_shared::light_grid::report_hit_bounds;
 use gi_shared::lights::GpuLight;
 use gi_shared::packing::unpack_seed;
 use gi_shared::ray::Ray;
-use gi_shared::screen_probes::{GiFrameParams, MISS_DISTANCE, PROBE_CELLS, ProbeRay, SPAWN_COUNT};
+use gi_shared::screen_probes::spawn::spawned_seed;
+use gi_shared::screen_probes::{GiFrameParams, MISS_DISTANCE, PROBE_CELLS, ProbeRay};
 use spirv_std::glam::{UVec3, Vec3, Vec4};
 use spirv_std::spirv;
 
@@ -38,20 +39,18 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 2)] depth: &DepthImage,
         #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spawns: &[u32],
-        #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] gi_counters: &[u32],
-        #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] probe_rays: &mut [ProbeRay],
-        #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] ray_records: &mut [CacheViewPixel],
-        #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] queries: &mut [CacheQuery],
-        #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] counters: &mut [u32],
-        #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] bounds: &mut [u32],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] probe_rays: &mut [ProbeRay],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] ray_records: &mut [CacheViewPixel],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] queries: &mut [CacheQuery],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] counters: &mut [u32],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] bounds: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 10)] environment_cdf: &[f32],
     ) {
         let spawn = group.y * frame.spawn_grid[0] + group.x;
-        let spawned = if SPAWN_COUNT < gi_counters.len() { gi_counters[SPAWN_COUNT] } else { 0 };
-        if spawn >= spawned || spawn as usize >= spawns.len() {
+        if spawned_seed(spawns, spawn).is_none() {
             return;
         }
         let index = spawn * PROBE_CELLS + lane;

@@ -4,12 +4,11 @@
 //! neighbour), builds the ray-guiding CDF over its 64 cells and draws one ray per lane.
 //!
 //! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns (packed
-//! seeds), GI counters, current records, current atlas, probe history (written), probe rays
+//! seeds), current records, current atlas, probe history (written), probe rays
 //! (written). `[spawn_grid.x, spawn_grid.y, 1]` workgroups of 8 × 8; spawn index =
 //! `workgroup.y × spawn_grid.x + workgroup.x`.
 
 use crate::gbuffer::{DepthImage, HalfImage};
-use gi_shared::append_list::clamped_count;
 use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
 use gi_shared::packing::unpack_seed;
@@ -19,9 +18,8 @@ use gi_shared::screen_probes::ray_guiding::{
     HISTORY_NEIGHBOURS, HistorySum, guiding_active, guiding_cdf, guiding_raw_weight,
     history_neighbour, map_history_source, sample_ray, untraced_ray,
 };
-use gi_shared::screen_probes::{
-    EMPTY, GiFrameParams, LANES, PROBE_CELLS, ProbeRay, ProbeRecord, SPAWN_COUNT,
-};
+use gi_shared::screen_probes::spawn::spawned_seed;
+use gi_shared::screen_probes::{EMPTY, GiFrameParams, LANES, PROBE_CELLS, ProbeRay, ProbeRecord};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::{UVec3, Vec4};
 use spirv_std::spirv;
@@ -41,24 +39,18 @@ pub fn sample_screen_probes(
     #[spirv(descriptor_set = 0, binding = 2)] depth: &DepthImage,
     #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spawns: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] counters: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] records: &[ProbeRecord],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] atlas: &[[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] probe_history: &mut [[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] probe_rays: &mut [ProbeRay],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] records: &[ProbeRecord],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] atlas: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] probe_history: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] probe_rays: &mut [ProbeRay],
     #[spirv(workgroup)] mapped: &mut [u32; LANES],
     #[spirv(workgroup)] moved: &mut [[f32; 4]; LANES],
     #[spirv(workgroup)] raw: &mut [f32; LANES],
     #[spirv(workgroup)] cdf: &mut [f32; LANES],
 ) {
     let spawn = group.y * frame.spawn_grid[0] + group.x;
-    let counter = if SPAWN_COUNT < counters.len() {
-        counters[SPAWN_COUNT]
-    } else {
-        0
-    };
     // Uniform over the workgroup: the whole group leaves before any barrier.
-    if spawn >= clamped_count(counter, spawns.len() as u32) {
+    if spawned_seed(spawns, spawn).is_none() {
         return;
     }
     let lane = local % PROBE_CELLS;

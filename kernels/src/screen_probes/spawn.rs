@@ -1,6 +1,6 @@
-//! SpawnScreenProbes (`gi_shared::screen_probes::spawn`): one invocation per spawn tile appends
-//! the tile's jittered seed to the spawn list unless it sees the sky, and lists the spawn as an
-//! override slot when its probe tile already holds a reprojected probe.
+//! SpawnScreenProbes (`gi_shared::screen_probes::spawn`): one invocation per spawn tile writes
+//! the tile's jittered seed to its own slot of the spawn list (none for the sky), and opens the
+//! slot's override word when its probe tile already holds a reprojected probe.
 //!
 //! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, this frame's
 //! probe records, spawns, overrides, GI counters. `ceil(spawn_capacity / 64)` workgroups of 64.
@@ -30,16 +30,19 @@ pub fn spawn_screen_probes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] overrides: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] counters: &mut [u32],
 ) {
-    let Some(seed) = spawn_seed_of(frame, id.x) else {
-        return;
+    let seed = spawn_seed_of(frame, id.x)
+        .filter(|seed| seed.x < camera.image_size[0] && seed.y < camera.image_size[1]);
+    let (d, gn) = match seed {
+        Some(seed) => {
+            let d: f32 = depth.read(seed);
+            let gn: Vec4 = geometric_normal.read(seed);
+            (d, gn)
+        }
+        None => (0.0, Vec4::ZERO),
     };
-    if seed.x >= camera.image_size[0] || seed.y >= camera.image_size[1] {
-        return;
-    }
-    let d: f32 = depth.read(seed);
-    let gn: Vec4 = geometric_normal.read(seed);
     spawn_probe(
         frame,
+        id.x,
         seed,
         d,
         gn,

@@ -3,19 +3,21 @@
 //! frame's Halton(2, 3) jitter ([`spawn_jitter`]), so over frames every pixel position of a spawn
 //! tile is visited. A seed on the sky spawns nothing.
 //!
-//! Spawned seeds are appended to the spawn list (counter [`SPAWN_COUNT`]). A spawn whose probe
-//! tile already holds a reprojected probe would only refresh it, so its index also goes to the
-//! override list (counter [`OVERRIDE_COUNT`]): PatchScreenProbes may hand such a slot to a
-//! disoccluded tile instead (`super::patch`).
+//! Each spawn tile owns its slot of the spawn list: the seed goes to slot `sy · spawn_grid.x +
+//! sx`, [`SEED_NONE`] where the seed sees the sky (counted in [`SPAWN_COUNT`]). Fixed slots,
+//! not appended ones, key every random stream of the probe's rays (and of the cache queries they
+//! make), so that a frame does not depend on the order the GPU ran the spawns in. A spawn whose
+//! probe tile already holds a reprojected probe would only refresh it, so its slot of the
+//! override words is opened ([`OVERRIDE_OPEN`], counted in [`OVERRIDE_COUNT`]):
+//! PatchScreenProbes may hand such a slot to a disoccluded tile instead (`super::patch`).
 //!
 //! Kernel SpawnScreenProbes: one invocation per spawn tile, index `sy · spawn_grid.x + sx`.
 
 use glam::{UVec2, Vec4};
 
 use super::{GiFrameParams, OVERRIDE_COUNT, PROBE_SIZE, ProbeRecord, SPAWN_COUNT};
-use crate::append_list::append;
 use crate::atomics::AtomicWords;
-use crate::packing::pack_seed;
+use crate::packing::{SEED_NONE, pack_seed};
 use crate::random::spawn_jitter;
 
 /// Whether a G-buffer texel (linear depth, geometric normal) sees a surface rather than the sky:
@@ -100,14 +102,19 @@ pub fn probe_tile_spawn_seed(frame: &GiFrameParams, probe_tile: u32) -> Option<U
 /// [`Spawned`]'s slot marker for "none".
 pub const NO_SLOT: u32 = u32::MAX;
 
+/// An override word of a spawn that patching may take (its probe tile holds a reprojected
+/// probe); PatchScreenProbes lowers it to the claiming tile's index + 1.
+pub const OVERRIDE_OPEN: u32 = u32::MAX;
+/// An override word of a spawn that patching must leave alone.
+pub const OVERRIDE_CLOSED: u32 = 0;
+
 /// What one spawn did (plain words: the kernel returns it through no `Option`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Spawned {
-    /// The slot of the spawn list the seed went to, [`NO_SLOT`] when nothing was spawned (sky,
-    /// or a full spawn list).
+    /// The spawn slot the seed went to, [`NO_SLOT`] when nothing was spawned (sky, or a slot
+    /// past the list).
     pub slot: u32,
-    /// The slot of the override list the spawn's index went to, [`NO_SLOT`] unless its probe
-    /// tile held a reprojected probe (and the list had room).
+    /// The same slot when its override word was opened, else [`NO_SLOT`].
     pub override_slot: u32,
 }
 
@@ -119,10 +126,11 @@ impl Spawned {
     };
 }
 
-/// Spawns a probe at `seed`, whose G-buffer texel is `depth` and `geometric_normal`: nothing for
-/// the sky; else the packed seed is appended to `spawns` (counter [`SPAWN_COUNT`], capacity
-/// `spawns.len()`) and, when `records` (this frame's reprojected probes) hold a probe for the
-/// seed's probe tile, the spawn's slot to `overrides` (counter [`OVERRIDE_COUNT`]).
+/// Spawn tile `slot`'s spawn at `seed` (`None`: outside the image), whose G-buffer texel is
+/// `depth` and `geometric_normal`: the packed seed in `spawns[slot]` ([`SEED_NONE`] for the sky
+/// or no seed) and, when `records` (this frame's reprojected probes) hold a probe for the seed's
+/// probe tile, [`OVERRIDE_OPEN`] in `overrides[slot]` (else [`OVERRIDE_CLOSED`]). Counts
+/// [`SPAWN_COUNT`] and [`OVERRIDE_COUNT`].
 #[inline]
 #[allow(
     clippy::too_many_arguments,
@@ -130,7 +138,8 @@ impl Spawned {
 )]
 pub fn spawn_probe<W: AtomicWords + ?Sized>(
     frame: &GiFrameParams,
-    seed: UVec2,
+    slot: u32,
+    seed: Option<UVec2>,
     depth: f32,
     geometric_normal: Vec4,
     records: &[ProbeRecord],
@@ -138,27 +147,44 @@ pub fn spawn_probe<W: AtomicWords + ?Sized>(
     overrides: &mut [u32],
     counters: &mut W,
 ) -> Spawned {
+    let s = slot as usize;
+    if s >= spawns.len() || s >= overrides.len() {
+        return Spawned::NONE;
+    }
+    spawns[s] = SEED_NONE;
+    overrides[s] = OVERRIDE_CLOSED;
+    let Some(seed) = seed else {
+        return Spawned::NONE;
+    };
     if !sees_surface(depth, geometric_normal) {
         return Spawned::NONE;
     }
-    let slot = match append(counters, SPAWN_COUNT, spawns.len() as u32) {
-        Some(slot) => slot,
-        None => return Spawned::NONE,
-    };
-    spawns[slot as usize] = pack_seed(seed);
+    spawns[s] = pack_seed(seed);
+    counters.fetch_add(SPAWN_COUNT, 1);
     let tile = frame.probe_tile_of(seed) as usize;
     let reprojected = tile < records.len() && {
         let record = records[tile];
         record.is_valid()
     };
     let mut override_slot = NO_SLOT;
-    if reprojected && let Some(o) = append(counters, OVERRIDE_COUNT, overrides.len() as u32) {
-        overrides[o as usize] = slot;
-        override_slot = o;
+    if reprojected {
+        overrides[s] = OVERRIDE_OPEN;
+        counters.fetch_add(OVERRIDE_COUNT, 1);
+        override_slot = slot;
     }
     Spawned {
         slot,
         override_slot,
+    }
+}
+
+/// The seed of spawn slot `slot` in `spawns`, if one was spawned there (and the slot exists).
+#[inline]
+pub fn spawned_seed(spawns: &[u32], slot: u32) -> Option<u32> {
+    if (slot as usize) < spawns.len() && spawns[slot as usize] != SEED_NONE {
+        Some(spawns[slot as usize])
+    } else {
+        None
     }
 }
 
@@ -260,28 +286,37 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn spawning_skips_the_sky_and_lists_overrides() {
+    fn spawning_fills_its_own_slot_and_opens_overrides() {
         let f = frame(32, 32, 16, 3);
         let mut records = [ProbeRecord::NONE; 16];
         let seed = UVec2::new(17, 5);
         let tile = f.probe_tile_of(seed) as usize;
         records[tile].seed = pack_seed(UVec2::new(20, 6));
-        let mut spawns = [0u32; 4];
-        let mut overrides = [0u32; 4];
+        let mut spawns = [7u32; 4];
+        let mut overrides = [7u32; 4];
         let mut counters = [0u32; GI_COUNTER_WORDS];
         let surface = Vec4::new(0.0, 0.0, 1.0, 1.0);
         let c: &mut [u32] = &mut counters;
-        // Sky: depth 0, or normal w 0.
+        // Sky (depth 0, or normal w 0) and no seed: the slot is cleared, nothing counted.
         for (d, n) in [(0.0, surface), (2.0, Vec4::new(0.0, 0.0, 1.0, 0.0))] {
-            let s = spawn_probe(&f, seed, d, n, &records, &mut spawns, &mut overrides, c);
+            let s = spawn_probe(
+                &f,
+                2,
+                Some(seed),
+                d,
+                n,
+                &records,
+                &mut spawns,
+                &mut overrides,
+                c,
+            );
             assert_eq!(s, Spawned::NONE);
+            assert_eq!((spawns[2], overrides[2]), (SEED_NONE, OVERRIDE_CLOSED));
         }
-        assert_eq!(c[SPAWN_COUNT], 0);
-        // A tile without a reprojected probe: a spawn, no override.
-        let other = UVec2::new(3, 30);
         let s = spawn_probe(
             &f,
-            other,
+            3,
+            None,
             2.0,
             surface,
             &records,
@@ -289,17 +324,16 @@ pub(crate) mod tests {
             &mut overrides,
             c,
         );
-        assert_eq!(
-            s,
-            Spawned {
-                slot: 0,
-                override_slot: NO_SLOT
-            }
-        );
-        // A tile with one: both.
+        assert_eq!(s, Spawned::NONE);
+        assert_eq!((spawns[3], overrides[3]), (SEED_NONE, OVERRIDE_CLOSED));
+        assert_eq!(c[SPAWN_COUNT], 0);
+        assert_eq!(spawned_seed(&spawns, 3), None);
+        // A tile without a reprojected probe: a spawn in its own slot, its override closed.
+        let other = UVec2::new(3, 30);
         let s = spawn_probe(
             &f,
-            seed,
+            1,
+            Some(other),
             2.0,
             surface,
             &records,
@@ -311,19 +345,39 @@ pub(crate) mod tests {
             s,
             Spawned {
                 slot: 1,
+                override_slot: NO_SLOT
+            }
+        );
+        assert_eq!(unpack_seed(spawns[1]), other);
+        assert_eq!(overrides[1], OVERRIDE_CLOSED);
+        // A tile with one: both, in the same slot whatever ran before.
+        let s = spawn_probe(
+            &f,
+            0,
+            Some(seed),
+            2.0,
+            surface,
+            &records,
+            &mut spawns,
+            &mut overrides,
+            c,
+        );
+        assert_eq!(
+            s,
+            Spawned {
+                slot: 0,
                 override_slot: 0
             }
         );
-        assert_eq!(unpack_seed(spawns[0]), other);
-        assert_eq!(unpack_seed(spawns[1]), seed);
-        assert_eq!(overrides[0], 1);
+        assert_eq!(spawned_seed(&spawns, 0), Some(pack_seed(seed)));
+        assert_eq!(overrides[0], OVERRIDE_OPEN);
         assert_eq!(c[SPAWN_COUNT], 2);
         assert_eq!(c[OVERRIDE_COUNT], 1);
-        // A full spawn list refuses (and counts) the attempt, without an override.
-        c[SPAWN_COUNT] = 4;
+        // A slot past the list spawns nothing.
         let s = spawn_probe(
             &f,
-            seed,
+            4,
+            Some(seed),
             2.0,
             surface,
             &records,
@@ -332,7 +386,6 @@ pub(crate) mod tests {
             c,
         );
         assert_eq!(s, Spawned::NONE);
-        assert_eq!(c[SPAWN_COUNT], 5);
-        assert_eq!(c[OVERRIDE_COUNT], 1);
+        assert_eq!(spawned_seed(&spawns, 4), None);
     }
 }

@@ -53,6 +53,8 @@ pub enum Technique {
     Spatial,
     /// Temporal radiance feedback at secondary hits.
     Feedback,
+    /// Multi-bounce through the world cache (bounce rays from the cache's hits).
+    MultiBounce,
     /// The cache's light-leak fixes (short-ray flag and bypass).
     LeakFixes,
     /// Per-object reprojection of moving objects.
@@ -175,6 +177,7 @@ impl GiArgs {
                 Technique::Temporal => s.denoiser_temporal = false,
                 Technique::Spatial => s.denoiser_spatial = false,
                 Technique::Feedback => s.temporal_feedback = false,
+                Technique::MultiBounce => s.multi_bounce = false,
                 Technique::ObjectMotion => s.object_motion = false,
                 Technique::LeakFixes => {
                     s.short_ray_flag = false;
@@ -247,7 +250,7 @@ pub fn render_gi(
         "gi:                  {} frames, spawn tile {} px, cache cells {} px, sample cap {}, \
          reprojection {}, parallax {}, backup {}, patching {}, guiding {}, hysteresis {}, \
          probe filter {}, jitter {}, relaxed {}, temporal {}, spatial {}, feedback {}, \
-         leak fixes {}, object motion {}, ReSTIR {}",
+         multi-bounce {}, leak fixes {}, object motion {}, ReSTIR {}",
         args.frames,
         s.spawn_rate.tile(),
         s.cell_size_pixels,
@@ -264,6 +267,7 @@ pub fn render_gi(
         on_off(s.denoiser_temporal),
         on_off(s.denoiser_spatial),
         on_off(s.temporal_feedback),
+        on_off(s.multi_bounce),
         on_off(s.short_ray_flag && s.bypass),
         on_off(s.object_motion),
         on_off(s.restir)

@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# The long checks that do not belong in the README's test command (each runs hundreds of GI
+# frames on lavapipe): the GI furnace (tests/tests/gi_furnace.rs), whose tests are #[ignore]d in
+# the fast suite for that reason. .ci/run calls this after the fast suite.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+. scripts/env.sh
+cargo test --profile dev --workspace --test gi_furnace -- --ignored --nocapture --test-threads 1 "$@"

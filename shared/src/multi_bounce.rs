@@ -1,0 +1,438 @@
+//! Multi-bounce through the world cache: every cache query that takes a light sample also
+//! traces one cosine ray from its hit (the bounce ray) and reads the previous frame's filtered
+//! radiance of the cell that ray lands in (the way Bevy Solari's world cache and SHaRC sample
+//! themselves). The cell's sample becomes `direct + albedo × L(bounce hit)`, so a cell holds the
+//! hit's whole reflected light, each bounce one frame older than the last: light keeps bouncing
+//! through the cache, not only through the screen (temporal feedback), and light that bounces
+//! off-screen is no longer lost.
+//!
+//! # Cells that only bounce rays reach
+//!
+//! A cell exists where a query landed, and cells are keyed by the ray's direction bin: a bounce
+//! ray leaving a surface the camera does not see often arrives from a bin no probe ray used (40%
+//! of the bounce rays in a closed furnace). Such a bounce ray, and one whose cell no query has
+//! touched for [`REFRESH_FRAMES`] frames, carries its hit over to the next frame as a query of its
+//! own ([`carried_query`], `QUERY_CARRIED`): that query inserts and refreshes the cell with its
+//! own light sample and bounce, like any other, and traces no ray into the image. Only the
+//! queries of rays carry (a carried query's bounce reads the cache but carries nothing), so the
+//! carried list, one query per ray ([`carried_capacity`]), never overflows: which queries are
+//! carried never depends on the order the GPU ran them in.
+
+//! # Each light path once
+//!
+//! A cell holds reflected light only (a query's emission reaches its ray in TraceCacheRays, never
+//! the cell), and the query's light sample already samples every emitter and the importance-
+//! sampled environment. So the bounce ray adds the cell at its hit and nothing for the emitter it
+//! may hit, and a miss adds the sky only where the sky is not a light of the light buffer.
+//! Queries lit by temporal feedback take the screen's radiance (all bounces) and trace no bounce
+//! ray.
+//!
+//! # Stability
+//!
+//! The cache's fixed point is `R = albedo · (direct + R')`: each frame of the running blend moves
+//! a cell a share `1/cap` toward it, so the loop's gain per frame is below one whenever albedo is.
+//! Albedo enters the bounce clamped to [`MAX_BOUNCE_ALBEDO`], so a white (albedo 1) room keeps a
+//! finite radiance (20 × its direct light) instead of growing without bound, and when a light goes
+//! off its bounced light decays geometrically instead of lingering. A lookup only ever reads
+//! blended, finite cell values ([`crate::cache_view::finite_sample`]).
+//!
+//! # Light leaks
+//!
+//! A bounce hit closer than its cell's size (a corner, a wall beside the query) reads no cell
+//! there: it takes the query's own cell, on the query's side, as the radiance one cell away
+//! (light-leak fix 2, as a probe ray bypasses its cell). Cells still straddle thin walls, and a
+//! bounce reads them whatever the short-ray flag: in `scenes/light-leak.gltf` at 64 × 64 (cells of
+//! metres) the dark room gets 1.53 × the path tracer's light with multi-bounce, 1.13 × without
+//! (`switching_a_technique_off_moves_the_error_the_expected_way`).
+//!
+//! # Known bias
+//!
+//! A bounce ray whose cell has no sample yet adds nothing (a bounce miss,
+//! [`crate::cache_view::BOUNCE_MISSES`], printed per frame by `gi cache-view`): the first frames
+//! after a cell appears. Each further bounce arrives a frame and a blend later, and a cell
+//! blends by samples, not frames: sparsely sampled cells converge slowly (the GI frame of a
+//! 32 × 32 closed furnace of albedo 0.8 is 4.9% short after 1280 frames, the cache view 0.6%).
+
+use glam::{Vec2, Vec3};
+
+use crate::atomics::AtomicWords;
+use crate::cache_view::{
+    CARRIED_QUERY_BIT, CachePassParams, CacheQuery, FLAG_BYPASS, FLAG_ENVIRONMENT_LIGHT,
+    FLAG_SHORT_RAY, NO_TILE, QUERY_CARRIED, finite_sample, surface_query,
+};
+use crate::hash_cells::cell_descriptor;
+use crate::hash_cells::purge::tile_age;
+use crate::hash_cells::read::filtered_radiance;
+use crate::hash_cells::storage::find_tile;
+use crate::layout::HashCellValue;
+use crate::lights::sky_radiance;
+use crate::path_tracer::sample_folded_cosine;
+use crate::ray::{HitRecord, Ray};
+use crate::scene_data::{MaterialSample, Surface};
+
+/// A bounce ray whose cell no query touched for this many frames carries its hit over as a query
+/// that refreshes it: cells only bounce rays read stay at most this many frames old, at the cost
+/// of one carried query per such cell and refresh.
+pub const REFRESH_FRAMES: u32 = 4;
+/// Queries the carried list holds for a frame of `rays` rays: one per ray (at least 64), since
+/// each ray's query carries at most one. Memory: one query (80 bytes) each, plus a query and a
+/// shadow ray of the frame's lists.
+#[inline]
+pub fn carried_capacity(rays: u32) -> u32 {
+    if rays < 64 { 64 } else { rays }
+}
+
+/// Largest albedo a bounce carries, per channel: bounds the energy of the cache's feedback loop
+/// where albedo is near 1 (a closed white room converges to 20 × its direct light, not to
+/// infinity). No real material reaches it (fresh snow is about 0.9).
+pub const MAX_BOUNCE_ALBEDO: f32 = 0.95;
+
+/// The bounce ray of `query`: a direction of the folded cosine lobe around the query's normals
+/// (the path tracer's BSDF sampling), from its offset hit; `u` uniform in `[0, 1)²`. Untraceable
+/// when the direction degenerates.
+#[inline]
+pub fn bounce_ray(query: &CacheQuery, u: Vec2) -> Ray {
+    let ng = crate::packing::unpack_snorm10x3(query.geometric_normal);
+    let d = sample_folded_cosine(Vec3::from_array(query.normal), ng, u);
+    Ray {
+        origin: query.hit_position,
+        t_min: 0.0,
+        direction: d.to_array(),
+        t_max: if d == Vec3::ZERO || !query.position().is_finite() {
+            -1.0
+        } else {
+            f32::INFINITY
+        },
+    }
+}
+
+/// What one bounce ray brought back.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounce {
+    /// What it adds to the query's cell sample: `albedo × L` (cosine sampling cancels the
+    /// Lambertian BRDF's `cos/π` against its density).
+    pub radiance: Vec3,
+    /// It hit a surface whose cell had no sample (it adds nothing).
+    pub missed_cell: bool,
+    /// Its hit was closer than its cell (light-leak fix 2): it read no cell and adds nothing.
+    pub bypassed: bool,
+    /// Its hit should be carried over to the next frame ([`carried_query`]): its cell had no
+    /// sample, or no query touched it for [`REFRESH_FRAMES`] frames.
+    pub carry: bool,
+}
+
+/// The bounce of `query` along `ray` (from [`bounce_ray`]) with closest hit `hit`: the previous
+/// frame's filtered radiance of the hit's cell (keyed as InsertRadianceCache keys a query: the
+/// frame's eye, the ray's direction and, with the short-ray flag, its length), or on a miss the
+/// sky where the light sample does not sample it. `keys`, `last_touch` and `values` are the hash
+/// grid's; the frame's updates have not run yet, so `values` hold the previous frame's blend.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the hash grid's buffers and the ray"
+)]
+#[inline]
+pub fn bounce_radiance<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
+    keys: &K,
+    last_touch: &T,
+    values: &[HashCellValue],
+    params: &CachePassParams,
+    environment: &[[f32; 4]],
+    query: &CacheQuery,
+    ray: &Ray,
+    hit: &HitRecord,
+) -> Bounce {
+    let mut out = Bounce {
+        radiance: Vec3::ZERO,
+        missed_cell: false,
+        bypassed: false,
+        carry: false,
+    };
+    let direction = Vec3::from_array(ray.direction);
+    if ray.t_max < 0.0 || direction == Vec3::ZERO {
+        return out;
+    }
+    let albedo = Vec3::from_array(query.albedo).clamp(Vec3::ZERO, Vec3::splat(MAX_BOUNCE_ALBEDO));
+    let view = &params.view;
+    let grid = &params.grid;
+    let light = if !hit.is_hit() {
+        if view.has(FLAG_ENVIRONMENT_LIGHT) {
+            Vec3::ZERO
+        } else {
+            sky_radiance(view.environment_size, view.sky, environment, direction)
+        }
+    } else {
+        let distance = hit.t * direction.length();
+        let position = Vec3::from_array(ray.origin) + direction * hit.t;
+        let keyed = if view.has(FLAG_SHORT_RAY) {
+            distance
+        } else {
+            f32::MAX
+        };
+        let desc = cell_descriptor(
+            grid.eye(),
+            position,
+            direction.normalize_or_zero(),
+            keyed,
+            grid,
+        );
+        // Light-leak fix 2 for bounce rays: a hit closer than its cell reads no cell there
+        // (cells straddle thin walls), but the query's own cell, on the query's side, as the
+        // radiance one cell away.
+        if view.has(FLAG_BYPASS) && distance < desc.cell_size() {
+            out.bypassed = true;
+            let own = if query.tile == NO_TILE {
+                None
+            } else {
+                filtered_radiance(values, query.tile, query.cell_xy(), grid.sample_cap)
+            };
+            if let Some(l) = own {
+                out.radiance = finite_sample(albedo * finite_sample(l));
+            } else {
+                out.missed_cell = true;
+            }
+            return out;
+        }
+        let tile = find_tile(keys, &desc, grid);
+        let found = match tile {
+            Some(t) => filtered_radiance(values, t, desc.cell, grid.sample_cap),
+            None => None,
+        };
+        let stale = match tile {
+            Some(t) if (t as usize) < last_touch.word_count() => {
+                tile_age(grid.frame_index, last_touch.load(t as usize)) >= REFRESH_FRAMES
+            }
+            _ => true,
+        };
+        out.carry = stale || found.is_none();
+        match found {
+            Some(l) => l,
+            None => {
+                out.missed_cell = true;
+                Vec3::ZERO
+            }
+        }
+    };
+    out.radiance = finite_sample(albedo * finite_sample(light));
+    out
+}
+
+/// The query `parent`'s bounce ray `ray` carries over to the next frame, from its closest hit
+/// `hit` shaded as `surface` with `material`: flagged `QUERY_CARRIED`, keyed by its parent's ray
+/// (`ray_index` with `CARRIED_QUERY_BIT` set). `None` for a degenerate or non-finite hit.
+#[inline]
+pub fn carried_query(
+    parent: &CacheQuery,
+    ray: &Ray,
+    hit: &HitRecord,
+    surface: &Surface,
+    material: &MaterialSample,
+) -> Option<CacheQuery> {
+    let mut query = surface_query(
+        ray,
+        hit,
+        surface,
+        material,
+        parent.ray_index | CARRIED_QUERY_BIT,
+    )?;
+    query.flags = QUERY_CARRIED;
+    Some(query)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cache_view::{CacheViewParams, NO_TILE};
+    use crate::hash_cells::storage::{TileInsert, insert_tile};
+    use crate::hash_cells::{CELLS_PER_TILE, TILE_CELL_RATIO, cell_index};
+    use crate::layout::HashGridParams;
+    use crate::packing::pack_snorm10x3;
+    use glam::Vec4;
+
+    fn query(albedo: Vec3) -> CacheQuery {
+        CacheQuery {
+            hit_position: [0.0, 0.0, 0.0],
+            ray_index: 7,
+            direction: [0.0, -1.0, 0.0],
+            hit_distance: 5.0,
+            normal: [0.0, 1.0, 0.0],
+            geometric_normal: pack_snorm10x3(Vec3::Y),
+            albedo: albedo.to_array(),
+            tile: NO_TILE,
+            cell: 0,
+            flags: 0,
+            _pad: [0; 2],
+        }
+    }
+
+    fn params() -> CachePassParams {
+        let mut grid = HashGridParams::new(Vec3::new(0.0, 3.0, 0.0), 0.01, 4);
+        grid.num_buckets_log2 = 6;
+        grid.tiles_per_bucket_log2 = 2;
+        CachePassParams {
+            grid,
+            view: CacheViewParams {
+                sky: [0.5, 0.25, 1.0],
+                ..Default::default()
+            },
+        }
+    }
+
+    fn hit_at(t: f32) -> HitRecord {
+        HitRecord {
+            t,
+            instance: 0,
+            primitive: 0,
+            front_face: 1,
+            barycentrics: [0.3, 0.3],
+            _pad: [0; 2],
+        }
+    }
+
+    const MISS: HitRecord = HitRecord {
+        t: HitRecord::MISS_T,
+        instance: HitRecord::NONE,
+        primitive: HitRecord::NONE,
+        front_face: 0,
+        barycentrics: [0.0; 2],
+        _pad: [0; 2],
+    };
+
+    #[test]
+    fn bounce_rays_leave_the_upper_hemisphere_from_the_hit() {
+        let q = query(Vec3::ONE);
+        for i in 0..64 {
+            let u = Vec2::new((i % 8) as f32 / 8.0 + 0.03, (i / 8) as f32 / 8.0 + 0.01);
+            let ray = bounce_ray(&q, u);
+            assert!(ray.t_max > 0.0 && ray.direction[1] > 0.0, "{ray:?}");
+            assert_eq!(ray.origin, q.hit_position);
+        }
+        let mut nan = q;
+        nan.hit_position[0] = f32::NAN;
+        assert!(bounce_ray(&nan, Vec2::splat(0.5)).t_max < 0.0);
+    }
+
+    #[test]
+    fn a_hit_reads_the_cell_times_the_clamped_albedo() {
+        let p = params();
+        let q = query(Vec3::new(0.5, 1.0, 2.0));
+        let ray = Ray {
+            origin: [0.0, 0.0, 0.0],
+            t_min: 0.0,
+            direction: [0.0, 1.0, 0.0],
+            t_max: f32::INFINITY,
+        };
+        let hit = hit_at(2.0);
+        let tiles = 1usize << (p.grid.num_buckets_log2 + p.grid.tiles_per_bucket_log2);
+        let mut keys = vec![0u32; tiles];
+        let mut values = vec![HashCellValue::ZERO; tiles * CELLS_PER_TILE as usize];
+        // Every tile last touched this frame (frame 4).
+        let mut touch = vec![4u32; tiles];
+        // No tile: a cell miss that adds nothing and is carried over.
+        let b = bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit);
+        assert_eq!(b.radiance, Vec3::ZERO);
+        assert!(b.missed_cell && b.carry);
+        // The tile exists but its cell holds no sample: still a miss.
+        let desc = cell_descriptor(
+            p.grid.eye(),
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::Y,
+            2.0,
+            &p.grid,
+        );
+        let TileInsert::Inserted(tile) = insert_tile(&mut keys[..], &desc, &p.grid) else {
+            panic!("insert failed");
+        };
+        assert!(
+            bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit).missed_cell
+        );
+        // Sixteen samples of 3: the cell answers 3, times the albedo clamped to 0.95.
+        let c = cell_index(tile, 0, desc.cell[0], desc.cell[1]) as usize;
+        assert!(desc.cell[0] < TILE_CELL_RATIO);
+        values[c] = HashCellValue::new(Vec3::splat(48.0), 16.0);
+        let b = bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit);
+        assert!(!b.missed_cell && !b.carry);
+        assert_eq!(
+            b.radiance,
+            Vec3::new(1.5, 3.0 * MAX_BOUNCE_ALBEDO, 3.0 * MAX_BOUNCE_ALBEDO)
+        );
+        // Touched 3 frames ago it is still fresh; 4 frames ago it is carried to be refreshed,
+        // its value still read.
+        touch[tile as usize] = 1;
+        assert!(!bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit).carry);
+        touch[tile as usize] = 0;
+        let b = bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit);
+        assert!(b.carry && !b.missed_cell && b.radiance.x == 1.5);
+        touch[tile as usize] = 4;
+        // A non-finite cell value adds nothing.
+        values[c] = HashCellValue::new(Vec3::splat(f32::INFINITY), 16.0);
+        let b = bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit);
+        assert_eq!(b.radiance, Vec3::ZERO);
+        // A NaN albedo adds nothing either.
+        values[c] = HashCellValue::new(Vec3::splat(48.0), 16.0);
+        let bad = query(Vec3::new(f32::NAN, 0.5, 0.5));
+        let b = bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &bad, &ray, &hit);
+        assert!(b.radiance.is_finite());
+    }
+
+    #[test]
+    fn a_miss_sees_the_sky_unless_the_light_sample_does() {
+        let mut p = params();
+        let q = query(Vec3::splat(0.5));
+        let ray = bounce_ray(&q, Vec2::splat(0.5));
+        let keys = vec![0u32; 256];
+        let touch = vec![0u32; 256];
+        let b = bounce_radiance(&keys[..], &touch[..], &[], &p, &[], &q, &ray, &MISS);
+        assert_eq!(b.radiance, Vec3::new(0.25, 0.125, 0.5));
+        assert!(!b.missed_cell && !b.carry);
+        p.view.flags |= FLAG_ENVIRONMENT_LIGHT;
+        let b = bounce_radiance(&keys[..], &touch[..], &[], &p, &[], &q, &ray, &MISS);
+        assert_eq!(b.radiance, Vec3::ZERO);
+        // An untraceable ray brings nothing.
+        let mut dead = ray;
+        dead.t_max = -1.0;
+        p.view.flags = 0;
+        assert_eq!(
+            bounce_radiance(&keys[..], &touch[..], &[], &p, &[], &q, &dead, &MISS).radiance,
+            Vec3::ZERO
+        );
+    }
+
+    #[test]
+    fn carried_queries_keep_their_parents_ray_and_are_flagged() {
+        use crate::cache_view::{CARRIED_QUERY_BIT, QUERY_CARRIED};
+        let parent = query(Vec3::splat(0.5));
+        let ray = Ray {
+            origin: [0.0, 0.0, 0.0],
+            t_min: 0.0,
+            direction: [0.0, 2.0, 0.0],
+            t_max: f32::INFINITY,
+        };
+        let surface = Surface {
+            position: Vec3::new(0.0, 3.0, 0.0),
+            geometric_normal: Vec3::Y,
+            shading_normal: Vec3::Y,
+            size: 1.0,
+            ..Default::default()
+        };
+        let material = MaterialSample {
+            base_color: Vec4::new(0.25, 0.5, 0.75, 1.0),
+            emissive: Vec3::ZERO,
+        };
+        let q = carried_query(&parent, &ray, &hit_at(1.5), &surface, &material).unwrap();
+        assert_eq!(q.ray_index, 7 | CARRIED_QUERY_BIT);
+        assert_eq!(q.flags, QUERY_CARRIED);
+        assert_eq!(q.hit_distance, 3.0);
+        assert_eq!(q.albedo, [0.25, 0.5, 0.75]);
+        // Normals face the ray's origin; the hit is offset toward it.
+        assert_eq!(q.normal, [0.0, -1.0, 0.0]);
+        assert!(q.hit_position[1] < 3.0);
+        // A degenerate triangle carries nothing.
+        let flat = Surface {
+            geometric_normal: Vec3::ZERO,
+            ..surface
+        };
+        assert!(carried_query(&parent, &ray, &hit_at(1.5), &flat, &material).is_none());
+        assert_eq!(carried_capacity(0), 64);
+        assert_eq!(carried_capacity(4096), 4096);
+    }
+}
