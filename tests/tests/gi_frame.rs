@@ -16,7 +16,7 @@ use gi_host::KernelVariant;
 use gi_host::frame::FiniteCheck;
 use gi_host::gbuffer::scene_camera;
 use gi_host::gi::renderer::{GiFrameStats, GiRenderer};
-use gi_host::gi::{GiSettings, ViewOptions};
+use gi_host::gi::{GiSettings, Preset, ViewOptions};
 use gi_host::image_io::HdrImage;
 use gi_host::metrics::{CompareSettings, compare};
 use gi_host::scene::Scene;
@@ -115,6 +115,11 @@ fn settings() -> GiSettings {
     GiSettings::for_resolution(SIDE, SIDE)
 }
 
+/// What `gi render` runs by default: the reference's settings with multi-bounce.
+fn balanced() -> GiSettings {
+    Preset::Balanced.settings(SIDE, SIDE)
+}
+
 fn mean(image: &HdrImage) -> f64 {
     let p = image.pixels();
     p.iter()
@@ -142,7 +147,7 @@ fn gi_converges_to_the_path_tracer() {
     ] {
         let scene = load_scene(&format!("{file}.gltf"));
         let gpu = Gpu::new(KernelVariant::Software, &scene);
-        let image = gpu.converged(&scene, settings(), FRAMES);
+        let image = gpu.converged(&scene, balanced(), FRAMES);
         let (relmse, flip, bias) = errors(&reference_image(file, SIDE), &image);
         println!(
             "{file}: GI after {FRAMES} frames vs the path tracer at {REFERENCE_SPP} spp: relMSE \
@@ -304,10 +309,7 @@ fn switching_a_technique_off_moves_the_error_the_expected_way() {
     let scene = load_scene("light-leak.gltf");
     let reference = reference_image("light-leak", SIDE);
     let gpu = Gpu::new(KernelVariant::Software, &scene);
-    let single = GiSettings {
-        multi_bounce: false,
-        ..base
-    };
+    let single = base;
     let on = dark_ratio(&reference, &gpu.converged(&scene, single, FRAMES));
     let off = dark_ratio(
         &reference,
@@ -321,7 +323,7 @@ fn switching_a_technique_off_moves_the_error_the_expected_way() {
             FRAMES,
         ),
     );
-    let multi = dark_ratio(&reference, &gpu.converged(&scene, base, FRAMES));
+    let multi = dark_ratio(&reference, &gpu.converged(&scene, balanced(), FRAMES));
     println!(
         "light-leak scene, light in the dark room over the path tracer's: leak fixes on {on:.3}, \
          off {off:.3}; with multi-bounce {multi:.3}"
@@ -487,7 +489,7 @@ fn the_same_run_twice_gives_the_same_image_bit_for_bit() {
         let gpu = Gpu::new(variant, &scene);
         let runs: Vec<(HdrImage, HdrImage)> = (0..3)
             .map(|_| {
-                let mut gi = gpu.renderer(settings());
+                let mut gi = gpu.renderer(balanced());
                 let stats = gpu.run(&mut gi, 12, pan);
                 assert_eq!(
                     stats.cache.failed_inserts, 0,
@@ -500,7 +502,7 @@ fn the_same_run_twice_gives_the_same_image_bit_for_bit() {
                     &gpu.lights,
                     SIDE,
                     SIDE,
-                    settings(),
+                    balanced(),
                     ViewOptions::default(),
                 )
                 .unwrap();

@@ -101,26 +101,17 @@ fn run(
         for f in 0..frames {
             r.render_frame(&ctx, &gpu, &camera).unwrap();
             means.push((f, mean(&r.image(&ctx).unwrap())));
-            if std::env::var_os("FURNACE_TRACE").is_some() {
-                println!("GI frame {f}: {}", means.last().unwrap().1);
-            }
         }
     } else {
         let mut view =
             CacheView::new(&ctx, &lights, SIDE, SIDE, settings, ViewOptions::default()).unwrap();
         let mut sum_before = 0.0;
         for f in 0..frames {
-            let o = view.render_frame(&ctx, &gpu, &camera).unwrap();
-            if std::env::var_os("FURNACE_TRACE").is_some() {
-                println!("{f}: {o:?}");
-            }
+            view.render_frame(&ctx, &gpu, &camera).unwrap();
             if (f + 1) % WINDOW == 0 {
                 // The running mean over f + 1 frames, less the one before the window.
                 let sum = mean(&view.image(&ctx).unwrap()) * f64::from(f + 1);
                 means.push((f + 1 - WINDOW, (sum - sum_before) / f64::from(WINDOW)));
-                if std::env::var_os("FURNACE_TRACE").is_some() {
-                    println!("window at {}: {}", f + 1 - WINDOW, means.last().unwrap().1);
-                }
                 sum_before = sum;
             }
         }
@@ -171,7 +162,9 @@ fn gi_furnace_of_albedo_half_converges_within_2_percent() {
 }
 
 #[test]
-#[ignore = "long (2 × 2 runs of 1312 frames): scripts/long-tests.sh runs it, and .ci/run that"]
+#[ignore = "long (2 × 2 runs of 832 frames): scripts/long-tests.sh runs it, and .ci/run that"]
 fn gi_furnace_of_albedo_0_8_converges_within_4_percent() {
-    assert_converges(0.8, 0.04, Preset::Quality, 1280);
+    // `balanced` feeds the cells a quarter of the rays: 4.9% short after 1280 frames, still
+    // rising (README "GI furnace").
+    assert_converges(0.8, 0.04, Preset::Quality, 800);
 }

@@ -30,12 +30,14 @@ const VARIANTS: [KernelVariant; 2] = [KernelVariant::RayQuery, KernelVariant::So
 const SIDE: u32 = 64;
 /// Frames of the convergence test.
 const FRAMES: u32 = 64;
-/// relMSE of the 64-frame cache view against the reference, measured at 0.0196 (0.0204 with
-/// ReSTIR on; 0.207 before the primary hit sampled its emitters); the bound is the larger × 1.3.
-const RELMSE_BOUND_64_FRAMES: f64 = 0.027;
-/// The image mean's largest relative difference to the reference's: measured −1.59% (−2.17%
-/// with ReSTIR; without temporal feedback, one bounce of indirect light only: −11.9%).
-const MEAN_BIAS_BOUND: f64 = 0.03;
+/// relMSE of the 64-frame cache view against the reference, measured at 0.0352 with ray
+/// queries since emitter hits also query the cache (0.0196 before; 0.207 before the primary hit
+/// sampled its emitters); the bound is × 1.3.
+const RELMSE_BOUND_64_FRAMES: f64 = 0.046;
+/// The image mean's largest relative difference to the reference's: measured +2.72% with ray
+/// queries since emitter hits also query the cache (−1.59% before; without temporal feedback,
+/// one bounce of indirect light only: −11.9%).
+const MEAN_BIAS_BOUND: f64 = 0.04;
 
 /// Mean of all channels of all pixels.
 fn mean(image: &HdrImage) -> f64 {

@@ -155,9 +155,10 @@ enum Command {
         /// Turn temporal radiance feedback off (secondary hits then get direct light only).
         #[arg(long)]
         no_feedback: bool,
-        /// Turn multi-bounce through the cache off (cells then hold direct light only).
+        /// Turn multi-bounce through the cache on (bounce rays from the cache's hits; off, as in
+        /// the reference, cells hold direct light only).
         #[arg(long)]
-        no_multi_bounce: bool,
+        multi_bounce: bool,
         /// Turn the descriptor's short-ray flag and the short-ray bypass off (light-leak fixes).
         #[arg(long)]
         no_leak_fixes: bool,
@@ -456,7 +457,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         cell_size_pixels,
         min_cell_size,
         no_feedback,
-        no_multi_bounce,
+        multi_bounce,
         no_leak_fixes,
         restir,
         debug_views,
@@ -472,7 +473,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             cell_size_pixels: *cell_size_pixels,
             min_cell_size: *min_cell_size,
             temporal_feedback: !*no_feedback,
-            multi_bounce: !*no_multi_bounce,
+            multi_bounce: *multi_bounce,
             short_ray_flag: !*no_leak_fixes,
             bypass: !*no_leak_fixes,
             restir: *restir,

@@ -13,8 +13,8 @@ pub enum Preset {
     /// (1/16 of the tiles) and cache cells of 64 pixels (fewer, longer-lived tiles). Slower to
     /// answer a change of light and a disocclusion, noisier while the camera moves.
     Fast,
-    /// The reference's settings at this resolution: 1/4 of the tiles traced per frame, 32-pixel
-    /// cache cells, a 16-sample cap. The default.
+    /// The reference's settings at this resolution (1/4 of the tiles traced per frame, 32-pixel
+    /// cache cells, a 16-sample cap) with multi-bounce through the cache. The default.
     Balanced,
     /// Every probe tile traced every frame (four times the probe rays of `balanced`) and no
     /// probe filter: with four times the rays a probe needs no help from its neighbours, and
@@ -44,7 +44,11 @@ impl Preset {
     /// Its settings for a `width × height` frame (the cache sized by
     /// [`GiSettings::for_resolution`]).
     pub fn settings(self, width: u32, height: u32) -> GiSettings {
-        let base = GiSettings::for_resolution(width, height);
+        // Every preset bounces light through the world cache (the reference does not).
+        let base = GiSettings {
+            multi_bounce: true,
+            ..GiSettings::for_resolution(width, height)
+        };
         match self {
             Self::Fast => GiSettings {
                 spawn_rate: SpawnRate::Sixteenth,
@@ -78,7 +82,13 @@ mod tests {
             s.validate(320, 180).unwrap();
             assert_eq!(Preset::from_name(p.name()), Some(*p));
         }
-        assert_eq!(settings[1], GiSettings::for_resolution(320, 180));
+        assert_eq!(
+            settings[1],
+            GiSettings {
+                multi_bounce: true,
+                ..GiSettings::for_resolution(320, 180)
+            }
+        );
         assert_ne!(settings[0], settings[1]);
         assert_ne!(settings[2], settings[1]);
         assert_eq!(Preset::from_name("reference"), None);

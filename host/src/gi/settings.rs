@@ -73,7 +73,8 @@ pub struct GiSettings {
     /// 2.0, `indirect-room` −18%); on, the furnace converges (cache view −0.03%, GI frame −1.3%)
     /// and `indirect-room` reads −10.5%, but each further bounce arrives a frame later, so
     /// indirect light in bright rooms settles over more frames, and bounces read cells that
-    /// straddle thin walls (README "Bias budget"). Default: on.
+    /// straddle thin walls (README "Bias budget"). Default: off, as in the reference (these are
+    /// its settings); every preset turns it on.
     pub multi_bounce: bool,
     /// World-space ReSTIR temporal reuse of the light samples at secondary hits (reference: off).
     /// Cost: three more passes (ClearReservoirs, CompactReservoirs with a prefix scan,
@@ -188,7 +189,7 @@ impl Default for GiSettings {
             sample_cap: MAX_SAMPLE_COUNT,
             min_cell_size: MIN_CELL_SIZE,
             temporal_feedback: true,
-            multi_bounce: true,
+            multi_bounce: false,
             restir: false,
             short_ray_flag: true,
             bypass: true,
