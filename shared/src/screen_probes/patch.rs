@@ -8,8 +8,8 @@
 //! on the sky, the first surface pixel after it in row order (wrapping around the tile)
 //! ([`patch_seed`]). Each empty tile draws [`PATCH_ATTEMPTS`] spawn slots from a stream keyed by
 //! the tile ([`patch_candidates`]). Two dispatches decide who gets a slot, whatever order the GPU
-//! runs them in: the first claims every open candidate with an atomic minimum of the tile's index
-//! + 1 ([`claim_override_slots`]), so each slot goes to the lowest tile that drew it; the second
+//! runs them in: the first claims every open candidate with an atomic minimum of `tile + 1`
+//! ([`claim_override_slots`]), so each slot goes to the lowest tile that drew it; the second
 //! lets each tile take the first of its candidates it won ([`patch_tile`]). A frame thus patches
 //! the same tiles from the same spawns run after run (an appended override list and a
 //! compare-exchange made the winners, and so the image, depend on the GPU's scheduling).
@@ -370,7 +370,7 @@ mod tests {
     fn concurrent_claims_give_the_same_patches_as_sequential_ones() {
         let f = frame(11);
         let tiles: Vec<u32> = (0..64).collect();
-        let open = |i: u32| i % 3 == 0;
+        let open = |i: u32| i.is_multiple_of(3);
         let (mut spawns, mut overrides, mut counters) = spawn_list(&f, open);
         let order: Vec<usize> = (0..64).collect();
         let sequential = patch_all(
