@@ -16,8 +16,8 @@
 //! 3. **TraceCacheRays** (the stand-in for PopulateScreenProbes): [`primary_surface`] from the
 //!    G-buffer, [`cache_ray`], then [`shade_cache_hit`]: a miss takes the environment, a
 //!    front-facing emissive hit its emission (never put in a cell), both MIS-weighted, and every
-//!    hit appends a [`CacheQuery`] for the light it reflects. The same pass samples the primary hit's direct light
-//!    ([`primary_direct_light`]) and traces its shadow ray.
+//!    hit appends a [`CacheQuery`] for the light it reflects. The same pass samples the primary
+//!    hit's direct light ([`primary_direct_light`]) and traces its shadow ray.
 //! 4. **InsertRadianceCache**: each query's tile is found or inserted, touched, and its cell written
 //!    into the query.
 //! 5. **UpdateLightGrid**.
@@ -44,8 +44,9 @@
 //! sample's density ([`shade_cache_hit`]), so emissive triangles and a sampled environment are
 //! shared between the two strategies with weights summing to one. Punctual lights, which no ray
 //! can hit, come from the light sample alone (weight 1). An emitter hit also queries the cache,
-//! for the light the emitter reflects (cells hold reflected light only). At the secondary hit, RIS samples every light of the light buffer through the
-//! light grid and the hit's own emission is never added. `gi` turns a constant `--sky` into a
+//! for the light the emitter reflects (cells hold reflected light only). At the secondary hit,
+//! RIS samples every light of the light buffer through the light grid and the hit's own emission
+//! is never added. `gi` turns a constant `--sky` into a
 //! uniform environment image (`Environment::constant` on the host), so both hits sample it; a
 //! constant [`CacheViewParams::sky`] alone is not in the light buffer: the cosine ray alone finds
 //! it at the primary hit, and secondary hits only through feedback.
@@ -80,7 +81,7 @@ use crate::hash_cells::lists::{
 use crate::hash_cells::read::filtered_radiance;
 use crate::hash_cells::storage::{TileInsert, insert_tile};
 use crate::hash_cells::touch::{clear_tile_values, touch_tile};
-use crate::hash_cells::{TILE_CELL_RATIO, cell_descriptor};
+use crate::hash_cells::{CellDescriptor, TILE_CELL_RATIO, cell_descriptor};
 use crate::layout::HashCellValue;
 use crate::layout::HashGridParams;
 use crate::light_grid::{
@@ -172,18 +173,16 @@ pub const FEEDBACK_COUNT: usize = 2;
 pub const INSERTED_TILES: usize = 3;
 /// Queries flagged [`QUERY_BYPASS`] this frame.
 pub const BYPASS_COUNT: usize = 4;
-/// Bounce rays traced this frame (`crate::multi_bounce`).
-pub const BOUNCE_RAYS: usize = 5;
 /// Bounce rays that hit a surface whose cell the cache did not have, or had without a sample:
-/// they added nothing (`crate::multi_bounce`).
-pub const BOUNCE_MISSES: usize = 6;
+/// they added nothing (`crate::multi_bounce`; every shadow ray traces one bounce ray).
+pub const BOUNCE_MISSES: usize = 5;
 /// Queries carried to the next frame (appended by PopulateRadianceCache; the one counter that
 /// outlives its frame, read by [`begin_cache_frame`]).
-pub const CARRIED_NEXT: usize = 7;
+pub const CARRIED_NEXT: usize = 6;
 /// Queries carried into this frame: the first this many of the query list.
-pub const CARRIED_QUERIES: usize = 8;
-/// Words of the cache view's counter buffer (9 used, rounded up to 12).
-pub const CACHE_COUNTER_WORDS: usize = 12;
+pub const CARRIED_QUERIES: usize = 7;
+/// Words of the cache view's counter buffer (8 used).
+pub const CACHE_COUNTER_WORDS: usize = 8;
 
 /// Indirect dispatches of a frame, as indices into the arguments buffer: the previous live list.
 pub const ARGS_PURGE: u32 = 0;
@@ -277,7 +276,8 @@ pub struct CacheViewParams {
     /// Seed of every random stream.
     pub seed: u32,
     /// [`FLAG_FEEDBACK`], [`FLAG_HISTORY`], [`FLAG_SHORT_RAY`], [`FLAG_BYPASS`], [`FLAG_RESTIR`],
-    /// [`FLAG_RESTIR_HISTORY`], [`FLAG_ENVIRONMENT_LIGHT`], [`FLAG_PROBE_RAYS`], [`FLAG_MULTI_BOUNCE`].
+    /// [`FLAG_RESTIR_HISTORY`], [`FLAG_ENVIRONMENT_LIGHT`], [`FLAG_PROBE_RAYS`],
+    /// [`FLAG_MULTI_BOUNCE`].
     pub flags: u32,
     /// Width and height of the environment image (zero for none: misses see `sky`).
     pub environment_size: [u32; 2],
@@ -618,10 +618,17 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
             * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
         return out;
     }
-    // A probe traces one ray per octahedral cell: each stands for that share of the hemisphere.
-    let cone = RayCone::hemisphere_share(0.0, PROBE_CELLS);
     let (surface, material) = hit_surface(
-        instances, meshes, vertices, triangles, materials, textures, images, ray, cone, hit,
+        instances,
+        meshes,
+        vertices,
+        triangles,
+        materials,
+        textures,
+        images,
+        ray,
+        secondary_hit_cone(),
+        hit,
     );
     let emission = material.emissive * view.emissive_multiplier;
     if emission.max_element() > 0.0
@@ -846,17 +853,16 @@ pub fn insert_query<K, T, L, C>(
 {
     let grid = &params.grid;
     query.tile = NO_TILE;
-    let desc = cell_descriptor(
-        grid.eye(),
+    let desc = hit_descriptor(
+        params,
         query.position(),
         query.ray_direction(),
-        keyed_hit_distance(&params.view, query),
-        grid,
+        query.hit_distance,
     );
     if desc.is_none() {
         return;
     }
-    if is_bypass(&params.view, query, desc.cell_size()) {
+    if is_bypass(&params.view, query.hit_distance, desc.cell_size()) {
         query.flags |= QUERY_BYPASS;
         counters.fetch_add(BYPASS_COUNT, 1);
     }
@@ -1123,22 +1129,47 @@ pub fn resample_reservoir(
     resampling.finish()
 }
 
-/// Light-leak fix 2: whether a query bypasses its cell's filtered radiance, its hit being closer
-/// to the ray's origin than `cell_size` (the hit's cell size).
+/// Light-leak fix 2: whether a hit `hit_distance` from its ray's origin bypasses its cell's
+/// filtered radiance, being closer than `cell_size` (the hit's cell size).
 #[inline]
-pub fn is_bypass(view: &CacheViewParams, query: &CacheQuery, cell_size: f32) -> bool {
-    view.has(FLAG_BYPASS) && query.hit_distance < cell_size
+pub fn is_bypass(view: &CacheViewParams, hit_distance: f32, cell_size: f32) -> bool {
+    view.has(FLAG_BYPASS) && hit_distance < cell_size
 }
 
-/// The hit distance the descriptor keys a query by: its own, or (short-ray flag off) the largest
-/// finite distance, so that no query counts as short.
+/// The hit distance the descriptor keys a hit by: its own, or (short-ray flag off) the largest
+/// finite distance, so that no hit counts as short.
 #[inline]
-pub fn keyed_hit_distance(view: &CacheViewParams, query: &CacheQuery) -> f32 {
+pub fn keyed_hit_distance(view: &CacheViewParams, hit_distance: f32) -> f32 {
     if view.has(FLAG_SHORT_RAY) {
-        query.hit_distance
+        hit_distance
     } else {
         f32::MAX
     }
+}
+
+/// The cell of a hit at `position` reached along unit `direction` after `hit_distance`, as this
+/// frame keys it (its eye, its short-ray flag): a query's and a bounce ray's alike.
+#[inline]
+pub fn hit_descriptor(
+    params: &CachePassParams,
+    position: Vec3,
+    direction: Vec3,
+    hit_distance: f32,
+) -> CellDescriptor {
+    cell_descriptor(
+        params.grid.eye(),
+        position,
+        direction,
+        keyed_hit_distance(&params.view, hit_distance),
+        &params.grid,
+    )
+}
+
+/// The footprint a secondary hit's textures are filtered for: a probe traces one ray per
+/// octahedral cell, each standing for that share of the hemisphere.
+#[inline]
+pub fn secondary_hit_cone() -> RayCone {
+    RayCone::hemisphere_share(0.0, PROBE_CELLS)
 }
 
 /// Whether ResolveRadianceCache adds the cell's filtered radiance to the query's ray: it has a

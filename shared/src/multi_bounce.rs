@@ -57,10 +57,9 @@ use glam::{Vec2, Vec3};
 
 use crate::atomics::AtomicWords;
 use crate::cache_view::{
-    CARRIED_QUERY_BIT, CachePassParams, CacheQuery, FLAG_BYPASS, FLAG_ENVIRONMENT_LIGHT,
-    FLAG_SHORT_RAY, NO_TILE, QUERY_CARRIED, finite_sample, surface_query,
+    CARRIED_QUERY_BIT, CachePassParams, CacheQuery, FLAG_ENVIRONMENT_LIGHT, NO_TILE, QUERY_CARRIED,
+    finite_sample, hit_descriptor, is_bypass, surface_query,
 };
-use crate::hash_cells::cell_descriptor;
 use crate::hash_cells::purge::tile_age;
 use crate::hash_cells::read::filtered_radiance;
 use crate::hash_cells::storage::find_tile;
@@ -114,8 +113,6 @@ pub struct Bounce {
     pub radiance: Vec3,
     /// It hit a surface whose cell had no sample (it adds nothing).
     pub missed_cell: bool,
-    /// Its hit was closer than its cell (light-leak fix 2): it read no cell and adds nothing.
-    pub bypassed: bool,
     /// Its hit should be carried over to the next frame ([`carried_query`]): its cell had no
     /// sample, or no query touched it for [`REFRESH_FRAMES`] frames.
     pub carry: bool,
@@ -144,7 +141,6 @@ pub fn bounce_radiance<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
     let mut out = Bounce {
         radiance: Vec3::ZERO,
         missed_cell: false,
-        bypassed: false,
         carry: false,
     };
     let direction = Vec3::from_array(ray.direction);
@@ -163,38 +159,23 @@ pub fn bounce_radiance<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
     } else {
         let distance = hit.t * direction.length();
         let position = Vec3::from_array(ray.origin) + direction * hit.t;
-        let keyed = if view.has(FLAG_SHORT_RAY) {
-            distance
-        } else {
-            f32::MAX
-        };
-        let desc = cell_descriptor(
-            grid.eye(),
-            position,
-            direction.normalize_or_zero(),
-            keyed,
-            grid,
-        );
+        let desc = hit_descriptor(params, position, direction.normalize_or_zero(), distance);
         // Light-leak fix 2 for bounce rays: a hit closer than its cell reads no cell there
         // (cells straddle thin walls), but the query's own cell, on the query's side, as the
-        // radiance one cell away.
-        if view.has(FLAG_BYPASS) && distance < desc.cell_size() {
-            out.bypassed = true;
+        // radiance one cell away; only a cell read at the hit is carried or refreshed.
+        let short = is_bypass(view, distance, desc.cell_size());
+        let (tile, cell) = if short {
             let own = if query.tile == NO_TILE {
                 None
             } else {
-                filtered_radiance(values, query.tile, query.cell_xy(), grid.sample_cap)
+                Some(query.tile)
             };
-            if let Some(l) = own {
-                out.radiance = finite_sample(albedo * finite_sample(l));
-            } else {
-                out.missed_cell = true;
-            }
-            return out;
-        }
-        let tile = find_tile(keys, &desc, grid);
+            (own, query.cell_xy())
+        } else {
+            (find_tile(keys, &desc, grid), desc.cell)
+        };
         let found = match tile {
-            Some(t) => filtered_radiance(values, t, desc.cell, grid.sample_cap),
+            Some(t) => filtered_radiance(values, t, cell, grid.sample_cap),
             None => None,
         };
         let stale = match tile {
@@ -203,7 +184,7 @@ pub fn bounce_radiance<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
             }
             _ => true,
         };
-        out.carry = stale || found.is_none();
+        out.carry = !short && (stale || found.is_none());
         match found {
             Some(l) => l,
             None => {
@@ -243,7 +224,7 @@ mod tests {
     use super::*;
     use crate::cache_view::{CacheViewParams, NO_TILE};
     use crate::hash_cells::storage::{TileInsert, insert_tile};
-    use crate::hash_cells::{CELLS_PER_TILE, TILE_CELL_RATIO, cell_index};
+    use crate::hash_cells::{CELLS_PER_TILE, TILE_CELL_RATIO, cell_descriptor, cell_index};
     use crate::layout::HashGridParams;
     use crate::packing::pack_snorm10x3;
     use glam::Vec4;

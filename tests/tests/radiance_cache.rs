@@ -383,7 +383,7 @@ fn grid_query(params: &CachePassParams, q: &CacheQuery, radiance: Vec3) -> HashG
     HashGridQuery::new(
         q.position(),
         q.ray_direction(),
-        keyed_hit_distance(&params.view, q),
+        keyed_hit_distance(&params.view, q.hit_distance),
         radiance,
     )
 }

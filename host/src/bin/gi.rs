@@ -936,7 +936,7 @@ fn cache_view(
             println!(
                 "frame {:>5}: live tiles {:>6}  inserted {:>5}  failed inserts {:>5}  evicted {:>5}  \
                  | queries {:>7}  fed back {:>7}  shadow rays {:>7}  bypassed {:>6}  \
-                 bounce rays {:>7}  bounce misses {:>6}  carried {:>6}",
+                 bounce misses {:>6}  carried {:>6}",
                 o.frame,
                 o.live_tiles,
                 o.inserted,
@@ -946,7 +946,6 @@ fn cache_view(
                 o.fed_back,
                 o.shadow_rays,
                 o.bypassed,
-                o.bounce_rays,
                 o.bounce_misses,
                 o.carried
             );

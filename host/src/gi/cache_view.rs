@@ -121,9 +121,8 @@ pub struct Occupancy {
     pub shadow_rays: u32,
     /// Queries that bypassed their cell (light-leak fix 2).
     pub bypassed: u32,
-    /// Bounce rays traced (multi-bounce through the cache, [`GiSettings::multi_bounce`]).
-    pub bounce_rays: u32,
-    /// Bounce rays whose hit had no cell with a sample: they added nothing.
+    /// Bounce rays (one per shadow ray with [`GiSettings::multi_bounce`]) whose hit had no cell
+    /// with a sample: they added nothing.
     pub bounce_misses: u32,
     /// Samples dropped as not finite.
     pub dropped: u32,

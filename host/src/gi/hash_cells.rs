@@ -103,17 +103,19 @@ impl HashCellPasses {
             [1, 1, 1],
         )?;
         compute_barrier(ctx, cmd);
-        self.carry.dispatch(
-            ctx,
-            cmd,
-            &[
-                Resource::Buffer(&res.counters),
-                Resource::Buffer(&res.carried),
-                Resource::Buffer(&res.queries),
-            ],
-            push,
-            [res.carried_capacity().div_ceil(64), 1, 1],
-        )?;
+        if res.carried_capacity() > 0 {
+            self.carry.dispatch(
+                ctx,
+                cmd,
+                &[
+                    Resource::Buffer(&res.counters),
+                    Resource::Buffer(&res.carried),
+                    Resource::Buffer(&res.queries),
+                ],
+                push,
+                [res.carried_capacity().div_ceil(64), 1, 1],
+            )?;
+        }
         self.dispatch.record(
             ctx,
             cmd,

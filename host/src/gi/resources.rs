@@ -14,9 +14,9 @@ use crate::frame::indirect_args;
 use crate::vulkan::{Buffer, Context, PingPong};
 use ash::vk;
 use gi_shared::cache_view::{
-    ARGS_COUNT, BOUNCE_MISSES, BOUNCE_RAYS, BYPASS_COUNT, CACHE_COUNTER_WORDS, CARRIED_QUERIES,
-    CacheQuery, CacheViewPixel, FEEDBACK_COUNT, FeedbackTexel, INSERTED_TILES, QUERY_COUNT,
-    SHADOW_RAY_COUNT, ShadowRay, reservoir_grid_buckets,
+    ARGS_COUNT, BOUNCE_MISSES, BYPASS_COUNT, CACHE_COUNTER_WORDS, CARRIED_QUERIES, CacheQuery,
+    CacheViewPixel, FEEDBACK_COUNT, FeedbackTexel, INSERTED_TILES, QUERY_COUNT, SHADOW_RAY_COUNT,
+    ShadowRay, reservoir_grid_buckets,
 };
 use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::lists::{
@@ -68,12 +68,23 @@ pub struct CacheResources {
     /// Indirect dispatch arguments (`ARGS_COUNT` of them).
     pub args: Buffer,
     /// Queries multi-bounce carries to the next frame (`gi_shared::multi_bounce`):
-    /// `carried_capacity(rays)` of them.
+    /// `carried_capacity(rays)` of them, one placeholder without multi-bounce.
     pub carried: Buffer,
     tile_count: u32,
     pixel_count: u32,
     ray_capacity: u32,
     carried_capacity: u32,
+}
+
+/// Queries the carried list holds for `rays` rays: none without multi-bounce, whose carried
+/// queries are the only ones (the list and its room in the query and shadow-ray lists are then
+/// not allocated).
+fn carried_queries(settings: &GiSettings, rays: usize) -> usize {
+    if settings.multi_bounce {
+        carried_capacity(rays as u32) as usize
+    } else {
+        0
+    }
 }
 
 /// Each resource's name, in the order [`CacheResources::buffers`] lists them.
@@ -113,7 +124,7 @@ impl CacheResources {
         let tiles = settings.tile_count() as usize;
         let pixels = width as usize * height as usize;
         let rays = (rays as usize).max(1);
-        let carried = carried_capacity(rays as u32) as usize;
+        let carried = carried_queries(settings, rays);
         let cells = tiles * CELLS_PER_TILE as usize;
         let accumulator_words = tiles * MIP0_CELLS_PER_TILE as usize * ACCUMULATOR_WORDS;
         debug_assert!(accumulator_words * 4 <= MAX_STORAGE_BUFFER_BYTES);
@@ -141,7 +152,7 @@ impl CacheResources {
             light_grid: Buffer::device_zeroed::<LightGridParams>(ctx, n[13], 1)?,
             light_grid_entries: Buffer::device_zeroed::<LightGridEntry>(ctx, n[14], entries)?,
             args: indirect_args(ctx, n[15], ARGS_COUNT as usize)?,
-            carried: Buffer::device_zeroed::<CacheQuery>(ctx, n[16], carried)?,
+            carried: Buffer::device_zeroed::<CacheQuery>(ctx, n[16], carried.max(1))?,
             tile_count: tiles as u32,
             pixel_count: pixels as u32,
             ray_capacity: rays as u32,
@@ -157,7 +168,11 @@ impl CacheResources {
     pub fn resize(&mut self, ctx: &Context, width: u32, height: u32, rays: u32) -> Result<()> {
         let pixels = width as usize * height as usize;
         let rays = (rays as usize).max(1);
-        let carried = carried_capacity(rays as u32) as usize;
+        let carried = if self.carried_capacity > 0 {
+            carried_capacity(rays as u32) as usize
+        } else {
+            0
+        };
         let n = &RESOURCE_NAMES;
         let counters = Buffer::device_zeroed::<u32>(ctx, n[6], CACHE_COUNTER_WORDS)?;
         let queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[7], rays + carried)?;
@@ -165,7 +180,7 @@ impl CacheResources {
         let ray_records = Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], rays)?;
         let history = Buffer::device_zeroed::<FeedbackTexel>(ctx, n[10], pixels)?;
         let accumulation = Buffer::device_zeroed::<[f32; 4]>(ctx, n[11], pixels)?;
-        let carried_queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[16], carried)?;
+        let carried_queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[16], carried.max(1))?;
         self.counters = counters;
         self.queries = queries;
         self.shadow_rays = shadow_rays;
@@ -200,7 +215,8 @@ impl CacheResources {
         self.ray_capacity + self.carried_capacity
     }
 
-    /// Queries multi-bounce can carry to the next frame.
+    /// Queries multi-bounce can carry to the next frame (0 without multi-bounce: its buffer is a
+    /// one-element placeholder).
     pub fn carried_capacity(&self) -> u32 {
         self.carried_capacity
     }
@@ -247,7 +263,6 @@ impl CacheResources {
             fed_back: counters[FEEDBACK_COUNT],
             shadow_rays: counters[SHADOW_RAY_COUNT].min(queries),
             bypassed: counters[BYPASS_COUNT],
-            bounce_rays: counters[BOUNCE_RAYS],
             bounce_misses: counters[BOUNCE_MISSES],
             dropped: word(DROPPED_SAMPLES),
         })

@@ -8,24 +8,23 @@
 //!
 //! Set 0: cache-view counters, shadow rays, queries, accumulators, pixels, lists (for the count of
 //! dropped samples), this frame's ReSTIR reservoirs, the hash grid's keys and values, the
-//! environment image, the hash grid's last touch, the carried queries. Set 1: the scene's geometry; set 2 as `traced_kernel!` binds it.
+//! environment image, the hash grid's last touch, the carried queries. Set 1: the scene's
+//! geometry; set 2 as `traced_kernel!` binds it.
 
 use crate::atomics::DeviceWords;
 use crate::texture_images::Bindless;
 use gi_shared::append_list::append;
 use gi_shared::atomics::AtomicWords;
 use gi_shared::cache_view::{
-    BOUNCE_MISSES, BOUNCE_RAYS, CARRIED_NEXT, CachePassParams, CacheQuery, CacheViewPixel,
-    FLAG_MULTI_BOUNCE, PASS_BOUNCE, QUERY_CARRIED, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay,
-    accumulate_into_cell, pass_random, shadow_ray_radiance,
+    BOUNCE_MISSES, CARRIED_NEXT, CachePassParams, CacheQuery, CacheViewPixel, FLAG_MULTI_BOUNCE,
+    PASS_BOUNCE, QUERY_CARRIED, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay, accumulate_into_cell,
+    pass_random, secondary_hit_cone, shadow_ray_radiance,
 };
 use gi_shared::hash_cells::lists::{DROPPED_SAMPLES, count};
 use gi_shared::layout::HashCellValue;
 use gi_shared::math::min_u32;
 use gi_shared::multi_bounce::{bounce_radiance, bounce_ray, carried_query};
-use gi_shared::ray_cone::RayCone;
 use gi_shared::scene_data::hit_surface;
-use gi_shared::screen_probes::PROBE_CELLS;
 use gi_shared::world_restir::PackedReservoir;
 use spirv_std::glam::{UVec3, Vec3};
 use spirv_std::spirv;
@@ -86,17 +85,16 @@ traced_kernel! {
                 &hit,
             );
             radiance += bounce.radiance;
-            counters.fetch_add(BOUNCE_RAYS, 1);
             if bounce.missed_cell {
                 counters.fetch_add(BOUNCE_MISSES, 1);
             }
             // Carried queries carry none of their own: at most one per ray, so the list never
             // overflows and no frame depends on which appends came first.
             if bounce.carry && hit.is_hit() && query.flags & QUERY_CARRIED == 0 {
-                let cone = RayCone::hemisphere_share(0.0, PROBE_CELLS);
                 let (surface, material) = hit_surface(
                     scene.instances, scene.meshes, scene.vertices, scene.triangles,
-                    scene.materials, scene.textures, &Bindless(texture_images), &ray, cone, &hit,
+                    scene.materials, scene.textures, &Bindless(texture_images), &ray,
+                    secondary_hit_cone(), &hit,
                 );
                 if let Some(next) = carried_query(&query, &ray, &hit, &surface, &material)
                     && let Some(slot) = append(&mut counters, CARRIED_NEXT, carried.len() as u32)

@@ -31,17 +31,20 @@ pub fn claim_override_slots(
     #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] empty_tiles: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] overrides: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] spawns: &mut [u32],
+    // The same set 0 as PatchScreenProbes, so that one descriptor list serves both.
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] _spawns: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] counters: &mut [u32],
 ) {
     let counters = DeviceWords(counters);
-    let count = patch_count(frame, &counters, empty_tiles.len() as u32);
-    if id.x >= count {
-        return;
-    }
-    let tile = empty_tiles[id.x as usize];
-    let sees = |pixel: UVec2| surface(camera, depth, geometric_normal, pixel);
-    if patch_seed(frame, tile, sees).is_some() && !spawns.is_empty() {
+    if let Some((tile, _)) = empty_tile(
+        frame,
+        camera,
+        depth,
+        geometric_normal,
+        empty_tiles,
+        &counters,
+        id.x,
+    ) {
         claim(frame, tile, &mut DeviceWords(overrides), &counters);
     }
 }
@@ -64,29 +67,42 @@ pub fn patch_screen_probes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] counters: &mut [u32],
 ) {
     let mut counters = DeviceWords(counters);
-    let count = patch_count(frame, &counters, empty_tiles.len() as u32);
-    if id.x >= count {
-        return;
-    }
-    let tile = empty_tiles[id.x as usize];
-    let sees = |pixel: UVec2| surface(camera, depth, geometric_normal, pixel);
-    if let Some(seed) = patch_seed(frame, tile, sees) {
+    if let Some((tile, seed)) = empty_tile(
+        frame,
+        camera,
+        depth,
+        geometric_normal,
+        empty_tiles,
+        &counters,
+        id.x,
+    ) {
         patch_tile(frame, tile, seed, overrides, spawns, &mut counters);
     }
 }
 
-/// Whether `pixel` sees a surface (inside the image).
+/// Entry `index` of the empty-tile list and the seed patching would put there ([`patch_seed`]):
+/// `None` past the list, without patching, or for a tile that is all sky.
 #[inline]
-fn surface(
+fn empty_tile(
+    frame: &GiFrameParams,
     camera: &CameraParams,
     depth: &DepthImage,
     geometric_normal: &HalfImage,
-    pixel: UVec2,
-) -> bool {
-    if pixel.x >= camera.image_size[0] || pixel.y >= camera.image_size[1] {
-        return false;
+    empty_tiles: &[u32],
+    counters: &DeviceWords<'_>,
+    index: u32,
+) -> Option<(u32, UVec2)> {
+    if index >= patch_count(frame, counters, empty_tiles.len() as u32) {
+        return None;
     }
-    let d: f32 = depth.read(pixel);
-    let gn: Vec4 = geometric_normal.read(pixel);
-    sees_surface(d, gn)
+    let tile = empty_tiles[index as usize];
+    let sees = |pixel: UVec2| {
+        if pixel.x >= camera.image_size[0] || pixel.y >= camera.image_size[1] {
+            return false;
+        }
+        let d: f32 = depth.read(pixel);
+        let gn: Vec4 = geometric_normal.read(pixel);
+        sees_surface(d, gn)
+    };
+    patch_seed(frame, tile, sees).map(|seed| (tile, seed))
 }
