@@ -4,17 +4,20 @@
 # switched off in turn: how far it moves the image's mean, and what relMSE it costs. Writes every
 # image and log under out/bias/ and the table to out/bias/table.md.
 #
-#   bash scripts/bias-budget.sh [WIDTH HEIGHT REFERENCE_SPP FRAMES] [scene files...]
+#   bash scripts/bias-budget.sh [WIDTH HEIGHT REFERENCE_SPP FRAMES AVERAGE] [scene files...]
 #
-# Defaults: 160 90 1024 64, the repository's scenes, then the Bitterli interiors of
+# Each GI run renders FRAMES still frames and compares the mean of the last AVERAGE of them (the
+# converged image, free of one frame's noise: `gi render --average-last`); AVERAGE 1 compares the
+# last frame alone.
+# Defaults: 160 90 1024 192 128, the repository's scenes, then the Bitterli interiors of
 # ../shared/scenes/third-party/bitterli when they are there (skipped, saying so, when not).
 # TECHNIQUES (space-separated `--no` names) narrows the switches; every one by default.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh >/dev/null
 . scripts/env.sh
-W=${1:-160}; H=${2:-90}; REF_SPP=${3:-1024}; FRAMES=${4:-64}
-shift $(( $# < 4 ? $# : 4 ))
+W=${1:-160}; H=${2:-90}; REF_SPP=${3:-1024}; FRAMES=${4:-192}; AVERAGE=${5:-128}
+shift $(( $# < 5 ? $# : 5 ))
 SCENES=("$@")
 if [ ${#SCENES[@]} -eq 0 ]; then
   for s in cornell-box indirect-room many-lights textured light-leak; do SCENES+=("scenes/$s.gltf"); done
@@ -25,7 +28,7 @@ if [ ${#SCENES[@]} -eq 0 ]; then
     echo "bias-budget: $B not found: the Bitterli interiors are skipped" >&2
   fi
 fi
-TECHNIQUES=${TECHNIQUES:-"multi-bounce feedback filter hysteresis guiding backup reprojection parallax patching jitter relaxed temporal spatial leak-fixes"}
+TECHNIQUES=${TECHNIQUES-"multi-bounce feedback filter hysteresis guiding backup reprojection parallax patching jitter relaxed temporal spatial leak-fixes"}
 cargo build --quiet --profile dev --workspace --all-targets
 GI="$CARGO_TARGET_DIR/debug/gi"
 OUT=out/bias; mkdir -p "$OUT"
@@ -51,7 +54,7 @@ for scene in "${SCENES[@]}"; do
     log=$OUT/$s-$run.log
     # shellcheck disable=SC2046
     "$GI" render "$scene" $(extra "$scene") "${args[@]}" --frames "$FRAMES" --width "$W" \
-      --height "$H" --reference "$ref" --out "$OUT/$s-$run.exr" > "$log"
+      --height "$H" --average-last "$AVERAGE" --reference "$ref" --out "$OUT/$s-$run.exr" > "$log"
     line=$(grep 'against reference' "$log")
     mean=$(echo "$line" | field mean); rel=$(echo "$line" | field relMSE); flip=$(echo "$line" | field FLIP)
     moved="-"

@@ -10,7 +10,7 @@
 //!
 //! ResolveGI, set 0: 0 camera, 1 depth, 2 geometric normal, 3 albedo, 4 primary lighting, 5
 //! denoised irradiance (`[f32; 4]`), 6 colour (`[f32; 4]`, written), 7 feedback history
-//! (`FeedbackTexel`, written).
+//! (`FeedbackTexel`, written), 8 interpolated irradiance before the denoiser (`[f32; 4]`).
 //!
 //! Both: workgroups of 8 × 8 pixels, dispatched `[ceil(W / 8), ceil(H / 8), 1]`; per-pixel
 //! buffers indexed `y × W + x`.
@@ -83,7 +83,8 @@ traced_kernel! {
 }
 
 /// ResolveGI: the final colour of pixel `id` (emission + albedo / π × (denoised GI irradiance +
-/// direct light)) and its feedback texel for the next frame.
+/// direct light)) and its feedback texel for the next frame (the same colour from the irradiance
+/// before the denoiser: `gi_shared::primary_lighting::resolve_feedback`).
 #[cfg(not(feature = "ray-query"))]
 #[spirv(compute(threads(8, 8)))]
 #[allow(
@@ -101,6 +102,7 @@ pub fn resolve_gi(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] color: &mut [[f32; 4]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)]
     history: &mut [gi_shared::cache_view::FeedbackTexel],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] undenoised: &[[f32; 4]],
 ) {
     use gi_shared::primary_lighting::{resolve_color, resolve_feedback};
     let pixel = UVec2::new(id.x, id.y);
@@ -108,7 +110,12 @@ pub fn resolve_gi(
         return;
     }
     let i = (pixel.y * camera.image_size[0] + pixel.x) as usize;
-    if i >= lighting.len() || i >= irradiance.len() || i >= color.len() || i >= history.len() {
+    if i >= lighting.len()
+        || i >= irradiance.len()
+        || i >= color.len()
+        || i >= history.len()
+        || i >= undenoised.len()
+    {
         return;
     }
     let record = lighting[i];
@@ -117,5 +124,6 @@ pub fn resolve_gi(
     let gn: Vec4 = geometric_normal.read(pixel);
     let c = resolve_color(&record, a.truncate(), irradiance[i]);
     color[i] = [c.x, c.y, c.z, 1.0];
-    history[i] = resolve_feedback(&record, c, d, gn.truncate().normalize_or_zero());
+    let fed_back = resolve_color(&record, a.truncate(), undenoised[i]);
+    history[i] = resolve_feedback(&record, fed_back, d, gn.truncate().normalize_or_zero());
 }

@@ -450,7 +450,8 @@ pub struct CacheViewPixel {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FeedbackTexel {
-    /// The image's radiance (the running mean).
+    /// The pixel's radiance toward the camera, resolved from its irradiance before the denoiser
+    /// (the denoised image lags).
     pub radiance: [f32; 3],
     /// Linear depth; 0 for sky.
     pub depth: f32,

@@ -4,7 +4,7 @@
 //! function's stated ulp bound (floats). Any drift between the CPU and a GPU compiler shows up
 //! here before it shows up in an image.
 
-use crate::color::{luminance, temporal_hysteresis_weight};
+use crate::color::luminance;
 use crate::hash::{pcg, pcg_chain, xxhash32, xxhash32_chain};
 use crate::hash_cells::{CellDescriptor, cell_descriptor, cell_index};
 use crate::layout::HashGridParams;
@@ -24,7 +24,7 @@ use crate::sampling::{
     sample_uniform_sphere,
 };
 use crate::screen_probes::hemisphere::ProbeFrame;
-use crate::screen_probes::hysteresis::apply_hysteresis;
+use crate::screen_probes::hysteresis::{apply_hysteresis, hysteresis_weight};
 use crate::screen_probes::interpolate::probe_weight;
 use crate::screen_probes::sh_projection::{
     SH_TERMS, cell_sh_terms, sh_term_index, sum_sh_coefficient,
@@ -315,7 +315,7 @@ pub fn evaluate(function: u32, input: [u32; 4]) -> [u32; OUTPUT_WORDS] {
         }
         20 => {
             o[0] = luminance(vec3(input)).to_bits();
-            o[1] = temporal_hysteresis_weight(f(a), f(b)).to_bits();
+            o[1] = hysteresis_weight([f(a), f(b)]).to_bits();
         }
         21 => o[0] = cell_index(a, b, c, d),
         22 => {
@@ -370,7 +370,11 @@ pub fn evaluate(function: u32, input: [u32; 4]) -> [u32; OUTPUT_WORDS] {
         24 => put3(
             &mut o,
             0,
-            apply_hysteresis(vec3(input).abs(), Vec3::splat(unorm24(d) * 4.0)),
+            apply_hysteresis(
+                vec3(input).abs(),
+                Vec3::splat(unorm24(d) * 4.0),
+                hysteresis_weight([unorm24(d) * 63.0, 63.0]),
+            ),
         ),
         _ => {}
     }

@@ -17,7 +17,8 @@
 //! * **Everything else** arrives through the screen probes: emissive surfaces and the sky (which
 //!   probe rays take at full weight when they hit or miss), and all multi-bounce light (probe rays
 //!   that hit another surface read the world cache, which lights secondary hits with every
-//!   light, punctual ones included, and feeds back the previous image).
+//!   light, punctual ones included, and feeds back the previous frame's radiance, resolved from
+//!   its irradiance before the denoiser: [`resolve_feedback`]).
 //!
 //! ResolveGI puts them together ([`resolve_color`]): `emission + albedo / π × (GI irradiance +
 //! direct)`. Sampled direct light (many punctual lights) is one RIS sample per pixel and frame,

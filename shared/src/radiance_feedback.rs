@@ -1,6 +1,9 @@
 //! Temporal radiance feedback (GI-1.0 talk; Capsaicin's `GenerateReservoirs`, step 10b): a
 //! secondary hit that the previous frame saw takes the previous frame's final (direct + indirect)
 //! radiance at that pixel instead of a shadow ray — "(limited) infinite multi-bounce for free".
+//! That radiance is resolved from the pixel's irradiance *before* the denoiser (ResolveGI writes
+//! it beside the image): the denoised image lags behind a warming cache by its history's length,
+//! and fed back that lag darkened the converged image by 2–9 % of its mean.
 //!
 //! The hit is projected with the previous frame's view-projection
 //! ([`CameraParams::previous_view_proj`]) into the previous frame's image ([`reproject`]); the

@@ -8,7 +8,8 @@
 //! * [`a_moving_box_leaves_no_trail`]: the trail metric. The cube moves for [`TRAIL_FRAMES`]
 //!   frames at 30 frames per second; the last frame is compared with a converged static render
 //!   of the last pose in the trail (pixels the cube covered in the frames before but not in the
-//!   last one) and on the cube, with per-object reprojection and with camera-only reprojection.
+//!   last one) and on the cube, with per-object reprojection and with camera-only reprojection:
+//!   neither leaves the dark trail of a shadow-holding hysteresis (bias above −0.28).
 
 use gi_host::KernelVariant;
 use gi_host::gbuffer::{GBufferData, GBufferImages, GBufferPass, render_on_cpu, scene_camera};
@@ -332,29 +333,24 @@ fn a_moving_box_leaves_no_trail() {
         assert!(count(&old) > 20, "old trail of {} pixels", count(&old));
         let [trail_with, old_with, cube_with, elsewhere_with] = figures[0];
         let [trail_without, old_without, cube_without, _] = figures[1];
-        // Measured over six runs (the hash cells' allocation order varies from run to run):
-        // camera-only trail 0.29–0.38, all of it dark (bias = −error); per-object 0.10–0.14 in
-        // software, 0.13–0.31 with ray queries (where the dark trail sometimes survives in part,
-        // see the README's "Moving objects"); cube 0.20–0.27 against 0.06–0.15.
+        // The probes' hysteresis adapts to change (issue 22): it no longer holds the cube's shadow
+        // where the cube left, so camera-only reprojection leaves no dark trail of its own either.
+        // Measured (one frame): per-object trail bias −0.13 in software, −0.22 with ray queries
+        // (old trail the same), cube −0.17 and −0.19; camera-only trail −0.15 and −0.25, cube
+        // −0.12 and −0.15. The dark trail left is the cache's and the denoiser's lag, the same in
+        // both modes. With the reference's shadow-preserving hysteresis camera-only left −0.29 to
+        // −0.38, and per-object mode had to suspend it.
+        for (name, bias) in [
+            ("trail", trail_with.1),
+            ("old trail", old_with.1),
+            ("camera-only trail", trail_without.1),
+            ("camera-only old trail", old_without.1),
+        ] {
+            assert!(bias > -0.28, "{variant}: {name} bias {bias}");
+        }
         assert!(
-            trail_with.0 < 0.9 * trail_without.0 && trail_with.1 > 0.9 * trail_without.1,
-            "{variant}: trail {trail_with:?} vs camera-only {trail_without:?}"
-        );
-        assert!(
-            old_with.0 < 0.9 * old_without.0,
-            "{variant}: old trail {old_with:?} vs camera-only {old_without:?}"
-        );
-        // Since patching claims its spawns deterministically, camera-only reprojection keeps the
-        // cube far better than before (0.105 against 0.20–0.27; per-object 0.096 in software):
-        // per-object must still do no worse.
-        assert!(
-            cube_with.0 < cube_without.0,
-            "{variant}: cube {cube_with:?} vs camera-only {cube_without:?}"
-        );
-        // A dark trail to remove: bias −0.26 in software, −0.15 with ray queries (measured).
-        assert!(
-            trail_without.1 < -0.1,
-            "{variant}: no trail to remove {trail_without:?}"
+            cube_with.0 < 0.25 && cube_without.0 < 0.25,
+            "{variant}: cube {cube_with:?}, camera-only {cube_without:?}"
         );
         assert!(
             elsewhere_with.0 < 0.15,

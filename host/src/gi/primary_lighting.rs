@@ -42,7 +42,7 @@ impl PrimaryPasses {
     pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
         Ok(Self {
             direct: kernel(ctx, module, "primary_lighting::direct_light", "bbiiiiib", 0)?,
-            resolve: kernel(ctx, module, "primary_lighting::resolve_gi", "biiibbbb", 0)?,
+            resolve: kernel(ctx, module, "primary_lighting::resolve_gi", "biiibbbbb", 0)?,
         })
     }
 
@@ -81,7 +81,8 @@ impl PrimaryPasses {
     }
 
     /// ResolveGI: the final image from `irradiance` (the denoiser's output), and the feedback
-    /// image (`feedback`, one `FeedbackTexel` per pixel) the next frame's secondary hits read.
+    /// image (`feedback`, one `FeedbackTexel` per pixel) the next frame's secondary hits read,
+    /// from `undenoised` (the interpolated irradiance before the denoiser).
     #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_resolve(
         &self,
@@ -92,6 +93,7 @@ impl PrimaryPasses {
         gbuffer: &GBufferImages,
         irradiance: &Buffer,
         feedback: &Buffer,
+        undenoised: &Buffer,
     ) -> Result<()> {
         let i = &gbuffer.images;
         self.resolve.dispatch(
@@ -106,6 +108,7 @@ impl PrimaryPasses {
                 Resource::Buffer(irradiance),
                 Resource::Buffer(&res.color),
                 Resource::Buffer(feedback),
+                Resource::Buffer(undenoised),
             ],
             &[],
             pixel_groups(gbuffer),

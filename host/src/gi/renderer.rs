@@ -37,9 +37,9 @@ use gi_shared::hash_cells::cell_size_const;
 use gi_shared::light_grid::{LightGridEntry, LightGridParams};
 use gi_shared::primary_lighting::{EXACT_DIRECT_LIGHTS, PrimaryLighting};
 use gi_shared::screen_probes::{
-    BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_HYSTERESIS, FLAG_SAMPLED_DIRECT, GiFrameParams,
-    OVERRIDE_COUNT, PATCHED_COUNT, PROBE_CELL_PIXELS, ProbeRay, ProbeRecord, RELAXED_COUNT,
-    REPROJECTED_COUNT, SPAWN_COUNT,
+    BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_SAMPLED_DIRECT, GiFrameParams, OVERRIDE_COUNT,
+    PATCHED_COUNT, PROBE_CELL_PIXELS, ProbeRay, ProbeRecord, RELAXED_COUNT, REPROJECTED_COUNT,
+    SPAWN_COUNT,
 };
 use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
 
@@ -456,11 +456,6 @@ impl GiRenderer {
         let max_groups = ctx.capabilities().max_workgroup_count[0];
         params.view.max_groups = max_groups;
         let mut frame_params = self.frame_params(&frame_camera, previous.as_ref());
-        if self.settings.object_motion && scene.has_object_motion() {
-            // Damped brightening would hold a moving occluder's shadow in the static probes it
-            // leaves for dozens of frames: a dark trail (README, "Moving objects").
-            frame_params.flags &= !FLAG_HYSTERESIS;
-        }
         frame_params.max_groups = max_groups;
         self.probes.swap();
         self.denoiser.swap();
@@ -623,6 +618,7 @@ impl GiRenderer {
                 gbuffer,
                 irradiance,
                 &cache.history,
+                denoiser.output(false, false),
             )
         })
     }

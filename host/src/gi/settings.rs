@@ -126,11 +126,15 @@ pub struct GiSettings {
     /// Cost: the history gather from the 3 × 3 neighbourhood and a scan per probe. Quality:
     /// more rays toward the bright cells: less noise, the same expectation per cell.
     pub ray_guiding: bool,
-    /// Shadow-preserving biased temporal hysteresis: brightening beyond twice the history is
-    /// damped, darkening passes at once. Cost: negligible. Quality: off, fireflies of single
-    /// rays reach the image; on, a little bias toward the history when light really brightens.
+    /// Temporal hysteresis adaptive to change: each probe cell keeps an exponential average of
+    /// about 8 frames while the probe's other cells hold still, and takes the new value at once
+    /// where they change (a light switched off, a shadow arriving). Cost: negligible. Quality:
+    /// off, fireflies of single rays reach the image; on, they are spread over frames without
+    /// moving the cell's mean (the weight never looks at the cell's own new value), at the price
+    /// of up to 8 frames of lag where only part of a probe's lighting changes.
     pub hysteresis: bool,
-    /// The 7 × 7 separable probe filter (plane-distance, normal and angle rejection). Cost: two
+    /// The 7 × 7 separable probe filter (plane-distance, normal and same-hit-point rejection:
+    /// a neighbour's cell counts where it saw what the centre's saw). Cost: two
     /// passes over every probe. Quality: off, each probe keeps the noise of its own 64 rays.
     pub probe_filter: bool,
     /// Blue-noise jitter of the per-pixel probe lookup. Cost: a G-buffer read per pixel.
@@ -149,9 +153,7 @@ pub struct GiSettings {
     /// young history (disocclusions, motion) stays noisy.
     pub denoiser_spatial: bool,
     /// Moving objects: probe and denoiser history follow moving objects through the G-buffer's
-    /// motion vectors, and on frames where an instance moved the probes' shadow-preserving
-    /// hysteresis is suspended (it would hold the moving object's shadow, damping the
-    /// brightening where it leaves). Cost: a motion read per pixel, a 3 × 3 solve where an object
+    /// motion vectors. Cost: a motion read per pixel, a 3 × 3 solve where an object
     /// moved. Quality: off, the moving object's history lags behind it and it leaves a dark
     /// trail; static scenes render the same either way.
     pub object_motion: bool,

@@ -1,6 +1,7 @@
 //! BlendScreenProbes (`gi_shared::screen_probes::blend`): one workgroup of 8 × 8 lanes per
 //! spawned probe bins its 64 ray results into its cells (through workgroup memory), blends them
-//! with the history hemisphere (shadow-preserving hysteresis), backs up cells left empty and
+//! with the history hemisphere (hysteresis adaptive to the probe's change), backs up cells left
+//! empty and
 //! writes the probe tile's cells, record and mask texel.
 //!
 //! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns (packed
@@ -18,6 +19,7 @@ use gi_shared::screen_probes::LANES;
 use gi_shared::screen_probes::blend::{blend_cell, finish_cell, ray_source, spawned_record};
 use gi_shared::screen_probes::hemisphere::UNMAPPED;
 use gi_shared::screen_probes::hemisphere::gather_mapped;
+use gi_shared::screen_probes::hysteresis::{cell_change, other_cells};
 use gi_shared::screen_probes::spawn::spawned_seed;
 use gi_shared::screen_probes::{EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
@@ -48,6 +50,7 @@ pub fn blend_screen_probes(
     #[spirv(workgroup)] mapped: &mut [u32; LANES],
     #[spirv(workgroup)] cells: &mut [[f32; 4]; LANES],
     #[spirv(workgroup)] blended: &mut [[f32; 4]; LANES],
+    #[spirv(workgroup)] changes: &mut [[f32; 2]; LANES],
 ) {
     let spawn = group.y * frame.spawn_grid[0] + group.x;
     // Uniform over the workgroup: the whole group leaves before any barrier.
@@ -82,16 +85,21 @@ pub fn blend_screen_probes(
     cells[l] = cell;
     workgroup_memory_barrier_with_group_sync();
 
-    // Phase 2, lane = cell: the rays' mean against the history.
+    // Phase 2, lane = cell: the rays' mean and its change from the history.
     let history = if ray_index < probe_history.len() {
         probe_history[ray_index]
     } else {
         EMPTY
     };
-    blended[l] = blend_cell(frame, gather_mapped(mapped, cells, lane), history);
+    let new = gather_mapped(mapped, cells, lane);
+    changes[l] = cell_change(new, history);
     workgroup_memory_barrier_with_group_sync();
 
-    // Phase 3: backup, then the probe tile's cell, record and mask texel.
+    // Phase 3, lane = cell: the mean against the history.
+    blended[l] = blend_cell(frame, new, history, other_cells(changes, lane));
+    workgroup_memory_barrier_with_group_sync();
+
+    // Phase 4: backup, then the probe tile's cell, record and mask texel.
     let out = finish_cell(frame, blended[l], blended);
     let i = (tile * PROBE_CELLS + lane) as usize;
     if i < atlas.len() {

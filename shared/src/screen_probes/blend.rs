@@ -7,9 +7,11 @@
 //!    workgroup memory (a ray with non-finite or negative radiance, or one not traced, is
 //!    dropped);
 //! 2. lane = cell: `hemisphere::gather_mapped` averages the rays that landed in the cell and
-//!    [`blend_cell`] blends it with the history cell (hysteresis, [`FLAG_HYSTERESIS`]) or keeps
-//!    the history cell where no ray landed;
-//! 3. lane = cell: [`finish_cell`] fills a cell still empty with the radiance backup
+//!    [`super::hysteresis::cell_change`] leaves its relative change from the history in workgroup memory;
+//! 3. lane = cell: [`blend_cell`] blends it with the history cell (hysteresis,
+//!    [`FLAG_HYSTERESIS`], weighted by how much the probe's other cells changed:
+//!    [`super::hysteresis::other_cells`]) or keeps the history cell where no ray landed;
+//! 4. lane = cell: [`finish_cell`] fills a cell still empty with the radiance backup
 //!    ([`FLAG_RADIANCE_BACKUP`]) and the lane writes it to the probe tile's atlas cell; lane 0
 //!    writes the record ([`spawned_record`]) and the mask's mip-0 word (the seed).
 //!
@@ -23,7 +25,9 @@ use glam::{UVec2, Vec3, Vec4};
 
 use super::LANES;
 use super::hemisphere::UNMAPPED;
-use super::hysteresis::apply_hysteresis;
+use super::hysteresis::{apply_hysteresis, hysteresis_weight};
+#[cfg(not(target_arch = "spirv"))]
+use super::hysteresis::{cell_change, other_cells};
 use super::radiance_backup::with_backup;
 use super::{
     EMPTY, FLAG_HYSTERESIS, FLAG_RADIANCE_BACKUP, GiFrameParams, PROBE_CELLS, ProbeRay,
@@ -82,11 +86,18 @@ pub fn ray_source(ray: ProbeRay, record: CacheViewPixel) -> (u32, [f32; 4]) {
     }
 }
 
-/// Phase 2, lane = cell: `new` (the mean of the cell's rays, [`EMPTY`] when none landed) against
-/// the `history` cell. Both filled: `new`'s radiance under the hysteresis (with
-/// [`FLAG_HYSTERESIS`]; else `new` as is) and `new`'s hit distance. Only one filled: that one.
+/// Phase 3, lane = cell: `new` (the mean of the cell's rays, [`EMPTY`] when none landed) against
+/// the `history` cell, `others` the change sums of the probe's other cells
+/// ([`super::hysteresis::other_cells`]).
+/// Both filled: `new`'s radiance under the hysteresis (with [`FLAG_HYSTERESIS`]; else `new` as
+/// is) and `new`'s hit distance. Only one filled: that one.
 #[inline]
-pub fn blend_cell(params: &GiFrameParams, new: [f32; 4], history: [f32; 4]) -> [f32; 4] {
+pub fn blend_cell(
+    params: &GiFrameParams,
+    new: [f32; 4],
+    history: [f32; 4],
+    others: [f32; 2],
+) -> [f32; 4] {
     if !cell_is_filled(new) {
         return if cell_is_filled(history) {
             history
@@ -95,13 +106,17 @@ pub fn blend_cell(params: &GiFrameParams, new: [f32; 4], history: [f32; 4]) -> [
         };
     }
     if cell_is_filled(history) && params.has(FLAG_HYSTERESIS) {
-        let blended = apply_hysteresis(cell_radiance(new), cell_radiance(history));
+        let blended = apply_hysteresis(
+            cell_radiance(new),
+            cell_radiance(history),
+            hysteresis_weight(others),
+        );
         return make_cell(blended, new[3]);
     }
     new
 }
 
-/// Phase 3, lane = cell: the cell (`blended[cell]`) to write, a cell still empty taking the
+/// Phase 4, lane = cell: the cell (`blended[cell]`) to write, a cell still empty taking the
 /// radiance backup (`radiance_backup`) of the 64 `blended` cells with [`FLAG_RADIANCE_BACKUP`].
 #[inline]
 pub fn finish_cell(
@@ -133,15 +148,17 @@ pub fn blend_workgroup(
             (mapped[lane], cells[lane]) = ray_source(rays[lane], ray_records[lane]);
         }
     }
+    let mut new = [EMPTY; LANES];
+    let mut changes = [[0.0; 2]; LANES];
+    let h = |lane: usize| history.get(lane).copied().unwrap_or(EMPTY);
+    for lane in 0..LANES {
+        new[lane] = gather_mapped(&mapped, &cells, lane as u32);
+        changes[lane] = cell_change(new[lane], h(lane));
+    }
     let mut blended = [EMPTY; LANES];
     for lane in 0..LANES {
-        let new = gather_mapped(&mapped, &cells, lane as u32);
-        let h = if lane < history.len() {
-            history[lane]
-        } else {
-            EMPTY
-        };
-        blended[lane] = blend_cell(params, new, h);
+        let others = other_cells(&changes, lane as u32);
+        blended[lane] = blend_cell(params, new[lane], h(lane), others);
     }
     let mut out = [EMPTY; LANES];
     for lane in 0..LANES {
@@ -238,12 +255,19 @@ mod tests {
         let flags = FLAG_HISTORY | FLAG_HYSTERESIS;
         let out = blend_workgroup(&params(flags), &rays, &records, &history);
         assert_eq!(out[7], history[7]);
-        // The firefly is pulled 0.95² of the way back to the history; its distance is the ray's.
-        let expected = 1000.0 + (1.0 - 1000.0) * 0.9025;
+        // The other cells held still (cell 9 is left out of its own change; cell 11's shadow
+        // counts 0.99 of 62 cells): the firefly is averaged in with weight about 7/8; its
+        // distance is the ray's.
+        let w = hysteresis_weight([0.99, 62.0]);
+        assert!(w > 0.86 && w < 0.875, "{w}");
+        let expected = 1000.0 + (1.0 - 1000.0) * w;
         assert!((out[9][0] - expected).abs() < 1e-2, "{:?}", out[9]);
         assert_eq!(out[9][3], 1.0);
-        // The shadow passes unchanged.
-        assert_eq!(out[11], make_cell(Vec3::new(0.01, 0.005, 0.0025), 1.0));
+        // The lone shadow is averaged in the same way (a probe-wide one passes at once:
+        // `hysteresis` tests).
+        let w = hysteresis_weight([0.999, 62.0]);
+        let expected = 0.01 + (1.0 - 0.01) * w;
+        assert!((out[11][0] - expected).abs() < 1e-4, "{:?}", out[11]);
         // Without hysteresis the firefly stays.
         let out = blend_workgroup(&params(FLAG_HISTORY), &rays, &records, &history);
         assert_eq!(out[9][0], 1000.0);

@@ -101,6 +101,11 @@ pub struct GiArgs {
     /// GI: also write relMSE and FLIP of every frame against --reference as CSV here.
     #[arg(long, requires = "reference")]
     pub metrics_csv: Option<PathBuf>,
+    /// GI: write (and compare) the mean of the last N frames instead of the last frame: the
+    /// converged still image's bias, free of one frame's noise (the bias budget uses it). 1 by
+    /// default (the last frame); at most --frames.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub average_last: u32,
     /// GI: write every stage as a PNG into this folder (probe atlas, mask, spawn and patch
     /// tiles, ray-guiding PDFs, cache cells, blur mask, irradiance before and after the
     /// denoiser).
@@ -284,11 +289,13 @@ pub fn render_gi(
         Some(p) => {
             let mut f = std::fs::File::create(p)
                 .map_err(|e| format!("--metrics-csv {}: {e}", p.display()))?;
-            writeln!(f, "frame,relmse,flip")?;
+            writeln!(f, "frame,relmse,flip,mean")?;
             Some(f)
         }
         None => None,
     };
+    let average_last = args.average_last.min(args.frames);
+    let mut average: Option<Vec<[f64; 3]>> = None;
     let rendered = (|| -> Result<_, Box<dyn std::error::Error>> {
         for f in 0..args.frames {
             if animated && f > 0 {
@@ -321,10 +328,29 @@ pub fn render_gi(
             }
             if let (Some(r), Some(file)) = (&reference, csv.as_mut()) {
                 let c = metrics::compare(r, &gi.image(ctx)?, &compare)?;
-                writeln!(file, "{f},{},{}", c.metrics.relative_mse, c.metrics.flip)?;
+                writeln!(
+                    file,
+                    "{f},{},{},{}",
+                    c.metrics.relative_mse, c.metrics.flip, c.metrics.mean_bias
+                )?;
+            }
+            if average_last > 1 && args.frames - f <= average_last {
+                let frame = gi.image(ctx)?;
+                let sum = average.get_or_insert_with(|| vec![[0.0f64; 3]; frame.pixels().len()]);
+                for (s, p) in sum.iter_mut().zip(frame.pixels()) {
+                    for c in 0..3 {
+                        s[c] += f64::from(p[c]);
+                    }
+                }
             }
         }
-        let image = gi.image(ctx)?;
+        let mut image = gi.image(ctx)?;
+        if let Some(sum) = &average {
+            let n = f64::from(average_last);
+            for (p, s) in image.pixels_mut().iter_mut().zip(sum) {
+                *p = [(s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32];
+            }
+        }
         let views = match args.debug_views {
             Some(_) => gi_debug_views(ctx, &gi)?,
             None => vec![],
