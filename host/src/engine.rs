@@ -23,11 +23,10 @@ pub use crate::vulkan::{Context, DeviceRequirements, ExternalDevice, FeatureChai
 
 use crate::error::{Error, Result};
 use crate::scene::lights::LightSet;
-use crate::scene::{Aabb, Instance, Light, Material, Mesh};
+use crate::scene::{Instance, Light, Material, Mesh};
 use ash::vk;
 use gi_shared::camera::CameraParams;
 use glam::Mat4;
-use std::path::PathBuf;
 
 /// The one format an [`OutputImage`] may have: the renderer's `[f32; 4]` texels, copied as they
 /// are (linear, HDR).
@@ -294,31 +293,24 @@ pub fn scene_from_meshes(
             );
         }
     }
-    let mut scene = Scene {
-        source: PathBuf::from(name),
-        instances: instances
-            .iter()
-            .enumerate()
-            .map(|(i, inst)| Instance {
-                name: format!("instance {i}"),
-                node: i as u32,
-                mesh: inst.mesh,
-                transform: inst.transform,
-            })
-            .collect(),
+    let instances = instances
+        .iter()
+        .enumerate()
+        .map(|(i, inst)| Instance {
+            name: format!("instance {i}"),
+            node: i as u32,
+            mesh: inst.mesh,
+            transform: inst.transform,
+        })
+        .collect();
+    Ok(Scene::from_parts(
+        name,
         meshes,
+        instances,
         materials,
-        textures: Vec::new(),
+        Vec::new(),
         lights,
-        cameras: Vec::new(),
-        emissive_triangles: Vec::new(),
-        bounds: Aabb::EMPTY,
-        animation: None,
-        load_stages: Vec::new(),
-        blases: Vec::new(),
-    };
-    scene.update_derived();
-    Ok(scene)
+    ))
 }
 
 #[cfg(test)]

@@ -269,14 +269,7 @@ mod tests {
         }
     }
 
-    const MISS: HitRecord = HitRecord {
-        t: HitRecord::MISS_T,
-        instance: HitRecord::NONE,
-        primitive: HitRecord::NONE,
-        front_face: 0,
-        barycentrics: [0.0; 2],
-        _pad: [0; 2],
-    };
+    const MISS: HitRecord = HitRecord::miss();
 
     #[test]
     fn bounce_rays_leave_the_upper_hemisphere_from_the_hit() {

@@ -2,7 +2,7 @@
 //! silent, and the check that long-lived buffers are device-local.
 
 use gi_host::image_io::HdrImage;
-use gi_host::scene::{Aabb, Instance, Light, Material, Mesh, Scene};
+use gi_host::scene::{Instance, Light, Material, Mesh, Scene};
 use gi_host::vulkan::{BufferInfo, Context, ContextOptions, MemoryLocation};
 use gi_host::{KernelVariant, TraceMode};
 use glam::{Mat4, Vec3, Vec4};
@@ -106,27 +106,13 @@ pub fn quad_scene(
         mesh.materials
             .extend([i.min(materials.len() - 1) as u32; 2]);
     }
-    let mut scene = Scene {
-        source: name.into(),
-        meshes: vec![mesh],
-        instances: vec![Instance {
-            name: name.to_owned(),
-            node: 0,
-            mesh: 0,
-            transform: Mat4::IDENTITY,
-        }],
-        materials,
-        textures: vec![],
-        lights,
-        cameras: vec![],
-        emissive_triangles: vec![],
-        bounds: Aabb::EMPTY,
-        animation: None,
-        load_stages: Vec::new(),
-        blases: Vec::new(),
+    let instance = Instance {
+        name: name.to_owned(),
+        node: 0,
+        mesh: 0,
+        transform: Mat4::IDENTITY,
     };
-    scene.update_derived();
-    scene
+    Scene::from_parts(name, vec![mesh], vec![instance], materials, vec![], lights)
 }
 
 /// A Lambertian material of grey `albedo` emitting `emission` (grey).

@@ -19,7 +19,7 @@ use gi_host::scene::bvh::Bvh;
 use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
-use gi_host::scene::{Aabb, Instance, Light, LightKind, Material, Mesh, Scene, Texture, Wrap};
+use gi_host::scene::{Instance, Light, LightKind, Material, Mesh, Scene, Texture, Wrap};
 use gi_host::trace_rays::TraceRays;
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::path_tracer::path_random;
@@ -91,9 +91,9 @@ fn fence_scene(lights: Vec<Light>) -> Scene {
         mesh,
         transform: Mat4::IDENTITY,
     };
-    let mut scene = Scene {
-        source: "alpha-fence".into(),
-        meshes: vec![
+    Scene::from_parts(
+        "alpha-fence",
+        vec![
             quad(
                 "floor",
                 Vec3::new(-3.0, -3.0, 0.0),
@@ -111,19 +111,11 @@ fn fence_scene(lights: Vec<Light>) -> Scene {
                 true,
             ),
         ],
-        instances: vec![instance("floor", 0), instance("fence", 1)],
-        materials: vec![lambertian(Vec3::new(0.8, 0.3, 0.2)), fence],
-        textures: vec![texture],
+        vec![instance("floor", 0), instance("fence", 1)],
+        vec![lambertian(Vec3::new(0.8, 0.3, 0.2)), fence],
+        vec![texture],
         lights,
-        cameras: vec![],
-        emissive_triangles: vec![],
-        bounds: Aabb::EMPTY,
-        animation: None,
-        load_stages: Vec::new(),
-        blases: Vec::new(),
-    };
-    scene.update_derived();
-    scene
+    )
 }
 
 /// The fence's filtered alpha at world point `q` (on its plane), or `None` off the fence.

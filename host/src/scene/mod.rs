@@ -166,6 +166,35 @@ impl Scene {
         loader::load_bytes(path.as_ref(), bytes, std::time::Instant::now())
     }
 
+    /// A scene built in code from its parts, without cameras or animation: the derived fields
+    /// ([`Scene::blases`], [`Scene::bounds`], [`Scene::emissive_triangles`]) computed by
+    /// [`Scene::update_derived`].
+    pub fn from_parts(
+        source: impl Into<PathBuf>,
+        meshes: Vec<Mesh>,
+        instances: Vec<Instance>,
+        materials: Vec<Material>,
+        textures: Vec<Texture>,
+        lights: Vec<Light>,
+    ) -> Scene {
+        let mut scene = Scene {
+            source: source.into(),
+            meshes,
+            instances,
+            materials,
+            textures,
+            lights,
+            cameras: Vec::new(),
+            emissive_triangles: Vec::new(),
+            bounds: Aabb::EMPTY,
+            animation: None,
+            load_stages: Vec::new(),
+            blases: Vec::new(),
+        };
+        scene.update_derived();
+        scene
+    }
+
     /// Recomputes [`Scene::blases`] (reordering each mesh's triangles and their materials into
     /// the leaf order of its bottom level), [`Scene::bounds`] and [`Scene::emissive_triangles`]
     /// from the meshes, instances and materials: the loader's last step, and what a scene built

@@ -3,12 +3,11 @@
 //! through. Used by the tracing tests and the tracing benchmark; and rooms of any triangle and
 //! light count for `gi bench`'s scaling sweeps ([`scaling_room`]).
 
-use super::{Aabb, Camera, Instance, Light, LightKind, Material, Mesh, Scene};
+use super::{Camera, Instance, Light, LightKind, Material, Mesh, Scene};
 use gi_shared::random::Random;
 use gi_shared::ray::Ray;
 use glam::{Mat4, Vec3, Vec4};
 use std::collections::HashMap;
-use std::path::PathBuf;
 
 /// Radius of a ball around the origin that [`cube`] and [`icosphere`] both contain with room to
 /// spare: where [`ray_at_shared_feature`] starts its rays from inside.
@@ -178,31 +177,24 @@ pub fn scene(meshes: Vec<Mesh>, instances: &[(u32, Mat4)]) -> Option<Scene> {
     {
         return None;
     }
-    let mut scene = Scene {
-        source: PathBuf::from("<procedural>"),
-        instances: instances
-            .iter()
-            .enumerate()
-            .map(|(i, &(mesh, transform))| Instance {
-                name: format!("instance {i}"),
-                node: i as u32,
-                mesh,
-                transform,
-            })
-            .collect(),
+    let instances = instances
+        .iter()
+        .enumerate()
+        .map(|(i, &(mesh, transform))| Instance {
+            name: format!("instance {i}"),
+            node: i as u32,
+            mesh,
+            transform,
+        })
+        .collect();
+    Some(Scene::from_parts(
+        "<procedural>",
         meshes,
-        materials: vec![Material::default()],
-        textures: Vec::new(),
-        lights: Vec::new(),
-        cameras: Vec::new(),
-        emissive_triangles: Vec::new(),
-        bounds: Aabb::EMPTY,
-        animation: None,
-        load_stages: Vec::new(),
-        blases: Vec::new(),
-    };
-    scene.update_derived();
-    Some(scene)
+        instances,
+        vec![Material::default()],
+        Vec::new(),
+        Vec::new(),
+    ))
 }
 
 /// Half extents of [`scaling_room`]'s room, in metres.

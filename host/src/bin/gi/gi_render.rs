@@ -326,31 +326,36 @@ pub fn render_gi(
                     st.cache.fed_back
                 );
             }
-            if let (Some(r), Some(file)) = (&reference, csv.as_mut()) {
-                let c = metrics::compare(r, &gi.image(ctx)?, &compare)?;
-                writeln!(
-                    file,
-                    "{f},{},{},{}",
-                    c.metrics.relative_mse, c.metrics.flip, c.metrics.mean_bias
-                )?;
-            }
-            if average_last > 1 && args.frames - f <= average_last {
+            let averaged = average_last > 1 && args.frames - f <= average_last;
+            if averaged || csv.is_some() {
                 let frame = gi.image(ctx)?;
-                let sum = average.get_or_insert_with(|| vec![[0.0f64; 3]; frame.pixels().len()]);
-                for (s, p) in sum.iter_mut().zip(frame.pixels()) {
-                    for c in 0..3 {
-                        s[c] += f64::from(p[c]);
+                if let (Some(r), Some(file)) = (&reference, csv.as_mut()) {
+                    let c = metrics::compare(r, &frame, &compare)?;
+                    writeln!(
+                        file,
+                        "{f},{},{},{}",
+                        c.metrics.relative_mse, c.metrics.flip, c.metrics.mean_bias
+                    )?;
+                }
+                if averaged {
+                    let sum =
+                        average.get_or_insert_with(|| vec![[0.0f64; 3]; frame.pixels().len()]);
+                    for (s, p) in sum.iter_mut().zip(frame.pixels()) {
+                        for c in 0..3 {
+                            s[c] += f64::from(p[c]);
+                        }
                     }
                 }
             }
         }
-        let mut image = gi.image(ctx)?;
-        if let Some(sum) = &average {
-            let n = f64::from(average_last);
-            for (p, s) in image.pixels_mut().iter_mut().zip(sum) {
-                *p = [(s[0] / n) as f32, (s[1] / n) as f32, (s[2] / n) as f32];
+        let image = match average {
+            Some(sum) => {
+                let n = f64::from(average_last);
+                let mean = sum.iter().map(|s| s.map(|c| (c / n) as f32)).collect();
+                HdrImage::from_pixels(width, height, mean)?
             }
-        }
+            None => gi.image(ctx)?,
+        };
         let views = match args.debug_views {
             Some(_) => gi_debug_views(ctx, &gi)?,
             None => vec![],
