@@ -99,7 +99,7 @@ use crate::path_tracer::{
 use crate::radiance_feedback::{accepts, reproject};
 use crate::random::Random;
 use crate::ray::{HitRecord, Ray, offset_ray_origin};
-use crate::ray_cone::RayCone;
+use crate::ray_cone::{RayCone, RayFootprint};
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, MaterialSample, NONE,
     Surface, hit_surface,
@@ -628,7 +628,7 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
         textures,
         images,
         ray,
-        secondary_hit_cone(),
+        secondary_hit_footprint(),
         hit,
     );
     let emission = material.emissive * view.emissive_multiplier;
@@ -1169,8 +1169,8 @@ pub fn hit_descriptor(
 /// The footprint a secondary hit's textures are filtered for: a probe traces one ray per
 /// octahedral cell, each standing for that share of the hemisphere.
 #[inline]
-pub fn secondary_hit_cone() -> RayCone {
-    RayCone::hemisphere_share(0.0, PROBE_CELLS)
+pub fn secondary_hit_footprint() -> RayFootprint {
+    RayFootprint::cone(RayCone::hemisphere_share(0.0, PROBE_CELLS))
 }
 
 /// Whether ResolveRadianceCache adds the cell's filtered radiance to the query's ray: it has a

@@ -30,7 +30,7 @@ use crate::ray::Ray;
 /// | 16     | `right`                 |
 /// | 28     | `aspect`                |
 /// | 32     | `up`                    |
-/// | 44     | `_pad0`                 |
+/// | 44     | `texture_footprint`     |
 /// | 48     | `forward`               |
 /// | 60     | `_pad1`                 |
 /// | 64     | `image_size`            |
@@ -50,8 +50,12 @@ pub struct CameraParams {
     pub aspect: f32,
     /// World-space unit up vector.
     pub up: [f32; 3],
-    /// Explicit padding.
-    pub _pad0: f32,
+    /// Scale of each pixel's footprint for the G-buffer's texture reads ([`crate::ray_cone`]):
+    /// 1 (what [`CameraParams::new`] sets) filters the texture over the pixel, right for an image
+    /// made of one frame; 0 reads the texture at the sample point alone, right for a view that
+    /// integrates the pixel itself over jittered frames (the cache view's running mean, like the
+    /// path tracer), which a prefiltered footprint would blur twice.
+    pub texture_footprint: f32,
     /// World-space unit viewing direction.
     pub forward: [f32; 3],
     /// Explicit padding.
@@ -102,7 +106,7 @@ impl CameraParams {
             right: right.to_array(),
             aspect: width as f32 / height_f,
             up: up.to_array(),
-            _pad0: 0.0,
+            texture_footprint: 1.0,
             forward: forward.to_array(),
             _pad1: 0.0,
             image_size: [width, height],
@@ -234,7 +238,7 @@ mod tests {
         assert_eq!(offset_of!(CameraParams, right), 16);
         assert_eq!(offset_of!(CameraParams, aspect), 28);
         assert_eq!(offset_of!(CameraParams, up), 32);
-        assert_eq!(offset_of!(CameraParams, _pad0), 44);
+        assert_eq!(offset_of!(CameraParams, texture_footprint), 44);
         assert_eq!(offset_of!(CameraParams, forward), 48);
         assert_eq!(offset_of!(CameraParams, _pad1), 60);
         assert_eq!(offset_of!(CameraParams, image_size), 64);

@@ -41,7 +41,7 @@ use glam::{Mat3, UVec2, UVec4, Vec2, Vec3, Vec4};
 use crate::camera::{CameraParams, to_clip, uv_of_clip};
 use crate::elements::Elements;
 use crate::ray::{HitRecord, Ray};
-use crate::ray_cone::RayCone;
+use crate::ray_cone::RayFootprint;
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, hit_surface,
     object_position,
@@ -287,9 +287,17 @@ pub fn gbuffer_texel<I: TextureImages + ?Sized>(
     if !hit.is_hit() {
         return GBufferTexel::SKY;
     }
-    let cone = RayCone::pixel(camera.tan_half_fov_y, camera.image_size[1]);
     let (surface, material) = hit_surface(
-        instances, meshes, vertices, triangles, materials, textures, images, ray, cone, hit,
+        instances,
+        meshes,
+        vertices,
+        triangles,
+        materials,
+        textures,
+        images,
+        ray,
+        RayFootprint::pixel(camera),
+        hit,
     );
     let direction = Vec3::from_array(ray.direction);
     // The point on the ray, not the interpolated one: depth and motion then agree with the

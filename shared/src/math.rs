@@ -20,6 +20,12 @@ pub fn floor(x: f32) -> f32 {
     Float::floor(x)
 }
 
+/// `ceil(x)`.
+#[inline]
+pub fn ceil(x: f32) -> f32 {
+    Float::ceil(x)
+}
+
 /// `sqrt(x)`; NaN for negative `x`.
 #[inline]
 pub fn sqrt(x: f32) -> f32 {

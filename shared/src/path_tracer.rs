@@ -73,14 +73,14 @@ use crate::lights::{
 use crate::math::{INV_PI, max, min_u32};
 use crate::random::Random;
 use crate::ray::{HitRecord, Ray, offset_ray_origin};
-use crate::ray_cone::RayCone;
+use crate::ray_cone::RayFootprint;
 use crate::reservoir::Reservoir;
 use crate::sampling::{sample_cosine_hemisphere, tangent_to_world};
 use crate::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, Surface, fetch_surface,
     hit_surface, sample_material,
 };
-use crate::textures::TextureImages;
+use crate::textures::{TextureImages, UvFootprint};
 
 /// The largest bounce count a path may take, whatever the parameters ask.
 pub const MAX_BOUNCES: u32 = 64;
@@ -491,7 +491,7 @@ pub fn shade<I: TextureImages + ?Sized>(
         textures,
         images,
         &path.ray,
-        RayCone::POINT,
+        RayFootprint::POINT,
         hit,
     );
     let mut ng = surface.geometric_normal;
@@ -682,7 +682,7 @@ pub fn sample_direct_light<I: TextureImages + ?Sized>(
             images,
             s.material,
             s.uv,
-            f32::NEG_INFINITY,
+            UvFootprint::POINT,
         )
         .emissive
             * params.emissive_multiplier;

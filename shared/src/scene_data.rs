@@ -25,8 +25,8 @@
 
 use crate::elements::Elements;
 use crate::ray::{HitRecord, Ray};
-use crate::ray_cone::RayCone;
-use crate::textures::{TextureImages, texture_lod};
+use crate::ray_cone::RayFootprint;
+use crate::textures::{TextureImages, UvFootprint, sample_footprint};
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3, Vec4};
 use num_traits::Float;
@@ -316,6 +316,10 @@ pub struct Surface {
     /// Area of the triangle in texture coordinates (UV units²; 0 without UVs): with `area`, the
     /// texture's density on the surface ([`crate::ray_cone`]).
     pub uv_area: f32,
+    /// World-space gradients of the texture coordinates u and v along the triangle's plane: the
+    /// UV change of a small step `d` on the surface is `(du · d, dv · d)` (zero without UVs or
+    /// for a degenerate triangle). Pixel footprints map through them ([`crate::ray_cone`]).
+    pub uv_gradients: [Vec3; 2],
     /// The triangle's size: its largest edge coordinate, in world space (see
     /// [`crate::ray::offset_ray_origin`]).
     pub size: f32,
@@ -417,18 +421,28 @@ pub fn fetch_surface(
         + Vec3::from_array(b.normal) * w1
         + Vec3::from_array(c.normal) * w2;
     let shading_normal = inst.transform_normal(n).normalize_or(geometric_normal);
-    let (uv, uv_area) = if mesh.has_uvs != 0 {
+    let (uv, uv_area, uv_gradients) = if mesh.has_uvs != 0 {
         let (ta, tb, tc) = (
             Vec2::new(a.u, a.v),
             Vec2::new(b.u, b.v),
             Vec2::new(c.u, c.v),
         );
+        let (d1, d2) = (tb - ta, tc - ta);
+        // The dual basis of the edges in the triangle's plane: b1 · e1 = 1, b1 · e2 = 0 and the
+        // reverse for b2, so a step d = s·e1 + t·e2 has s = b1 · d and t = b2 · d.
+        let length2 = cross.length_squared();
+        let (b1, b2) = if length2 > 0.0 && length2.is_finite() {
+            (e2.cross(cross) / length2, cross.cross(e1) / length2)
+        } else {
+            (Vec3::ZERO, Vec3::ZERO)
+        };
         (
             ta * w0 + tb * w1 + tc * w2,
-            0.5 * Float::abs((tb - ta).perp_dot(tc - ta)),
+            0.5 * Float::abs(d1.perp_dot(d2)),
+            [b1 * d1.x + b2 * d2.x, b1 * d1.y + b2 * d2.y],
         )
     } else {
-        (Vec2::ZERO, 0.0)
+        (Vec2::ZERO, 0.0, [Vec3::ZERO; 2])
     };
     Surface {
         // Relative to a vertex: rounding then depends on the triangle's size, not on how far from
@@ -440,6 +454,7 @@ pub fn fetch_surface(
         material: tri.material,
         area: 0.5 * cross.length(),
         uv_area,
+        uv_gradients,
         size: e1.abs().max(e2.abs()).max((pc - pb).abs()).max_element(),
     }
 }
@@ -485,7 +500,7 @@ pub fn alpha_visible<I: TextureImages + ?Sized>(
         images,
         s.material,
         s.uv,
-        f32::NEG_INFINITY,
+        UvFootprint::POINT,
     );
     m.base_color.w >= cutoff
 }
@@ -499,8 +514,8 @@ pub struct MaterialSample {
     pub emissive: Vec3,
 }
 
-/// The surface `hit` (of `ray`) landed on and its material there, its textures filtered for the
-/// footprint of `cone` around the ray: what every pass that shades a hit needs.
+/// The surface `hit` (of `ray`) landed on and its material there, its textures filtered over the
+/// ray's `footprint` there: what every pass that shades a hit needs.
 #[allow(clippy::too_many_arguments, reason = "one argument per scene buffer")]
 #[inline]
 pub fn hit_surface<I: TextureImages + ?Sized>(
@@ -512,7 +527,7 @@ pub fn hit_surface<I: TextureImages + ?Sized>(
     textures: &[GpuTexture],
     images: &I,
     ray: &Ray,
-    cone: RayCone,
+    footprint: RayFootprint,
     hit: &HitRecord,
 ) -> (Surface, MaterialSample) {
     let surface = fetch_surface(
@@ -524,35 +539,27 @@ pub fn hit_surface<I: TextureImages + ?Sized>(
         hit.primitive,
         Vec2::from_array(hit.barycentrics),
     );
-    let direction = Vec3::from_array(ray.direction);
-    let length = direction.length();
-    let lod = cone.footprint_lod(
-        hit.t * length,
-        direction / length,
-        surface.geometric_normal,
-        surface.area,
-        surface.uv_area,
-    );
+    let uv_footprint = footprint.on_surface(Vec3::from_array(ray.direction), hit.t, &surface);
     let material = sample_material(
         materials,
         textures,
         images,
         surface.material,
         surface.uv,
-        lod,
+        uv_footprint,
     );
     (surface, material)
 }
 
-/// Material `material` at texture coordinate `uv`, its textures filtered for a footprint of level
-/// `footprint_lod` ([`crate::ray_cone`]); the default material when out of range.
+/// Material `material` at texture coordinate `uv`, its textures filtered over `footprint`
+/// ([`sample_footprint`]); the default material when out of range.
 pub fn sample_material<I: TextureImages + ?Sized>(
     materials: &[GpuMaterial],
     textures: &[GpuTexture],
     images: &I,
     material: u32,
     uv: Vec2,
-    footprint_lod: f32,
+    footprint: UvFootprint,
 ) -> MaterialSample {
     let m = if (material as usize) < materials.len() {
         materials[material as usize]
@@ -560,28 +567,27 @@ pub fn sample_material<I: TextureImages + ?Sized>(
         GpuMaterial::default()
     };
     let base = Vec4::from_array(m.base_color)
-        * sample_texture_index(textures, images, m.base_color_texture, uv, footprint_lod);
+        * sample_texture_index(textures, images, m.base_color_texture, uv, footprint);
     let emissive = Vec3::from_array(m.emissive)
-        * sample_texture_index(textures, images, m.emissive_texture, uv, footprint_lod).truncate();
+        * sample_texture_index(textures, images, m.emissive_texture, uv, footprint).truncate();
     MaterialSample {
         base_color: base,
         emissive,
     }
 }
 
-/// Texture `index` of the table at `uv` for a footprint of level `footprint_lod`; 1 (the factor
-/// alone) for [`NONE`] or out of range.
+/// Texture `index` of the table at `uv` filtered over `footprint`; 1 (the factor alone) for
+/// [`NONE`] or out of range.
 #[inline]
 fn sample_texture_index<I: TextureImages + ?Sized>(
     textures: &[GpuTexture],
     images: &I,
     index: u32,
     uv: Vec2,
-    footprint_lod: f32,
+    footprint: UvFootprint,
 ) -> Vec4 {
     if (index as usize) < textures.len() {
-        let texture = &textures[index as usize];
-        images.sample(texture, index, uv, texture_lod(texture, footprint_lod))
+        sample_footprint(images, &textures[index as usize], index, uv, footprint)
     } else {
         Vec4::ONE
     }
@@ -850,7 +856,7 @@ mod tests {
         assert_eq!(sample_texture(&big, &texels, Vec2::ZERO), Vec4::ONE);
         let empty = GpuTexture { width: 0, ..t };
         assert_eq!(sample_texture(&empty, &texels, Vec2::ZERO), Vec4::ONE);
-        let m = sample_material(&[], &[], &[][..], 3, Vec2::ZERO, 0.0);
+        let m = sample_material(&[], &[], &[][..], 3, Vec2::ZERO, UvFootprint::POINT);
         assert_eq!(m.base_color, Vec4::ONE);
         assert_eq!(m.emissive, Vec3::ZERO);
         let s = fetch_surface(&[], &[], &[], &[], 0, 0, Vec2::splat(0.3));
@@ -1011,6 +1017,9 @@ mod tests {
             s.geometric_normal
         );
         assert!((s.shading_normal - Vec3::Z).length() < 1e-6);
+        // u = x_object = (5 - x) / 2 and v = y in world space: their gradients.
+        assert!((s.uv_gradients[0] - Vec3::new(-0.5, 0.0, 0.0)).length() < 1e-6);
+        assert!((s.uv_gradients[1] - Vec3::Y).length() < 1e-6);
         // Out-of-range primitive: material NONE, no fault.
         let bad = fetch_surface(&instances, &meshes, &vertices, &triangles, 0, 1, Vec2::ZERO);
         assert_eq!(bad.material, NONE);

@@ -23,7 +23,7 @@
 use glam::{Vec2, Vec4};
 use num_traits::Float;
 
-use crate::math::{clamp, floor};
+use crate::math::{ceil, clamp, floor};
 use crate::scene_data::{GpuTexture, sample_texture};
 
 /// Most mip levels a texture may have: a 65536² level 0 has 17. The table and the images use it
@@ -123,17 +123,86 @@ pub fn sample_mips(texture: &GpuTexture, texels: &[u32], uv: Vec2, lod: f32) -> 
     near + (far - near) * fraction
 }
 
-/// The level of detail of `texture` for a footprint of level `footprint_lod` (see
-/// [`crate::ray_cone`]): the footprint in texture coordinates (UV units) scaled to the texture's
-/// texels, `footprint_lod + ½·log2(width · height)`.
-#[inline]
-pub fn texture_lod(texture: &GpuTexture, footprint_lod: f32) -> f32 {
-    let texels = texture.width as f32 * texture.height as f32;
-    if texels > 0.0 {
-        footprint_lod + 0.5 * Float::log2(texels)
-    } else {
-        0.0
+/// Most taps of one anisotropic read ([`sample_footprint`]): footprints longer than this many
+/// times their width are read this many times, each tap a little blurred along the long axis,
+/// as a device sampler's `maxAnisotropy` (16 on current GPUs) does.
+pub const MAX_ANISOTROPY: u32 = 16;
+
+/// Where a texture read falls in texture coordinates: the UV change across the footprint along
+/// its two axes (for a pixel, the UV derivatives along the image's x and y). A parallelogram
+/// centred on the read's coordinate; both zero read level 0 at that point alone.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UvFootprint {
+    /// The footprint's first axis, UV units.
+    pub x: Vec2,
+    /// The footprint's second axis, UV units.
+    pub y: Vec2,
+}
+
+impl UvFootprint {
+    /// A point: level 0, one tap.
+    pub const POINT: Self = Self {
+        x: Vec2::ZERO,
+        y: Vec2::ZERO,
+    };
+
+    /// A disc `width` UV units across (a ray cone's footprint, [`crate::ray_cone`]); a point for a
+    /// width that is 0, negative or NaN.
+    #[inline]
+    pub fn isotropic(width: f32) -> Self {
+        let w = if width > 0.0 { width } else { 0.0 };
+        Self {
+            x: Vec2::new(w, 0.0),
+            y: Vec2::new(0.0, w),
+        }
     }
+}
+
+/// Texture `index` (table entry `texture`) at `uv`, filtered over `footprint`: the anisotropic
+/// filter of a sampler with explicit gradients. Both axes are scaled to texels; the footprint's
+/// length over its width, rounded up and at most [`MAX_ANISOTROPY`], is the tap count `n`; the
+/// `n` trilinear taps sit evenly along the long axis, each at the level of the footprint's width,
+/// or of its length over [`MAX_ANISOTROPY`] where that is coarser (so the level never jumps
+/// where `n` does, unlike Vulkan's `ρmax / N`). A narrow footprint at a grazing angle so keeps the detail across it
+/// that one isotropic read, sized by its length, would blur away. Non-finite axes read one tap
+/// at the coarsest level (infinite) or at level 0 (NaN).
+pub fn sample_footprint<I: TextureImages + ?Sized>(
+    images: &I,
+    texture: &GpuTexture,
+    index: u32,
+    uv: Vec2,
+    footprint: UvFootprint,
+) -> Vec4 {
+    let texels = Vec2::new(texture.width as f32, texture.height as f32);
+    let (a, b) = (
+        (footprint.x * texels).length(),
+        (footprint.y * texels).length(),
+    );
+    let (axis, major, minor) = if a >= b {
+        (footprint.x, a, b)
+    } else {
+        (footprint.y, b, a)
+    };
+    let max = MAX_ANISOTROPY as f32;
+    let (taps, width) = if !(major.is_finite() && major > 0.0) {
+        (1.0, major)
+    } else if minor * max > major {
+        (ceil(major / minor), minor)
+    } else {
+        (max, major / max)
+    };
+    let lod = Float::log2(width);
+    if taps <= 1.0 {
+        return images.sample(texture, index, uv, lod);
+    }
+    let mut sum = Vec4::ZERO;
+    let mut i = 0.0;
+    while i < taps {
+        let offset = (i + 0.5) / taps - 0.5;
+        sum += images.sample(texture, index, uv + axis * offset, lod);
+        i += 1.0;
+    }
+    sum / taps
 }
 
 #[cfg(test)]
@@ -208,11 +277,82 @@ mod tests {
     }
 
     #[test]
-    fn texture_lod_scales_the_footprint_to_texels() {
-        let (t, _) = chain();
-        // 4 × 2 texels: log2(sqrt(8)) = 1.5 levels finer than one texel per UV unit.
-        assert!((texture_lod(&t, -1.0) - 0.5).abs() < 1e-6);
-        let empty = GpuTexture { width: 0, ..t };
-        assert_eq!(texture_lod(&empty, 3.0), 0.0);
+    fn an_isotropic_footprint_reads_the_level_of_its_width_in_texels() {
+        let (t, texels) = chain();
+        let at = |f: UvFootprint| sample_footprint(&texels[..], &t, 0, Vec2::new(0.375, 0.5), f);
+        // A point and a NaN footprint read level 0; half a UV unit is 2 × 1 texels: level 1.
+        assert_eq!(
+            at(UvFootprint::POINT),
+            sample_mips(&t, &texels, Vec2::new(0.375, 0.5), 0.0)
+        );
+        assert_eq!(at(UvFootprint::isotropic(f32::NAN)), at(UvFootprint::POINT));
+        let level1 = sample_mips(&t, &texels, Vec2::new(0.375, 0.5), 1.0);
+        assert_eq!(
+            at(UvFootprint {
+                x: Vec2::new(0.5, 0.0),
+                y: Vec2::new(0.0, 1.0)
+            }),
+            level1
+        );
+        // Infinitely wide: the coarsest level, one tap.
+        let last = sample_mips(&t, &texels, Vec2::new(0.375, 0.5), 2.0);
+        assert_eq!(at(UvFootprint::isotropic(f32::INFINITY)), last);
+    }
+
+    #[test]
+    fn a_long_footprint_keeps_the_detail_across_it() {
+        // 16 × 16 texels of vertical stripes (a column is black or white, alternating every
+        // texel pair) read with a footprint 8 texels long down the stripes, 1 texel across.
+        let size = 16;
+        let mut texels = vec![0];
+        let mut chain_size = size;
+        while chain_size >= 1 {
+            for _y in 0..chain_size {
+                for x in 0..chain_size {
+                    let white = chain_size == size && (x / 2) % 2 == 1;
+                    texels.push(grey(if chain_size < size {
+                        128
+                    } else if white {
+                        255
+                    } else {
+                        0
+                    }));
+                }
+            }
+            chain_size /= 2;
+        }
+        let t = GpuTexture {
+            offset: 1,
+            width: size,
+            height: size,
+            levels: mip_levels(size, size),
+            wrap_u: WRAP_REPEAT,
+            wrap_v: WRAP_REPEAT,
+            ..GpuTexture::default()
+        };
+        let texel = 1.0 / size as f32;
+        let long = UvFootprint {
+            x: Vec2::new(texel, 0.0),
+            y: Vec2::new(0.0, 8.0 * texel),
+        };
+        // The centre of a black and of a white column pair.
+        let black = sample_footprint(&texels[..], &t, 0, Vec2::new(1.0 * texel, 0.5), long);
+        let white = sample_footprint(&texels[..], &t, 0, Vec2::new(3.0 * texel, 0.5), long);
+        assert!(black.x < 0.01 && white.x > 0.99, "{black} {white}");
+        // One isotropic read sized by the footprint's length would blur them together.
+        let blurred = sample_footprint(
+            &texels[..],
+            &t,
+            0,
+            Vec2::new(1.0 * texel, 0.5),
+            UvFootprint::isotropic(8.0 * texel),
+        );
+        assert!(blurred.x > 0.1, "{blurred}");
+        // Longer than MAX_ANISOTROPY times its width: capped taps, never more.
+        let needle = UvFootprint {
+            x: Vec2::new(1e-9, 0.0),
+            y: Vec2::new(0.0, 1.0),
+        };
+        assert!(sample_footprint(&texels[..], &t, 0, Vec2::splat(0.5), needle).is_finite());
     }
 }

@@ -399,9 +399,13 @@ fn textured_scene_shows_the_checker() {
                 // times a 64-texel checker of 8-texel squares.
                 let u = (p.z / 2.0 + 2.0).rem_euclid(1.0) * 64.0;
                 let v = (2.0 - p.x / 2.0).rem_euclid(1.0) * 64.0;
-                let inside = |c: f32| (1.0..=7.0).contains(&c.rem_euclid(8.0));
+                // Bilinear filtering and the anisotropic taps along the footprint's long side
+                // blend neighbouring squares near their edges.
+                let [a, b] = floor_footprint(&camera, x, y, t.depth);
+                let reach = 1.0 + 0.5 * a.length().max(b.length());
+                let inside = |c: f32| (reach..=8.0 - reach).contains(&c.rem_euclid(8.0));
                 if !(inside(u) && inside(v)) {
-                    continue; // bilinear filtering blends neighbouring squares here
+                    continue;
                 }
                 let is_light = ((u / 8.0) as u32 + (v / 8.0) as u32).is_multiple_of(2);
                 let expected = if is_light { light } else { dark };
@@ -428,13 +432,33 @@ fn textured_scene_shows_the_checker() {
     }
 }
 
-/// Mip selection by ray cones: the checker floor's texture replaced by a chain whose every level
-/// is one known grey (level `l`: 60 + 20·l of 255, linear), so the albedo tells which level the
-/// G-buffer read. The device (both variants) agrees with the CPU's trilinear filter, and the level
-/// read matches the ray cone's, `log2(t·α / |cos θ|) + ½·log2(uv area / area) + log2(64)`, along
-/// the whole floor: coarser with distance and grazing.
+/// The footprint of pixel (`x`, `y`) of `camera` on the floor of `textured.gltf` (hit at linear
+/// `depth`), in texels of its 64-texel checker: where the rays through the pixel's edges meet the
+/// floor's plane (its UVs are u = z/2 + 2, v = 2 - x/2), across the pixel along x and along y.
+fn floor_footprint(camera: &CameraParams, x: u32, y: u32, depth: f32) -> [Vec2; 2] {
+    let pixel = UVec2::new(x, y);
+    let ray = primary_ray(camera, pixel, Vec2::ZERO);
+    let origin = Vec3::from_array(ray.origin);
+    let height = (origin + Vec3::from_array(ray.direction) * depth).y;
+    let texel_at = |offset: Vec2| {
+        let d = Vec3::from_array(primary_ray(camera, pixel, offset).direction);
+        let p = origin + d * ((height - origin.y) / d.y);
+        Vec2::new(p.z, -p.x) * 0.5 * 64.0
+    };
+    [
+        texel_at(Vec2::new(0.5, 0.0)) - texel_at(Vec2::new(-0.5, 0.0)),
+        texel_at(Vec2::new(0.0, 0.5)) - texel_at(Vec2::new(0.0, -0.5)),
+    ]
+}
+
+/// Mip selection by ray differentials: the checker floor's texture replaced by a chain whose
+/// every level is one known grey (level `l`: 60 + 20·l of 255, linear), so the albedo tells which
+/// level the G-buffer read. The device (both variants) agrees with the CPU's filter, and the level
+/// read matches the pixel's footprint found independently, by intersecting the floor with the
+/// rays through the pixel's edges: the level of its short side in texels, or of its long side
+/// over 16 (`MAX_ANISOTROPY`) where that is coarser. Coarser with distance and grazing.
 #[test]
-fn ray_cones_pick_the_mip_level_the_footprint_needs() {
+fn pixel_footprints_pick_the_mip_level_they_need() {
     let mut loaded = load("textured.gltf");
     let grey = |l: u32| 60 + 20 * l;
     {
@@ -454,23 +478,18 @@ fn ray_cones_pick_the_mip_level_the_footprint_needs() {
     let cpu = render_on_cpu(&loaded.shading, &loaded.bvh, &camera, &[]);
     let floor = material(&loaded.scene, "checker floor");
     let factor = loaded.scene.materials[floor as usize].base_color.x;
-    let alpha = (2.0 * camera.tan_half_fov_y / HEIGHT as f32).atan();
     let mut checked = 0;
-    let (mut finest, mut coarsest) = (f32::MAX, f32::MIN);
+    let (mut finest, mut coarsest, mut most_taps) = (f32::MAX, f32::MIN, 0.0f32);
     for y in 0..HEIGHT {
         for x in 0..WIDTH {
             let t = cpu.texel(x, y);
             if t.ids.z != floor {
                 continue;
             }
-            let ray = primary_ray(&camera, UVec2::new(x, y), Vec2::ZERO);
-            let d = Vec3::from_array(ray.direction);
-            // G-buffer depth is along the view axis; the distance is along the ray.
-            let distance = t.depth / d.normalize().dot(camera.forward());
-            let cosine = d.normalize().dot(Vec3::Y).abs();
-            // The floor's UVs: u = z/2 + 2, v = 2 - x/2, so UV area = world area / 4.
-            let expected = (distance * alpha / cosine).log2() - 1.0 + 6.0;
-            let expected = expected.clamp(0.0, 6.0);
+            let [across, along] = floor_footprint(&camera, x, y, t.depth).map(|a| a.length());
+            let (long, short) = (across.max(along), across.min(along));
+            let taps = (long / short).ceil().min(16.0);
+            let expected = short.max(long / 16.0).log2().clamp(0.0, 6.0);
             let grey_read = t.albedo.x / factor * 255.0;
             let level_read = (grey_read - 60.0) / 20.0;
             assert!(
@@ -479,12 +498,19 @@ fn ray_cones_pick_the_mip_level_the_footprint_needs() {
             );
             finest = finest.min(level_read);
             coarsest = coarsest.max(level_read);
+            most_taps = most_taps.max(taps);
             checked += 1;
         }
     }
-    println!("floor: {checked} pixels, levels {finest:.2} to {coarsest:.2}");
+    println!(
+        "floor: {checked} pixels, levels {finest:.2} to {coarsest:.2}, up to {most_taps} taps"
+    );
     assert!(checked > 200, "{checked} floor pixels");
-    assert!(coarsest - finest > 1.5, "levels {finest} to {coarsest}");
+    assert!(coarsest - finest > 1.0, "levels {finest} to {coarsest}");
+    assert!(
+        most_taps > 2.0,
+        "the view must be grazing somewhere: {most_taps} taps"
+    );
     for variant in KernelVariant::ALL {
         let gpu = render(variant, &loaded, &[camera]).remove(0);
         assert_agree(&format!("mip levels {variant} vs cpu"), &cpu, &gpu);

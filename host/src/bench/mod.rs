@@ -14,6 +14,7 @@
 //! with anything else the machine runs, so compare points of one run only.
 
 pub mod equal_time;
+pub mod light_change;
 pub mod measure;
 pub mod plot;
 pub mod reference;

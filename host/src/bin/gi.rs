@@ -1,5 +1,7 @@
 //! `gi`: the command-line program of the GI-1.0 port.
 
+#[path = "gi/gi_lag.rs"]
+mod gi_lag;
 #[path = "gi/gi_render.rs"]
 mod gi_render;
 #[path = "gi/gi_soak.rs"]
@@ -24,6 +26,7 @@ use gi_host::scene::synthetic::{self, SyntheticParams};
 use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
+use gi_lag::{LagArgs, run_lag};
 use gi_render::{GiArgs, Method, render_gi};
 use gi_shared::camera::CameraParams;
 use gi_soak::{SoakArgs, run_soak};
@@ -202,6 +205,10 @@ enum Command {
     /// frame, and host and device memory are sampled; cache occupancy and frame time are recorded
     /// every frame. Prints a summary table; exits non-zero when a check fails.
     Soak(SoakArgs),
+    /// Measure the response to a change of light: the scene's brightest emitter switched off,
+    /// switched on and moved, for every preset; prints the share of the change still missing
+    /// after 5, 15 and 30 frames and the frames until it stays within 5 %.
+    Lag(LagArgs),
     /// Open a scene in a window: a fly camera (WASD, mouse drag), GI or the path tracer
     /// (accumulating while the camera stands still) or the cache view, every technique's
     /// toggle and debug view, a timing overlay; drop a scene or an environment on the window
@@ -444,6 +451,9 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(Command::Soak(args)) = &cli.command {
         run_soak(&ctx, args)?;
+    }
+    if let Some(Command::Lag(args)) = &cli.command {
+        run_lag(&ctx, args)?;
     }
     if let Some(Command::CacheView {
         scene,

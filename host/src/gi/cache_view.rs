@@ -296,6 +296,8 @@ impl CacheView {
     fn frame_camera(&self, camera: &CameraParams) -> CameraParams {
         let mut c = *camera;
         c.jitter = (halton23((self.frame & 0xff) + 1) - Vec2::splat(0.5)).to_array();
+        // The running mean integrates the pixel: a prefiltered texture would blur it twice.
+        c.texture_footprint = 0.0;
         if let Some(p) = &self.previous {
             c.previous_view_proj = p.view_proj;
         }

@@ -255,7 +255,9 @@ fn upload_batch(
 pub type WrapModes = [u32; 2];
 
 /// The samplers of a scene's textures, one per pair of wrap modes in use: trilinear, explicit
-/// level of detail (no anisotropy: the kernels pass the ray cone's level). Freed when dropped.
+/// level of detail (no sampler anisotropy: the kernels take their own anisotropic taps,
+/// `gi_shared::textures::sample_footprint`, so the CPU reference reads the same). Freed when
+/// dropped.
 pub struct Samplers {
     samplers: Vec<(WrapModes, vk::Sampler)>,
     shared: Arc<SharedDevice>,

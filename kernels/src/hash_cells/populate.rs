@@ -18,7 +18,7 @@ use gi_shared::atomics::AtomicWords;
 use gi_shared::cache_view::{
     BOUNCE_MISSES, CARRIED_NEXT, CachePassParams, CacheQuery, CacheViewPixel, FLAG_MULTI_BOUNCE,
     PASS_BOUNCE, QUERY_CARRIED, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay, accumulate_into_cell,
-    pass_random, secondary_hit_cone, shadow_ray_radiance,
+    pass_random, secondary_hit_footprint, shadow_ray_radiance,
 };
 use gi_shared::hash_cells::lists::{DROPPED_SAMPLES, count};
 use gi_shared::layout::HashCellValue;
@@ -94,7 +94,7 @@ traced_kernel! {
                 let (surface, material) = hit_surface(
                     scene.instances, scene.meshes, scene.vertices, scene.triangles,
                     scene.materials, scene.textures, &Bindless(texture_images), &ray,
-                    secondary_hit_cone(), &hit,
+                    secondary_hit_footprint(), &hit,
                 );
                 if let Some(next) = carried_query(&query, &ray, &hit, &surface, &material)
                     && let Some(slot) = append(&mut counters, CARRIED_NEXT, carried.len() as u32)

@@ -10,6 +10,9 @@
 //! 3. **FilterGI** ([`filter_gi`]) × 2: the separable bilateral blur over that radius, horizontal
 //!    then vertical; its output is the irradiance ResolveGI (`crate::primary_lighting`) composes.
 //!
+//! It filters lighting only: irradiance, demodulated from the albedo, which ResolveGI multiplies
+//! back in from the G-buffer per pixel. Texture detail so never passes through the blur.
+//!
 //! Every pass is per pixel, `threads(8, 8)`, dispatched `[ceil(W / 8), ceil(H / 8), 1]`, with
 //! per-pixel buffers indexed `y × W + x`.
 

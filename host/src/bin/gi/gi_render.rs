@@ -168,28 +168,7 @@ impl GiArgs {
             s.spawn_rate = rate;
         }
         s.restir |= self.restir;
-        for t in &self.no {
-            match t {
-                Technique::Reprojection => s.reprojection = false,
-                Technique::Parallax => s.parallax = false,
-                Technique::Backup => s.radiance_backup = false,
-                Technique::Patching => s.patching = false,
-                Technique::Guiding => s.ray_guiding = false,
-                Technique::Hysteresis => s.hysteresis = false,
-                Technique::Filter => s.probe_filter = false,
-                Technique::Jitter => s.interpolation_jitter = false,
-                Technique::Relaxed => s.relaxed_fallback = false,
-                Technique::Temporal => s.denoiser_temporal = false,
-                Technique::Spatial => s.denoiser_spatial = false,
-                Technique::Feedback => s.temporal_feedback = false,
-                Technique::MultiBounce => s.multi_bounce = false,
-                Technique::ObjectMotion => s.object_motion = false,
-                Technique::LeakFixes => {
-                    s.short_ray_flag = false;
-                    s.bypass = false;
-                }
-            }
-        }
+        switch_off(&mut s, &self.no);
         s
     }
 
@@ -385,4 +364,30 @@ pub fn render_gi(
         }
     }
     Ok(())
+}
+
+/// `settings` with each technique of `off` switched off.
+pub fn switch_off(s: &mut GiSettings, off: &[Technique]) {
+    for t in off {
+        match t {
+            Technique::Reprojection => s.reprojection = false,
+            Technique::Parallax => s.parallax = false,
+            Technique::Backup => s.radiance_backup = false,
+            Technique::Patching => s.patching = false,
+            Technique::Guiding => s.ray_guiding = false,
+            Technique::Hysteresis => s.hysteresis = false,
+            Technique::Filter => s.probe_filter = false,
+            Technique::Jitter => s.interpolation_jitter = false,
+            Technique::Relaxed => s.relaxed_fallback = false,
+            Technique::Temporal => s.denoiser_temporal = false,
+            Technique::Spatial => s.denoiser_spatial = false,
+            Technique::Feedback => s.temporal_feedback = false,
+            Technique::MultiBounce => s.multi_bounce = false,
+            Technique::ObjectMotion => s.object_motion = false,
+            Technique::LeakFixes => {
+                s.short_ray_flag = false;
+                s.bypass = false;
+            }
+        }
+    }
 }

@@ -1,0 +1,73 @@
+//! Response to a change of light (lag), `balanced`: the Cornell box's ceiling light switched off,
+//! switched on and moved, with the renderer's history kept across the change
+//! (`gi_host::bench::light_change`; `gi lag` prints the same figures for every preset).
+
+use gi_host::KernelVariant;
+use gi_host::bench::light_change::{Frames, LightChange, measure};
+use gi_host::gbuffer::scene_camera;
+use gi_host::gi::Preset;
+use gi_tests::{context, finish_without_validation_messages, load_scene};
+
+const WIDTH: u32 = 64;
+const HEIGHT: u32 = 64;
+const FRAMES: Frames = Frames {
+    warm_up: 64,
+    steady: 16,
+    after: 24,
+};
+/// The frame after the change whose share of the change still missing is bounded.
+const CHECKED_FRAME: u32 = 15;
+
+/// The share of `change` still missing [`CHECKED_FRAME`] frames after it.
+fn missing_after_change(change: LightChange) -> f64 {
+    let scene = load_scene("cornell-box.gltf");
+    let ctx = context(KernelVariant::Software);
+    let camera = scene_camera(&scene, WIDTH, HEIGHT);
+    let settings = Preset::Balanced.settings(WIDTH, HEIGHT);
+    let response = measure(&ctx, &scene, change, &camera, settings, FRAMES).unwrap();
+    finish_without_validation_messages(ctx);
+    let shares: Vec<String> = response
+        .remaining
+        .iter()
+        .map(|r| format!("{r:.3}"))
+        .collect();
+    println!(
+        "{}: share missing per frame {}",
+        change.name(),
+        shares.join(" ")
+    );
+    response.after(CHECKED_FRAME).unwrap()
+}
+
+// Bounds: the share measured (in the comment) × about 1.3, so that a lag half as long again
+// fails. Lavapipe, software traversal; `gi lag` gives the figures at 128 × 72 in the README.
+
+#[test]
+fn a_light_switched_off_leaves_little_light_after_15_frames() {
+    // Measured: 0.069 (the goal, 0.05, is not met: README "Response to change").
+    let missing = missing_after_change(LightChange::Off);
+    assert!(
+        missing < 0.09,
+        "{missing:.3} of the light left after 15 frames"
+    );
+}
+
+#[test]
+fn a_light_switched_on_is_mostly_there_after_15_frames() {
+    // Measured: 0.098.
+    let missing = missing_after_change(LightChange::On);
+    assert!(
+        missing < 0.13,
+        "{missing:.3} of the light missing after 15 frames"
+    );
+}
+
+#[test]
+fn a_moved_light_is_mostly_followed_after_15_frames() {
+    // Measured: 0.088.
+    let missing = missing_after_change(LightChange::Move);
+    assert!(
+        missing < 0.115,
+        "{missing:.3} of the change missing after 15 frames"
+    );
+}
