@@ -77,12 +77,12 @@ impl LightChange {
             let mut materials = scene.materials.clone();
             materials[material].emissive = Vec3::ZERO;
             let off = rebuilt(scene, scene.instances.clone(), materials);
+            let shift = Mat4::from_translation(step(emitter_centre(scene, material)));
             let mut instances = scene.instances.clone();
             for instance in &mut instances {
                 let mesh = &scene.meshes[instance.mesh as usize];
                 if mesh.materials.iter().any(|&m| m as usize == material) {
-                    let at = instance.transform.transform_point3(Vec3::ZERO);
-                    instance.transform = Mat4::from_translation(step(at)) * instance.transform;
+                    instance.transform = shift * instance.transform;
                 }
             }
             (
@@ -156,6 +156,18 @@ fn brightest_emitter(scene: &Scene) -> Option<usize> {
     (0..power.len())
         .filter(|&m| power[m] > 0.0)
         .max_by(|&a, &b| power[a].total_cmp(&power[b]))
+}
+
+/// The mean of the centroids of `material`'s world triangles.
+fn emitter_centre(scene: &Scene, material: usize) -> Vec3 {
+    let (mut sum, mut count) = (Vec3::ZERO, 0.0f32);
+    for t in scene.world_triangles() {
+        if t.material as usize == material {
+            sum += (t.vertices[0] + t.vertices[1] + t.vertices[2]) / 3.0;
+            count += 1.0;
+        }
+    }
+    sum / count.max(1.0)
 }
 
 /// Rec. 709 luminance weights.
@@ -308,4 +320,93 @@ fn blocks(image: &HdrImage) -> Vec<f64> {
         .zip(counts)
         .map(|(s, n)| s / f64::from(n.max(1)))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::procedural::{cube, scaling_room, scene};
+
+    fn cornell_box() -> Scene {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box.gltf");
+        Scene::load(path).unwrap().0
+    }
+
+    #[test]
+    fn the_brightest_emitter_is_switched_and_moved() {
+        let scene = cornell_box();
+        assert!(!scene.emissive_triangles.is_empty());
+        let (before, off) = LightChange::Off.scenes(&scene).unwrap();
+        assert_eq!(before.emissive_triangles, scene.emissive_triangles);
+        assert!(off.emissive_triangles.is_empty(), "its only emitter is off");
+        let (dark, lit) = LightChange::On.scenes(&scene).unwrap();
+        assert!(dark.emissive_triangles.is_empty());
+        assert_eq!(lit.emissive_triangles, scene.emissive_triangles);
+        // Moved a quarter of the box's 2 m along x (its longest horizontal axis, or z on a
+        // tie), toward the centre, and nothing else.
+        let (_, moved) = LightChange::Move.scenes(&scene).unwrap();
+        let centre = |s: &Scene| {
+            s.emissive_triangles
+                .iter()
+                .map(|t| t.vertices[0])
+                .sum::<Vec3>()
+                / s.emissive_triangles.len() as f32
+        };
+        let shift = centre(&moved) - centre(&scene);
+        assert!((shift.length() - 0.5).abs() < 1e-3, "{shift}");
+        assert!(shift.y.abs() < 1e-6);
+        assert_eq!(moved.cameras, scene.cameras);
+    }
+
+    #[test]
+    fn without_emitters_the_brightest_punctual_light_changes() {
+        let room = scaling_room(0, 3).unwrap();
+        let (_, off) = LightChange::Off.scenes(&room).unwrap();
+        let dark = off
+            .lights
+            .iter()
+            .filter(|l| l.intensity == Vec3::ZERO)
+            .count();
+        assert_eq!(dark, 1);
+        let (_, moved) = LightChange::Move.scenes(&room).unwrap();
+        let changed: Vec<_> = room
+            .lights
+            .iter()
+            .zip(&moved.lights)
+            .filter(|(a, b)| a.position != b.position)
+            .collect();
+        assert_eq!(changed.len(), 1);
+        let (a, b) = changed[0];
+        let inside =
+            b.position.cmpge(room.bounds.min).all() && b.position.cmple(room.bounds.max).all();
+        assert!(inside, "{} moved out to {}", a.position, b.position);
+    }
+
+    #[test]
+    fn a_scene_without_light_is_an_error_that_names_it() {
+        let mut unlit = scene(vec![cube()], &[(0, Mat4::IDENTITY)]).unwrap();
+        unlit.source = "unlit.gltf".into();
+        for change in LightChange::ALL {
+            let e = change.scenes(&unlit).unwrap_err().to_string();
+            assert!(e.contains("unlit.gltf"), "{e}");
+        }
+    }
+
+    #[test]
+    fn settling_is_the_first_frame_from_which_the_share_stays_small() {
+        let response = |remaining: &[f64]| Response {
+            change: LightChange::Off,
+            remaining: remaining.to_vec(),
+        };
+        assert_eq!(response(&[0.01, 0.02]).frames_to_settle(), Some(1));
+        assert_eq!(
+            response(&[0.5, 0.04, 0.06, 0.01]).frames_to_settle(),
+            Some(4)
+        );
+        assert_eq!(response(&[0.5, 0.04, 0.06]).frames_to_settle(), None);
+        assert_eq!(response(&[0.5, 0.04]).after(2), Some(0.04));
+        assert_eq!(response(&[0.5]).after(0), None);
+        assert_eq!(response(&[0.5]).after(2), None);
+    }
 }
