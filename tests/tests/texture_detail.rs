@@ -13,6 +13,7 @@ use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_shared::camera::CameraParams;
+use gi_shared::color::luminance;
 use gi_tests::{context, finish_without_validation_messages, load_scene};
 use glam::Vec3;
 
@@ -26,10 +27,7 @@ const MAX_DETAIL_ERROR: f64 = 0.15;
 fn detail(image: &HdrImage) -> f64 {
     let (w, h) = (image.width() as usize, image.height() as usize);
     let p = image.pixels();
-    let lum = |x: usize, y: usize| {
-        let c = p[y * w + x];
-        0.2126 * f64::from(c[0]) + 0.7152 * f64::from(c[1]) + 0.0722 * f64::from(c[2])
-    };
+    let lum = |x: usize, y: usize| f64::from(luminance(Vec3::from_array(p[y * w + x])));
     let (mut laplacian, mut sum) = (0.0, 0.0);
     for y in 1..h - 1 {
         for x in 1..w - 1 {
@@ -60,27 +58,17 @@ fn texture_detail_at_a_grazing_angle_matches_the_path_tracer() {
     for variant in KernelVariant::ALL {
         let ctx = context(variant);
         let shading = ShadingData::new(&scene).unwrap();
-        let gpu = GpuScene::upload(
-            &ctx,
-            &scene,
-            None,
-            &shading,
-            &LightSet::new(&scene, None, false),
-        )
-        .unwrap();
-        let mut path = PathTracerPass::new(&ctx).unwrap();
+        let lights = LightSet::new(&scene, None, true);
+        let gpu = GpuScene::upload(&ctx, &scene, None, &shading, &lights).unwrap();
         let settings = PathTracerSettings {
             samples: 256,
             ..PathTracerSettings::default()
         };
-        let reference = path
+        let reference = PathTracerPass::new(&ctx)
+            .unwrap()
             .render(&ctx, &gpu, &camera, &settings, |_, _| {})
             .unwrap()
             .image;
-        drop(path);
-        drop(gpu);
-        let lights = LightSet::new(&scene, None, true);
-        let gpu = GpuScene::upload(&ctx, &scene, None, &shading, &lights).unwrap();
         let mut gi = GiRenderer::new(
             &ctx,
             &lights,

@@ -27,6 +27,7 @@ use crate::scene::upload::GpuScene;
 use crate::scene::{LightKind, Scene};
 use crate::vulkan::Context;
 use gi_shared::camera::CameraParams;
+use gi_shared::color::luminance;
 use glam::{Mat4, Vec3};
 
 /// Side of the blocks whose luminance the measure compares, pixels.
@@ -131,10 +132,10 @@ impl LightChange {
 fn brightest_punctual(scene: &Scene) -> Option<usize> {
     let rank = |i: &usize| {
         let l = &scene.lights[*i];
-        (l.kind != LightKind::Directional, l.intensity.dot(LUMINANCE))
+        (l.kind != LightKind::Directional, luminance(l.intensity))
     };
     (0..scene.lights.len())
-        .filter(|&i| scene.lights[i].intensity.dot(LUMINANCE) > 0.0)
+        .filter(|&i| luminance(scene.lights[i].intensity) > 0.0)
         .max_by(|a, b| {
             let (ka, la) = rank(a);
             let (kb, lb) = rank(b);
@@ -151,7 +152,7 @@ fn brightest_emitter(scene: &Scene) -> Option<usize> {
         };
         let [a, b, c] = t.vertices;
         let area = 0.5 * f64::from((b - a).cross(c - a).length());
-        power[t.material as usize] += area * f64::from(m.emissive.dot(LUMINANCE));
+        power[t.material as usize] += area * f64::from(luminance(m.emissive));
     }
     (0..power.len())
         .filter(|&m| power[m] > 0.0)
@@ -169,9 +170,6 @@ fn emitter_centre(scene: &Scene, material: usize) -> Vec3 {
     }
     sum / count.max(1.0)
 }
-
-/// Rec. 709 luminance weights.
-const LUMINANCE: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
 /// `scene` with other instances or materials, its derived data rebuilt; cameras kept.
 fn rebuilt(
@@ -312,7 +310,7 @@ fn blocks(image: &HdrImage) -> Vec<f64> {
     for (i, c) in image.pixels().iter().enumerate() {
         let (x, y) = (i as u32 % w, i as u32 / w);
         let b = ((y / BLOCK) * bw + x / BLOCK) as usize;
-        let l = f64::from(Vec3::from_array(*c).dot(LUMINANCE));
+        let l = f64::from(luminance(Vec3::from_array(*c)));
         sums[b] += if l.is_finite() { l } else { 0.0 };
         counts[b] += 1;
     }
