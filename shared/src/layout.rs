@@ -58,9 +58,13 @@ pub const MAX_HASH_GRID_CELLS: usize = MAX_HASH_GRID_TILES * CELLS_PER_TILE as u
 /// would fill the 128 MiB binding exactly at [`MAX_HASH_GRID_TILES`], and the pass that clears the
 /// accumulators writes an eighth less.
 pub const ACCUMULATOR_WORDS: usize = 7;
-/// Largest accumulator buffer, in words: tiles × 64 mip-0 cells × 7 (117 MB).
-pub const MAX_HASH_GRID_ACCUMULATOR_WORDS: usize =
-    MAX_HASH_GRID_TILES * MIP0_CELLS_PER_TILE as usize * ACCUMULATOR_WORDS;
+/// Offset, in a tile's accumulator words, of its luminance trend
+/// ([`crate::hash_cells::adaptive_blend::TileTrend`], kept across frames): after its 64 cells.
+pub const TREND_WORD: usize = MIP0_CELLS_PER_TILE as usize * ACCUMULATOR_WORDS;
+/// `u32` words of one tile's accumulators: 64 mip-0 cells × 7, then the trend word.
+pub const TILE_ACCUMULATOR_WORDS: usize = TREND_WORD + 1;
+/// Largest accumulator buffer, in words: tiles × (64 mip-0 cells × 7 + 1) (118 MB).
+pub const MAX_HASH_GRID_ACCUMULATOR_WORDS: usize = MAX_HASH_GRID_TILES * TILE_ACCUMULATOR_WORDS;
 
 /// One hash-grid cell value: `(r · n, g · n, b · n, n)`, the running mean premultiplied by its
 /// sample count `n` so that coarser mips are plain sums. Mip-0 counts are integers ≤
@@ -302,8 +306,11 @@ pub struct HashGridParams {
     /// Sample-count cap of a cell's history, also the adaptive read's mip threshold (default
     /// [`crate::hash_cells::MAX_SAMPLE_COUNT`]; 0 reads as 1).
     pub sample_cap: u32,
+    /// 1: the blend adapts its cap to how much a tile's lighting changed
+    /// ([`crate::hash_cells::adaptive_blend`]); 0: the fixed `sample_cap` (the reference).
+    pub adaptive_blend: u32,
     /// Explicit padding to 48 bytes.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 impl HashGridParams {
@@ -319,7 +326,8 @@ impl HashGridParams {
             frame_index,
             item_count: 0,
             sample_cap: crate::hash_cells::MAX_SAMPLE_COUNT,
-            _pad: [0; 2],
+            adaptive_blend: 1,
+            _pad: 0,
         }
     }
 
@@ -471,7 +479,8 @@ mod tests {
         assert_eq!(offset_of!(HashGridParams, frame_index), 28);
         assert_eq!(offset_of!(HashGridParams, item_count), 32);
         assert_eq!(offset_of!(HashGridParams, sample_cap), 36);
-        assert_eq!(offset_of!(HashGridParams, _pad), 40);
+        assert_eq!(offset_of!(HashGridParams, adaptive_blend), 40);
+        assert_eq!(offset_of!(HashGridParams, _pad), 44);
         // All alignments are 4: no implicit padding anywhere.
         assert_eq!(core::mem::align_of::<HashGridParams>(), 4);
     }
@@ -484,7 +493,7 @@ mod tests {
         assert_eq!(MAX_HASH_GRID_CELLS, 5_570_560);
         // 89 MB of values and 117 MB of accumulators, each under the 128 MiB binding.
         assert_eq!(MAX_HASH_GRID_CELLS * size_of::<HashCellValue>(), 89_128_960);
-        assert_eq!(MAX_HASH_GRID_ACCUMULATOR_WORDS * 4, 117_440_512);
+        assert_eq!(MAX_HASH_GRID_ACCUMULATOR_WORDS * 4, 117_702_656);
         assert!(HashGridParams::new(Vec3::ZERO, 0.03, 0).fits_buffers());
         assert_eq!(
             HashGridParams::new(Vec3::ZERO, 0.03, 0).tile_count(),

@@ -150,11 +150,14 @@ pub fn points(
                 },
             ));
         }
-        let switches: [Switch; 6] = [
+        let switches: [Switch; 7] = [
             ("probe_filter", "off", |s| s.probe_filter = false),
             ("restir", "on", |s| s.restir = true),
             ("temporal_feedback", "off", |s| s.temporal_feedback = false),
             ("multi_bounce", "off", |s| s.multi_bounce = false),
+            ("adaptive_cache_blend", "off", |s| {
+                s.adaptive_cache_blend = false
+            }),
             ("hysteresis", "off", |s| s.hysteresis = false),
             ("denoiser", "off", |s| {
                 s.denoiser_temporal = false;
@@ -214,6 +217,7 @@ mod tests {
             "restir",
             "temporal_feedback",
             "multi_bounce",
+            "adaptive_cache_blend",
             "hysteresis",
             "denoiser",
             "resolution",

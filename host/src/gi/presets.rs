@@ -44,9 +44,11 @@ impl Preset {
     /// Its settings for a `width × height` frame (the cache sized by
     /// [`GiSettings::for_resolution`]).
     pub fn settings(self, width: u32, height: u32) -> GiSettings {
-        // Every preset bounces light through the world cache (the reference does not).
+        // Every preset bounces light through the world cache and adapts its blend to change
+        // (the reference does neither).
         let base = GiSettings {
             multi_bounce: true,
+            adaptive_cache_blend: true,
             ..GiSettings::for_resolution(width, height)
         };
         match self {
@@ -86,6 +88,7 @@ mod tests {
             settings[1],
             GiSettings {
                 multi_bounce: true,
+                adaptive_cache_blend: true,
                 ..GiSettings::for_resolution(320, 180)
             }
         );

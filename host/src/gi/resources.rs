@@ -19,12 +19,12 @@ use gi_shared::cache_view::{
     ShadowRay, reservoir_grid_buckets,
 };
 use gi_shared::camera::CameraParams;
+use gi_shared::hash_cells::CELLS_PER_TILE;
 use gi_shared::hash_cells::lists::{
     DROPPED_SAMPLES, EVICTED_TILES, FAILED_INSERTS, UPDATE_TILES, list_buffer_words, live_list,
 };
 use gi_shared::hash_cells::touch::initial_last_touch;
-use gi_shared::hash_cells::{CELLS_PER_TILE, MIP0_CELLS_PER_TILE};
-use gi_shared::layout::{ACCUMULATOR_WORDS, HashCellValue, MAX_STORAGE_BUFFER_BYTES};
+use gi_shared::layout::{HashCellValue, MAX_STORAGE_BUFFER_BYTES, TILE_ACCUMULATOR_WORDS};
 use gi_shared::light_grid::{
     LIGHT_GRID_BOUNDS_WORDS, LIGHT_GRID_MAX_CELLS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry,
     LightGridParams,
@@ -42,7 +42,8 @@ pub struct CacheResources {
     pub last_touch: Buffer,
     /// Hash grid: 85 [`HashCellValue`]s per tile.
     pub values: Buffer,
-    /// Hash grid: [`ACCUMULATOR_WORDS`] words per mip-0 cell.
+    /// Hash grid: [`TILE_ACCUMULATOR_WORDS`] words per tile (7 per mip-0 cell and the tile's
+    /// luminance trend).
     pub accumulators: Buffer,
     /// Hash grid: counters and the live (×2, ping-pong) and update tile lists.
     pub lists: Buffer,
@@ -126,7 +127,7 @@ impl CacheResources {
         let rays = (rays as usize).max(1);
         let carried = carried_queries(settings, rays);
         let cells = tiles * CELLS_PER_TILE as usize;
-        let accumulator_words = tiles * MIP0_CELLS_PER_TILE as usize * ACCUMULATOR_WORDS;
+        let accumulator_words = tiles * TILE_ACCUMULATOR_WORDS;
         debug_assert!(accumulator_words * 4 <= MAX_STORAGE_BUFFER_BYTES);
         let entries = (LIGHT_GRID_MAX_CELLS * LIGHT_GRID_RESERVOIRS_PER_CELL) as usize;
         let n = &RESOURCE_NAMES;

@@ -47,6 +47,16 @@ pub struct GiSettings {
     /// newest sample weighs 1/cap) and reads coarser mips for longer (more blur); a lower cap
     /// reacts faster and is noisier.
     pub sample_cap: u32,
+    /// The cache's blend adapts to change (`gi_shared::hash_cells::adaptive_blend`; not in the
+    /// reference): each tile pools its cells' luminance change per frame, and while the change
+    /// is coherent (a light went off, on or moved) rather than noise, its cells' history weighs
+    /// less than `sample_cap` samples, down to none. Cost: one more pass over the tile's 64
+    /// accumulators in UpdateRadianceCache and one word of memory per tile. Quality: a light
+    /// switched off leaves the cache within a few frames instead of circulating through the
+    /// multi-bounce loop for tens (README "Response to change"); static lighting keeps its cap.
+    /// Tiles that pool fewer than 32 samples a frame adapt less, and under 8 not at all (their
+    /// decision would bias them). Default: off, as in the reference; every preset turns it on.
+    pub adaptive_cache_blend: bool,
     /// Smallest world-space cell, in scene units (reference: 0.1, for scenes in metres). Cost:
     /// none. Quality: stops cells near the camera from becoming so small that they never gather
     /// enough samples. It is the one length of the GI frame that does not follow the scene's
@@ -189,6 +199,7 @@ impl Default for GiSettings {
             tiles_per_bucket_log2: TILES_PER_BUCKET_LOG2,
             cell_size_pixels: DEFAULT_CELL_SIZE_PIXELS,
             sample_cap: MAX_SAMPLE_COUNT,
+            adaptive_cache_blend: false,
             min_cell_size: MIN_CELL_SIZE,
             temporal_feedback: true,
             multi_bounce: false,

@@ -8,10 +8,10 @@
 
 use glam::Vec3;
 
-use super::{MIP0_CELLS_PER_TILE, TILE_CELL_RATIO};
+use super::TILE_CELL_RATIO;
 use crate::atomics::AtomicWords;
 use crate::fixed_point;
-use crate::layout::{ACCUMULATOR_WORDS, HashCellAccumulator};
+use crate::layout::{ACCUMULATOR_WORDS, HashCellAccumulator, TILE_ACCUMULATOR_WORDS, TREND_WORD};
 use crate::math::min_u32;
 
 /// First accumulator word of mip-0 cell `cell` (`[x, y]`, each clamped to 0..8) of tile `tile`.
@@ -20,9 +20,13 @@ pub fn accumulator_word(tile: u32, cell: [u32; 2]) -> usize {
     let last = TILE_CELL_RATIO - 1;
     let x = min_u32(cell[0], last);
     let y = min_u32(cell[1], last);
-    let mip0_cell =
-        tile as usize * MIP0_CELLS_PER_TILE as usize + (x + y * TILE_CELL_RATIO) as usize;
-    mip0_cell * ACCUMULATOR_WORDS
+    tile as usize * TILE_ACCUMULATOR_WORDS + (x + y * TILE_CELL_RATIO) as usize * ACCUMULATOR_WORDS
+}
+
+/// The luminance-trend word of tile `tile` ([`super::adaptive_blend`]), after its cells' words.
+#[inline]
+pub fn trend_word(tile: u32) -> usize {
+    tile as usize * TILE_ACCUMULATOR_WORDS + TREND_WORD
 }
 
 /// Adds one radiance sample to mip-0 cell `cell` of tile `tile`; false (and nothing written) when
@@ -75,9 +79,10 @@ mod tests {
 
     #[test]
     fn samples_add_up_and_bad_ones_are_dropped() {
-        let mut acc = vec![0u32; 2 * 64 * ACCUMULATOR_WORDS];
+        let mut acc = vec![0u32; 2 * TILE_ACCUMULATOR_WORDS];
         let a: &mut [u32] = &mut acc;
-        assert_eq!(accumulator_word(1, [2, 3]), (64 + 2 + 24) * 7);
+        assert_eq!(accumulator_word(1, [2, 3]), 64 * 7 + 1 + (2 + 24) * 7);
+        assert_eq!(trend_word(1), 2 * 64 * 7 + 1);
         assert_eq!(accumulator_word(0, [9, 9]), 63 * 7);
         assert!(accumulate_sample(a, 1, [2, 3], Vec3::new(1.0, 2.0, 3.0)));
         assert!(accumulate_sample(a, 1, [2, 3], Vec3::new(0.5, -1.0, 1e12)));

@@ -19,6 +19,7 @@
 //! CPU and GPU agree bit-for-bit given the same `|p − eye|²` (no `log2`/`exp2` approximations).
 
 pub mod accumulate;
+pub mod adaptive_blend;
 pub mod lists;
 #[cfg(any(test, feature = "std"))]
 pub mod model;

@@ -9,6 +9,8 @@ use std::collections::BTreeSet;
 
 use glam::Vec3;
 
+use super::CELLS_PER_TILE;
+use super::adaptive_blend::TileTrend;
 use super::lists::{
     COUNTER_WORDS, UPDATE_TILES, begin_frame, list_buffer_words, list_len, list_word, live_list,
     previous_live_list,
@@ -16,8 +18,13 @@ use super::lists::{
 use super::passes::{purge_pass, query_descriptor, query_pass, update_pass};
 use super::read::lookup;
 use super::touch::initial_last_touch;
-use super::{CELLS_PER_TILE, MIP0_CELLS_PER_TILE};
-use crate::layout::{ACCUMULATOR_WORDS, HashCellValue, HashGridParams, HashGridQuery};
+use crate::layout::{
+    HashCellValue, HashGridParams, HashGridQuery, TILE_ACCUMULATOR_WORDS, TREND_WORD,
+};
+
+/// Largest difference of two snapshots' tile trends that [`Snapshot::compare`] accepts: a few
+/// half-precision steps of values in `[-1, 1]`.
+const TREND_TOLERANCE: f32 = 4e-3;
 
 /// The cache's buffers, laid out as on the GPU.
 #[derive(Clone, Debug)]
@@ -28,7 +35,7 @@ pub struct HashGridModel {
     pub last_touch: Vec<u32>,
     /// 85 cells per tile.
     pub values: Vec<HashCellValue>,
-    /// [`ACCUMULATOR_WORDS`] words per mip-0 cell.
+    /// [`TILE_ACCUMULATOR_WORDS`] words per tile.
     pub accumulators: Vec<u32>,
     /// Counters and tile lists ([`super::lists`]).
     pub lists: Vec<u32>,
@@ -44,7 +51,7 @@ impl HashGridModel {
             keys: vec![0; tiles],
             last_touch: vec![initial_last_touch(params.frame_index); tiles],
             values: vec![HashCellValue::ZERO; tiles * CELLS_PER_TILE as usize],
-            accumulators: vec![0; tiles * MIP0_CELLS_PER_TILE as usize * ACCUMULATOR_WORDS],
+            accumulators: vec![0; tiles * TILE_ACCUMULATOR_WORDS],
             lists: vec![0; list_buffer_words(params.tile_count())],
         }
     }
@@ -153,8 +160,11 @@ pub struct TileSnapshot {
     pub live: bool,
     /// Whether the tile is in the update list.
     pub update: bool,
-    /// The tile's accumulator words.
+    /// The accumulator words of the tile's cells.
     pub accumulators: Vec<u32>,
+    /// The tile's luminance trend (compared within a tolerance: it is a running mean of
+    /// divisions, which the GPU need not round as the CPU does).
+    pub trend: TileTrend,
     /// The tile's 85 cells.
     pub values: Vec<HashCellValue>,
 }
@@ -195,7 +205,7 @@ impl Snapshot {
             .filter(|&&t| keys[t as usize] == 0)
             .count() as u32;
         let cells = CELLS_PER_TILE as usize;
-        let words = MIP0_CELLS_PER_TILE as usize * ACCUMULATOR_WORDS;
+        let words = TILE_ACCUMULATOR_WORDS;
         let mut tiles: Vec<TileSnapshot> = (0..tile_count)
             .filter(|&t| keys[t as usize] != 0)
             .map(|t| {
@@ -206,7 +216,8 @@ impl Snapshot {
                     last_touch: last_touch[i],
                     live: live.contains(&t),
                     update: update.contains(&t),
-                    accumulators: accumulators[i * words..(i + 1) * words].to_vec(),
+                    accumulators: accumulators[i * words..i * words + TREND_WORD].to_vec(),
+                    trend: TileTrend::unpack(accumulators[i * words + TREND_WORD]),
                     values: values[i * cells..(i + 1) * cells].to_vec(),
                 }
             })
@@ -245,6 +256,12 @@ impl Snapshot {
                 || a.accumulators != b.accumulators
             {
                 return Err(format!("tile {id:?}: {a:?} vs {b:?}"));
+            }
+            let trend_tolerance = rel.max(TREND_TOLERANCE);
+            if (a.trend.trend - b.trend.trend).abs() > trend_tolerance
+                || (a.trend.spread - b.trend.spread).abs() > trend_tolerance
+            {
+                return Err(format!("tile {id:?} trend: {:?} vs {:?}", a.trend, b.trend));
             }
             for (i, (va, vb)) in a.values.iter().zip(&b.values).enumerate() {
                 let (x, y) = (va.sum_and_count(), vb.sum_and_count());

@@ -131,6 +131,12 @@ pub fn update_pass<A, L>(
     L: AtomicWords + ?Sized,
 {
     if let Some(tile) = update_list_tile(lists, params, index) {
-        update_tile(values, accumulators, tile, params.sample_cap);
+        update_tile(
+            values,
+            accumulators,
+            tile,
+            params.sample_cap,
+            params.adaptive_blend != 0,
+        );
     }
 }

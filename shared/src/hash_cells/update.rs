@@ -12,17 +12,27 @@
 //! the reference's `lerp(m, a, 1/c)`; for `k > 1` the reference gives the `k` samples the weight
 //! of one, this gives them `k`. A cell without samples (`k = 0`) is left unchanged, where the
 //! reference decrements its count (so stale cells of a touched tile drifted to coarser mips).
+//!
+//! The weights may use a lower cap than the count ([`blend_cell`]'s `blend_cap`): the tile's
+//! [adaptive blend](super::adaptive_blend) lowers it while the tile's lighting changes.
 
-use super::accumulate::{accumulator_word, clear_accumulator, load_accumulator};
+use super::accumulate::{accumulator_word, clear_accumulator, load_accumulator, trend_word};
+use super::adaptive_blend::{PooledChange, TileTrend, blend_cap, frame_change};
 use super::{MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_CELL_RATIO, cell_index};
 use crate::atomics::AtomicWords;
 use crate::layout::{HashCellAccumulator, HashCellValue};
-use crate::math::{clamp, max_u32, min, min_u32};
+use crate::math::{clamp, max, max_u32, min, min_u32};
 
 /// A mip-0 cell's new value from its old value (`(rgb · n, n)`) and the frame's accumulator (see
-/// the module documentation for the weights).
+/// the module documentation for the weights). The count grows to `cap`; the weights cap the
+/// history at `blend_cap` (at most `cap`, at least 1) instead where that is lower.
 #[inline]
-pub fn blend_cell(old: HashCellValue, acc: HashCellAccumulator, cap: u32) -> HashCellValue {
+pub fn blend_cell(
+    old: HashCellValue,
+    acc: HashCellAccumulator,
+    cap: u32,
+    blend_cap: f32,
+) -> HashCellValue {
     if acc.count == 0 {
         return old;
     }
@@ -33,7 +43,10 @@ pub fn blend_cell(old: HashCellValue, acc: HashCellAccumulator, cap: u32) -> Has
     // Mip-0 counts are integers in 0..=cap; the clamp also turns a NaN count into 0.
     let c0 = clamp(old.count, 0.0, cap);
     let c = min(c0 + k_kept, cap);
-    let history_weight = c - k_kept;
+    // The clamp also reads a NaN cap as 1 (no history).
+    let weights = min(c0 + k_kept, clamp(blend_cap, 1.0, cap));
+    let history_weight = max(weights - k_kept, 0.0);
+    let total = history_weight + k_kept;
     // Unit scales are written out: divisions need not be exact on the GPU, `x / x` included.
     let history_scale = if c0 <= 0.0 {
         0.0
@@ -44,11 +57,13 @@ pub fn blend_cell(old: HashCellValue, acc: HashCellAccumulator, cap: u32) -> Has
     };
     let new_scale = if k_kept == k { 1.0 } else { k_kept / k };
     let sum = old.radiance_sum() * history_scale + acc.radiance_sum() * new_scale;
+    // The mean of `total` weights, stored with the count `c`.
+    let sum = if total == c { sum } else { sum * (c / total) };
     HashCellValue::new(sum, c)
 }
 
 /// Blends mip-0 cell `cell` (`x + 8 · y`, in 0..64) of tile `tile` with its accumulator
-/// ([`blend_cell`]) and clears the accumulator.
+/// ([`blend_cell`], weights capped at `blend_cap`) and clears the accumulator.
 #[inline]
 pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
     values: &mut [HashCellValue],
@@ -56,6 +71,7 @@ pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
     tile: u32,
     cell: u32,
     cap: u32,
+    blend_cap: f32,
 ) {
     let cell = min_u32(cell, MIP0_CELLS_PER_TILE - 1);
     let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
@@ -63,7 +79,7 @@ pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
     let base = accumulator_word(tile, xy);
     let acc = load_accumulator(accumulators, base);
     if acc.count != 0 {
-        values[index] = blend_cell(values[index], acc, cap);
+        values[index] = blend_cell(values[index], acc, cap, blend_cap);
         clear_accumulator(accumulators, base);
     }
 }
@@ -101,17 +117,51 @@ pub fn update_mip_cell(values: &mut [HashCellValue], tile: u32, mip: u32, cell: 
     values[cell_index(tile, mip, x, y) as usize] = value;
 }
 
-/// The whole update of one tile by one invocation: the 64 mip-0 blends, then mips 1, 2, 3.
+/// The cap of tile `tile`'s blend weights this frame ([`super::adaptive_blend`]): with
+/// `adaptive`, from its luminance trend updated with the frame's change pooled over its mip-0
+/// cells (and stored back); without, `cap`. Reads the accumulators before [`update_mip0_cell`]
+/// clears them.
+#[inline]
+pub fn tile_blend_cap<W: AtomicWords + ?Sized>(
+    values: &[HashCellValue],
+    accumulators: &mut W,
+    tile: u32,
+    cap: u32,
+    adaptive: bool,
+) -> f32 {
+    let cap = max_u32(cap, 1) as f32;
+    if !adaptive {
+        return cap;
+    }
+    let mut pooled = PooledChange::default();
+    let mut cell = 0;
+    while cell < MIP0_CELLS_PER_TILE {
+        let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
+        let acc = load_accumulator(accumulators, accumulator_word(tile, xy));
+        let old = values[cell_index(tile, 0, xy[0], xy[1]) as usize];
+        pooled = frame_change(pooled, acc.mean(), acc.count, old.mean(), old.count);
+        cell += 1;
+    }
+    let word = trend_word(tile);
+    let trend = TileTrend::unpack(accumulators.load(word)).update(pooled);
+    accumulators.store(word, trend.pack());
+    blend_cap(cap, trend, pooled.samples)
+}
+
+/// The whole update of one tile by one invocation: its blend cap ([`tile_blend_cap`]), the 64
+/// mip-0 blends, then mips 1, 2, 3.
 #[inline]
 pub fn update_tile<W: AtomicWords + ?Sized>(
     values: &mut [HashCellValue],
     accumulators: &mut W,
     tile: u32,
     cap: u32,
+    adaptive: bool,
 ) {
+    let blend_cap = tile_blend_cap(values, accumulators, tile, cap, adaptive);
     let mut cell = 0;
     while cell < MIP0_CELLS_PER_TILE {
-        update_mip0_cell(values, accumulators, tile, cell, cap);
+        update_mip0_cell(values, accumulators, tile, cell, cap, blend_cap);
         cell += 1;
     }
     let mut mip = 1;
@@ -132,7 +182,7 @@ mod tests {
     use crate::hash_cells::CELLS_PER_TILE;
     use crate::hash_cells::MAX_SAMPLE_COUNT;
     use crate::hash_cells::accumulate::accumulate_sample;
-    use crate::layout::ACCUMULATOR_WORDS;
+    use crate::layout::TILE_ACCUMULATOR_WORDS;
     use glam::Vec3;
 
     fn acc(sum: Vec3, count: u32) -> HashCellAccumulator {
@@ -142,6 +192,11 @@ mod tests {
             b: fixed_point::encode(sum.z),
             count,
         }
+    }
+
+    /// The blend with the fixed cap.
+    fn fixed(old: HashCellValue, acc: HashCellAccumulator, cap: u32) -> HashCellValue {
+        blend_cell(old, acc, cap, cap as f32)
     }
 
     fn close(a: Vec3, b: Vec3) -> bool {
@@ -154,26 +209,26 @@ mod tests {
         let a = Vec3::new(3.0, 0.0, 0.5);
         // k = 0: unchanged (the reference would drop the count to 4).
         let old = HashCellValue::new(m * 5.0, 5.0);
-        assert_eq!(blend_cell(old, acc(Vec3::ZERO, 0), MAX_SAMPLE_COUNT), old);
+        assert_eq!(fixed(old, acc(Vec3::ZERO, 0), MAX_SAMPLE_COUNT), old);
         // Empty history: the new samples' mean, count k.
-        let v = blend_cell(HashCellValue::ZERO, acc(a * 3.0, 3), MAX_SAMPLE_COUNT);
+        let v = fixed(HashCellValue::ZERO, acc(a * 3.0, 3), MAX_SAMPLE_COUNT);
         assert_eq!(v.count, 3.0);
         assert!(close(v.mean(), a));
         // k = 1 below the cap: lerp(m, a, 1/c), as the reference.
-        let v = blend_cell(old, acc(a, 1), MAX_SAMPLE_COUNT);
+        let v = fixed(old, acc(a, 1), MAX_SAMPLE_COUNT);
         assert_eq!(v.count, 6.0);
         assert!(close(v.mean(), m + (a - m) / 6.0));
         // k = 1 at the cap: lerp(m, a, 1/16).
         let full = HashCellValue::new(m * 16.0, 16.0);
-        let v = blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT);
+        let v = fixed(full, acc(a, 1), MAX_SAMPLE_COUNT);
         assert_eq!(v.count, 16.0);
         assert!(close(v.mean(), m + (a - m) / 16.0));
         // k = 4 below the cap: the exact mean of 5 + 4 samples.
-        let v = blend_cell(old, acc(a * 4.0, 4), MAX_SAMPLE_COUNT);
+        let v = fixed(old, acc(a * 4.0, 4), MAX_SAMPLE_COUNT);
         assert_eq!(v.count, 9.0);
         assert!(close(v.mean(), (m * 5.0 + a * 4.0) / 9.0));
         // k = 4 crossing the cap from 14: history keeps weight 12.
-        let v = blend_cell(
+        let v = fixed(
             HashCellValue::new(m * 14.0, 14.0),
             acc(a * 4.0, 4),
             MAX_SAMPLE_COUNT,
@@ -181,29 +236,109 @@ mod tests {
         assert_eq!(v.count, 16.0);
         assert!(close(v.mean(), (m * 12.0 + a * 4.0) / 16.0));
         // k > 16: the history is replaced by the new mean.
-        let v = blend_cell(full, acc(a * 40.0, 40), MAX_SAMPLE_COUNT);
+        let v = fixed(full, acc(a * 40.0, 40), MAX_SAMPLE_COUNT);
         assert_eq!(v.count, 16.0);
         assert!(close(v.mean(), a));
         // A corrupt count is treated as empty history.
         let nan = HashCellValue::new(m, f32::NAN);
-        assert!(close(
-            blend_cell(nan, acc(a, 1), MAX_SAMPLE_COUNT).mean(),
-            a
-        ));
+        assert!(close(fixed(nan, acc(a, 1), MAX_SAMPLE_COUNT).mean(), a));
         // Another cap: 4 keeps a quarter of the weight per new sample; 0 reads as 1.
-        let v = blend_cell(HashCellValue::new(m * 4.0, 4.0), acc(a, 1), 4);
+        let v = fixed(HashCellValue::new(m * 4.0, 4.0), acc(a, 1), 4);
         assert_eq!(v.count, 4.0);
         assert!(close(v.mean(), m + (a - m) / 4.0));
-        let v = blend_cell(old, acc(a * 2.0, 2), 0);
+        let v = fixed(old, acc(a * 2.0, 2), 0);
         assert_eq!(v.count, 1.0);
         assert!(close(v.mean(), a));
+    }
+
+    #[test]
+    fn a_lower_blend_cap_weighs_the_history_less_and_keeps_the_count() {
+        let m = Vec3::new(1.0, 2.0, 4.0);
+        let a = Vec3::new(3.0, 0.0, 0.5);
+        let full = HashCellValue::new(m * 16.0, 16.0);
+        // Cap 1: the new samples only, count still 16 (the read keeps its mip).
+        let v = blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, 1.0);
+        assert_eq!(v.count, 16.0);
+        assert!(close(v.mean(), a));
+        // Cap 4: lerp(m, a, 1/4).
+        let v = blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, 4.0);
+        assert_eq!(v.count, 16.0);
+        assert!(close(v.mean(), m + (a - m) / 4.0));
+        // More new samples than the blend cap: their mean.
+        let v = blend_cell(full, acc(a * 3.0, 3), MAX_SAMPLE_COUNT, 2.0);
+        assert!(close(v.mean(), a));
+        // A young cell below the blend cap: the exact mean, as with the fixed cap.
+        let young = HashCellValue::new(m * 2.0, 2.0);
+        assert_eq!(
+            blend_cell(young, acc(a, 1), MAX_SAMPLE_COUNT, 8.0),
+            fixed(young, acc(a, 1), MAX_SAMPLE_COUNT)
+        );
+        // A blend cap above the cap, infinite or NaN is clamped into [1, cap].
+        assert_eq!(
+            blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, f32::INFINITY),
+            fixed(full, acc(a, 1), MAX_SAMPLE_COUNT)
+        );
+        assert!(close(
+            blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, f32::NAN).mean(),
+            a
+        ));
+    }
+
+    /// Every mip-0 cell of tile 0 gets `per_cell` samples of `radiance(frame, cell)`; then the
+    /// tile updates. Returns the tile's mean radiance over its mip-0 cells.
+    fn run_tile(
+        values: &mut [HashCellValue],
+        accs: &mut [u32],
+        frame: u32,
+        adaptive: bool,
+        radiance: impl Fn(u32, u32) -> f32,
+    ) -> f32 {
+        for cell in 0..64 {
+            let xy = [cell % 8, cell / 8];
+            accumulate_sample(accs, 0, xy, Vec3::splat(radiance(frame, cell)));
+        }
+        update_tile(values, accs, 0, MAX_SAMPLE_COUNT, adaptive);
+        (0..64)
+            .map(|c| values[cell_index(0, 0, c % 8, c / 8) as usize].mean().x)
+            .sum::<f32>()
+            / 64.0
+    }
+
+    #[test]
+    fn a_tile_whose_light_went_off_forgets_it_within_a_few_frames() {
+        for adaptive in [false, true] {
+            let mut values = vec![HashCellValue::ZERO; CELLS_PER_TILE as usize];
+            let mut accs = vec![0u32; TILE_ACCUMULATOR_WORDS];
+            // 32 frames of light 1 ± 0.5 (the signs balanced over the tile), then darkness.
+            let lit = |f: u32, c: u32| 1.0 + if (f + c).is_multiple_of(2) { 0.5 } else { -0.5 };
+            for frame in 0..32 {
+                let mean = run_tile(&mut values, &mut accs, frame, adaptive, lit);
+                if frame >= 16 {
+                    // Noise alone keeps the whole history: the tile's mean stays 1.
+                    assert!((mean - 1.0).abs() < 0.05, "{adaptive} {frame}: {mean}");
+                }
+            }
+            let mut mean = 1.0;
+            for frame in 32..38 {
+                mean = run_tile(&mut values, &mut accs, frame, adaptive, |_, _| 0.0);
+            }
+            if adaptive {
+                assert!(mean < 0.02, "adaptive: {mean} left after 6 frames");
+            } else {
+                // The fixed cap keeps (15/16)^6 of it.
+                assert!(
+                    (mean - (15.0f32 / 16.0).powi(6)).abs() < 0.02,
+                    "fixed: {mean}"
+                );
+            }
+        }
     }
 
     #[test]
     fn mips_are_sums_of_children_and_accumulators_are_cleared() {
         let tiles = 2;
         let mut values = vec![HashCellValue::ZERO; tiles * CELLS_PER_TILE as usize];
-        let mut accs = vec![0u32; tiles * 64 * ACCUMULATOR_WORDS];
+        let mut accs = vec![0u32; tiles * TILE_ACCUMULATOR_WORDS];
         // Tile 1: cell (x, y) gets x + 1 samples of radiance (y + 1).
         for y in 0..8 {
             for x in 0..8 {
@@ -216,7 +351,7 @@ mod tests {
         let untouched = cell_index(1, 0, 0, 0) as usize;
         accs[accumulator_word(1, [0, 0])..][..7].fill(0);
         values[untouched] = HashCellValue::new(Vec3::splat(3.0), 3.0);
-        update_tile(&mut values, &mut accs[..], 1, MAX_SAMPLE_COUNT);
+        update_tile(&mut values, &mut accs[..], 1, MAX_SAMPLE_COUNT, true);
         assert!(accs.iter().all(|&w| w == 0));
         assert!(
             values[..CELLS_PER_TILE as usize]
@@ -259,7 +394,7 @@ mod tests {
         }
         accs[accumulator_word(1, [0, 0])..][..7].fill(0);
         for cell in (0..64).rev() {
-            update_mip0_cell(&mut other, &mut accs[..], 1, cell, MAX_SAMPLE_COUNT);
+            update_mip0_cell(&mut other, &mut accs[..], 1, cell, MAX_SAMPLE_COUNT, 16.0);
         }
         for mip in 1..NUM_MIPS {
             for cell in 0..mip_cell_count(mip) {

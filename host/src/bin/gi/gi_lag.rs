@@ -36,6 +36,10 @@ pub struct LagArgs {
     /// Techniques to switch off in every preset (to find where the lag comes from).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub no: Vec<Technique>,
+    /// The cache's sample cap in every preset, instead of the preset's (1 to 1024; with
+    /// `--no adaptive-blend`, a fixed cap: how fast the cache alone can follow).
+    #[arg(long)]
+    pub sample_cap: Option<u32>,
 }
 
 /// A preset `gi lag` measures.
@@ -90,6 +94,9 @@ pub fn run_lag(ctx: &Context, args: &LagArgs) -> Result<(), Box<dyn std::error::
         for change in LightChange::ALL {
             let mut settings = preset.settings(args.width, args.height);
             switch_off(&mut settings, &args.no);
+            if let Some(cap) = args.sample_cap {
+                settings.sample_cap = cap;
+            }
             let r = light_change::measure(ctx, &scene, change, &camera, settings, frames)?;
             let share = |f| r.after(f).map_or("-".to_owned(), |s| format!("{:.3}", s));
             let settle = r

@@ -55,6 +55,8 @@ pub enum Technique {
     Feedback,
     /// Multi-bounce through the world cache (bounce rays from the cache's hits).
     MultiBounce,
+    /// The cache's change-adaptive blend (its history cut while a tile's light changes).
+    AdaptiveBlend,
     /// The cache's light-leak fixes (short-ray flag and bypass).
     LeakFixes,
     /// Per-object reprojection of moving objects.
@@ -234,7 +236,7 @@ pub fn render_gi(
         "gi:                  {} frames, spawn tile {} px, cache cells {} px, sample cap {}, \
          reprojection {}, parallax {}, backup {}, patching {}, guiding {}, hysteresis {}, \
          probe filter {}, jitter {}, relaxed {}, temporal {}, spatial {}, feedback {}, \
-         multi-bounce {}, leak fixes {}, object motion {}, ReSTIR {}",
+         multi-bounce {}, adaptive blend {}, leak fixes {}, object motion {}, ReSTIR {}",
         args.frames,
         s.spawn_rate.tile(),
         s.cell_size_pixels,
@@ -252,6 +254,7 @@ pub fn render_gi(
         on_off(s.denoiser_spatial),
         on_off(s.temporal_feedback),
         on_off(s.multi_bounce),
+        on_off(s.adaptive_cache_blend),
         on_off(s.short_ray_flag && s.bypass),
         on_off(s.object_motion),
         on_off(s.restir)
@@ -383,6 +386,7 @@ pub fn switch_off(s: &mut GiSettings, off: &[Technique]) {
             Technique::Spatial => s.denoiser_spatial = false,
             Technique::Feedback => s.temporal_feedback = false,
             Technique::MultiBounce => s.multi_bounce = false,
+            Technique::AdaptiveBlend => s.adaptive_cache_blend = false,
             Technique::ObjectMotion => s.object_motion = false,
             Technique::LeakFixes => {
                 s.short_ray_flag = false;
