@@ -54,8 +54,9 @@ pub struct GiSettings {
     /// accumulators in UpdateRadianceCache and one word of memory per tile. Quality: a light
     /// switched off leaves the cache within a few frames instead of circulating through the
     /// multi-bounce loop for tens (README "Response to change"); static lighting keeps its cap.
-    /// Tiles that pool fewer than 32 samples a frame adapt less, and under 8 not at all (their
-    /// decision would bias them). Default: off, as in the reference; every preset turns it on.
+    /// Tiles that pool fewer than 4 samples a frame adapt less, and one sample not at all (its
+    /// decision would follow its own noise). Default: off, as in the reference; every preset
+    /// turns it on.
     pub adaptive_cache_blend: bool,
     /// Smallest world-space cell, in scene units (reference: 0.1, for scenes in metres). Cost:
     /// none. Quality: stops cells near the camera from becoming so small that they never gather

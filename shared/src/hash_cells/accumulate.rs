@@ -49,6 +49,13 @@ pub fn accumulate_sample<W: AtomicWords + ?Sized>(
     true
 }
 
+/// The sample count of the accumulator whose first word is `base`: one load, so passes skip the
+/// sums of cells that got no sample.
+#[inline]
+pub fn accumulator_count<W: AtomicWords + ?Sized>(accumulators: &W, base: usize) -> u32 {
+    accumulators.load(base + HashCellAccumulator::COUNT_WORD)
+}
+
 /// The accumulator whose first word is `base` (see [`accumulator_word`]), loaded by value.
 #[inline]
 pub fn load_accumulator<W: AtomicWords + ?Sized>(
@@ -59,7 +66,7 @@ pub fn load_accumulator<W: AtomicWords + ?Sized>(
         r: fixed_point::load(accumulators, base),
         g: fixed_point::load(accumulators, base + 2),
         b: fixed_point::load(accumulators, base + 4),
-        count: accumulators.load(base + HashCellAccumulator::COUNT_WORD),
+        count: accumulator_count(accumulators, base),
     }
 }
 

@@ -16,7 +16,9 @@
 //! The weights may use a lower cap than the count ([`blend_cell`]'s `blend_cap`): the tile's
 //! [adaptive blend](super::adaptive_blend) lowers it while the tile's lighting changes.
 
-use super::accumulate::{accumulator_word, clear_accumulator, load_accumulator, trend_word};
+use super::accumulate::{
+    accumulator_count, accumulator_word, clear_accumulator, load_accumulator, trend_word,
+};
 use super::adaptive_blend::{PooledChange, TileTrend, blend_cap, frame_change};
 use super::{MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_CELL_RATIO, cell_index};
 use crate::atomics::AtomicWords;
@@ -77,8 +79,8 @@ pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
     let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
     let index = cell_index(tile, 0, xy[0], xy[1]) as usize;
     let base = accumulator_word(tile, xy);
-    let acc = load_accumulator(accumulators, base);
-    if acc.count != 0 {
+    if accumulator_count(accumulators, base) != 0 {
+        let acc = load_accumulator(accumulators, base);
         values[index] = blend_cell(values[index], acc, cap, blend_cap);
         clear_accumulator(accumulators, base);
     }
@@ -137,9 +139,12 @@ pub fn tile_blend_cap<W: AtomicWords + ?Sized>(
     let mut cell = 0;
     while cell < MIP0_CELLS_PER_TILE {
         let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
-        let acc = load_accumulator(accumulators, accumulator_word(tile, xy));
-        let old = values[cell_index(tile, 0, xy[0], xy[1]) as usize];
-        pooled = frame_change(pooled, acc.mean(), acc.count, old.mean(), old.count);
+        let base = accumulator_word(tile, xy);
+        if accumulator_count(accumulators, base) != 0 {
+            let acc = load_accumulator(accumulators, base);
+            let old = values[cell_index(tile, 0, xy[0], xy[1]) as usize];
+            pooled = frame_change(pooled, acc.mean(), acc.count, old.mean(), old.count);
+        }
         cell += 1;
     }
     let word = trend_word(tile);
