@@ -117,6 +117,9 @@ pub struct GiArgs {
     /// preset's (`balanced`: 1/4).
     #[arg(long, value_parser = parse_spawn_rate)]
     pub spawn_rate: Option<SpawnRate>,
+    /// GI: the world cache's sample cap (1 to 1024), instead of the preset's (16).
+    #[arg(long)]
+    pub sample_cap: Option<u32>,
     /// GI: techniques to switch off, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub no: Vec<Technique>,
@@ -168,6 +171,9 @@ impl GiArgs {
         let mut s = preset.settings(width, height);
         if let Some(rate) = self.spawn_rate {
             s.spawn_rate = rate;
+        }
+        if let Some(cap) = self.sample_cap {
+            s.sample_cap = cap;
         }
         s.restir |= self.restir;
         switch_off(&mut s, &self.no);
