@@ -16,7 +16,9 @@ use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
 use gi_shared::packing::unpack_seed;
 use gi_shared::screen_probes::LANES;
-use gi_shared::screen_probes::blend::{blend_cell, finish_cell, ray_source, spawned_record};
+use gi_shared::screen_probes::blend::{
+    blend_cell, cell_estimate, cell_rays, finish_cell, ray_source, spawned_record,
+};
 use gi_shared::screen_probes::hemisphere::UNMAPPED;
 use gi_shared::screen_probes::hemisphere::gather_mapped;
 use gi_shared::screen_probes::hysteresis::{cell_change, other_cells};
@@ -51,6 +53,7 @@ pub fn blend_screen_probes(
     #[spirv(workgroup)] cells: &mut [[f32; 4]; LANES],
     #[spirv(workgroup)] blended: &mut [[f32; 4]; LANES],
     #[spirv(workgroup)] changes: &mut [[f32; 2]; LANES],
+    #[spirv(workgroup)] probabilities: &mut [f32; LANES],
 ) {
     let spawn = group.y * frame.spawn_grid[0] + group.x;
     // Uniform over the workgroup: the whole group leaves before any barrier.
@@ -76,13 +79,17 @@ pub fn blend_screen_probes(
     let ray_index = (spawn * PROBE_CELLS + lane) as usize;
 
     // Phase 1, lane = ray.
-    let (target, cell) = if ray_index < probe_rays.len() && ray_index < ray_records.len() {
-        ray_source(probe_rays[ray_index], ray_records[ray_index])
-    } else {
-        (UNMAPPED, EMPTY)
-    };
+    let (target, cell, probability) =
+        if ray_index < probe_rays.len() && ray_index < ray_records.len() {
+            let ray = probe_rays[ray_index];
+            let (target, cell) = ray_source(ray, ray_records[ray_index]);
+            (target, cell, ray.cell_probability)
+        } else {
+            (UNMAPPED, EMPTY, 0.0)
+        };
     mapped[l] = target;
     cells[l] = cell;
+    probabilities[l] = probability;
     workgroup_memory_barrier_with_group_sync();
 
     // Phase 2, lane = cell: the rays' mean and its change from the history.
@@ -91,8 +98,10 @@ pub fn blend_screen_probes(
     } else {
         EMPTY
     };
-    let new = gather_mapped(mapped, cells, lane);
-    changes[l] = cell_change(new, history);
+    let mean = gather_mapped(mapped, cells, lane);
+    changes[l] = cell_change(mean, history);
+    let (rays, probability) = cell_rays(mapped, probabilities, lane);
+    let new = cell_estimate(probabilities[0] > 0.0, mean, rays, probability, history);
     workgroup_memory_barrier_with_group_sync();
 
     // Phase 3, lane = cell: the mean against the history.

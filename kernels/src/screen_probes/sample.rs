@@ -1,7 +1,8 @@
 //! SampleScreenProbes (`gi_shared::screen_probes::ray_guiding`): one workgroup of 8 × 8 lanes per
 //! spawned probe gathers the probe's history hemisphere from the current probes of the 3 × 3
 //! tiles around its seed (map, then gather, through workgroup memory, neighbour after
-//! neighbour), builds the ray-guiding CDF over its 64 cells and draws one ray per lane.
+//! neighbour), builds the ray-guiding CDF over its 64 cells from their mean and draws one ray per
+//! lane; the history it writes is the own tile's probe's cells, the mean where those are empty.
 //!
 //! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns (packed
 //! seeds), current records, current atlas, probe history (written), probe rays
@@ -15,8 +16,8 @@ use gi_shared::packing::unpack_seed;
 use gi_shared::screen_probes::blend::spawned_record;
 use gi_shared::screen_probes::hemisphere::{gather_mapped, record_frame};
 use gi_shared::screen_probes::ray_guiding::{
-    HISTORY_NEIGHBOURS, HistorySum, guiding_active, guiding_cdf, guiding_raw_weight,
-    history_neighbour, map_history_source, sample_ray, untraced_ray,
+    HISTORY_NEIGHBOURS, HistorySum, OWN_NEIGHBOUR, blend_history, guiding_active, guiding_cdf,
+    guiding_raw_weight, history_neighbour, map_history_source, sample_ray, untraced_ray,
 };
 use gi_shared::screen_probes::spawn::spawned_seed;
 use gi_shared::screen_probes::{EMPTY, GiFrameParams, LANES, PROBE_CELLS, ProbeRay, ProbeRecord};
@@ -79,6 +80,7 @@ pub fn sample_screen_probes(
 
     // Phase 1: the history hemisphere, one neighbour at a time.
     let mut history = HistorySum::ZERO;
+    let mut own = EMPTY;
     let mut k = 0;
     while k < HISTORY_NEIGHBOURS {
         let neighbour = history_neighbour(frame, records, pixel, &probe, k);
@@ -86,13 +88,17 @@ pub fn sample_screen_probes(
         mapped[l] = target;
         moved[l] = cell;
         workgroup_memory_barrier_with_group_sync();
-        history.add(gather_mapped(mapped, moved, lane));
+        let gathered = gather_mapped(mapped, moved, lane);
+        if k == OWN_NEIGHBOUR {
+            own = gathered;
+        }
+        history.add(gathered);
         workgroup_memory_barrier_with_group_sync();
         k += 1;
     }
     let history = history.cell();
     if out < probe_history.len() {
-        probe_history[out] = history;
+        probe_history[out] = blend_history(own, history);
     }
 
     // Phases 2 and 3: raw weights, then the CDF.

@@ -3,11 +3,14 @@
 //!
 //! One workgroup of 64 lanes per spawned probe; phases, with a barrier after each (the kernel and
 //! [`blend_workgroup`] run the same functions in the same order):
-//! 1. lane = ray: [`ray_source`] loads the ray's cell and `[radiance, hit distance]` into
-//!    workgroup memory (a ray with non-finite or negative radiance, or one not traced, is
-//!    dropped);
-//! 2. lane = cell: `hemisphere::gather_mapped` averages the rays that landed in the cell and
-//!    [`super::hysteresis::cell_change`] leaves its relative change from the history in workgroup memory;
+//! 1. lane = ray: [`ray_source`] loads the ray's cell and `[radiance, hit distance]`, and the
+//!    ray's cell probability, into workgroup memory (a ray with non-finite or negative radiance,
+//!    or one not traced, is dropped);
+//! 2. lane = cell: `hemisphere::gather_mapped` averages the rays that landed in the cell,
+//!    [`super::hysteresis::cell_change`] leaves that mean's relative change from the history in
+//!    workgroup memory, and [`cell_estimate`] turns the mean into the cell's new value (guided
+//!    rays: weighted by how many landed there against how many its probability expects, so that
+//!    a cell the draw missed is an estimate of zero rather than a held history);
 //! 3. lane = cell: [`blend_cell`] blends it with the history cell (hysteresis,
 //!    [`FLAG_HYSTERESIS`], weighted by how much the probe's other cells changed:
 //!    [`super::hysteresis::other_cells`]) or keeps the history cell where no ray landed;
@@ -86,6 +89,56 @@ pub fn ray_source(ray: ProbeRay, record: CacheViewPixel) -> (u32, [f32; 4]) {
     }
 }
 
+/// Phase 2, lane = cell `target`: how many of the rays in `mapped` landed in it, and the
+/// probability (`probabilities`, per ray) its rays were drawn with (0: not guided, or no ray).
+#[inline]
+pub fn cell_rays(mapped: &[u32; LANES], probabilities: &[f32; LANES], target: u32) -> (u32, f32) {
+    let mut n = 0;
+    let mut probability = 0.0;
+    let mut i = 0;
+    while i < LANES {
+        if mapped[i] == target {
+            n += 1;
+            probability = probabilities[i];
+        }
+        i += 1;
+    }
+    (n, probability)
+}
+
+/// Phase 2, lane = cell: the cell's new value from the `mean` of the `rays` that landed in it
+/// ([`EMPTY`] when none). Rays that each traced their own cell (`guided` false): the mean. Guided
+/// rays: the cell's radiance sum over the count its `probability` leads one to expect,
+/// `Σ L / (64 p)`, which estimates the cell's radiance without bias whichever cells the draw
+/// reached; a cell no ray reached is an estimate of 0 (at the `history`'s hit distance, [`EMPTY`]
+/// without history). Keeping the history there instead biased the probe toward what the
+/// neighbourhood's history said of the cells guiding sends few rays to.
+#[inline]
+pub fn cell_estimate(
+    guided: bool,
+    mean: [f32; 4],
+    rays: u32,
+    probability: f32,
+    history: [f32; 4],
+) -> [f32; 4] {
+    if !guided {
+        return mean;
+    }
+    if rays == 0 || !cell_is_filled(mean) {
+        return if cell_is_filled(history) {
+            make_cell(Vec3::ZERO, history[3])
+        } else {
+            EMPTY
+        };
+    }
+    let expected = PROBE_CELLS as f32 * probability;
+    if expected > 0.0 && expected.is_finite() {
+        make_cell(cell_radiance(mean) * (rays as f32 / expected), mean[3])
+    } else {
+        mean
+    }
+}
+
 /// Phase 3, lane = cell: `new` (the mean of the cell's rays, [`EMPTY`] when none landed) against
 /// the `history` cell, `others` the change sums of the probe's other cells
 /// ([`super::hysteresis::other_cells`]).
@@ -143,17 +196,22 @@ pub fn blend_workgroup(
 ) -> [[f32; 4]; LANES] {
     let mut mapped = [UNMAPPED; LANES];
     let mut cells = [EMPTY; LANES];
+    let mut probabilities = [0.0; LANES];
     for lane in 0..LANES {
         if lane < rays.len() && lane < ray_records.len() {
             (mapped[lane], cells[lane]) = ray_source(rays[lane], ray_records[lane]);
+            probabilities[lane] = rays[lane].cell_probability;
         }
     }
+    let guided = probabilities[0] > 0.0;
     let mut new = [EMPTY; LANES];
     let mut changes = [[0.0; 2]; LANES];
     let h = |lane: usize| history.get(lane).copied().unwrap_or(EMPTY);
     for lane in 0..LANES {
-        new[lane] = gather_mapped(&mapped, &cells, lane as u32);
-        changes[lane] = cell_change(new[lane], h(lane));
+        let mean = gather_mapped(&mapped, &cells, lane as u32);
+        changes[lane] = cell_change(mean, h(lane));
+        let (n, p) = cell_rays(&mapped, &probabilities, lane as u32);
+        new[lane] = cell_estimate(guided, mean, n, p, h(lane));
     }
     let mut blended = [EMPTY; LANES];
     for lane in 0..LANES {
@@ -177,7 +235,8 @@ mod tests {
             direction: [0.0, 0.0, 1.0],
             cell,
             hit_distance,
-            _pad: [0; 3],
+            cell_probability: 0.0,
+            _pad: [0; 2],
         }
     }
 
@@ -193,6 +252,62 @@ mod tests {
             flags,
             ..Default::default()
         }
+    }
+
+    /// Guided rays drawn from a CDF that is wrong about the cells (it favours the dark half)
+    /// still give every cell its radiance on average, and the probe its total; a cell no ray
+    /// reached reads 0, not its history.
+    #[test]
+    fn guided_cells_estimate_their_radiance_whichever_cells_the_draw_reaches() {
+        use crate::random::Random;
+        use crate::screen_probes::ray_guiding::{cell_share, guided_cell};
+        let truth = |c: usize| if c % 8 < 2 { 10.0 } else { 0.5 };
+        let mut cdf = [0.0f32; 64];
+        let mut total = 0.0;
+        for (c, v) in cdf.iter_mut().enumerate() {
+            total += if c % 8 < 2 { 0.2 } else { 1.0 };
+            *v = total;
+        }
+        let mut rng = Random::new(7, 0);
+        let frames = 4000;
+        let mut sums = [0.0f64; 64];
+        let mut history = [make_cell(Vec3::splat(1.0), 1.0); 64];
+        for _ in 0..frames {
+            let mut rays = [ray(0, 1.0); 64];
+            let mut records = [radiance(0.0); 64];
+            for lane in 0..64 {
+                let c = guided_cell(&cdf, rng.next_f32() * total);
+                rays[lane] = ray(c, 1.0);
+                rays[lane].cell_probability = cell_share(&cdf, c);
+                records[lane] = radiance(truth(c as usize));
+            }
+            let out = blend_workgroup(&params(0), &rays, &records, &history);
+            for c in 0..64 {
+                sums[c] += f64::from(out[c][0]);
+            }
+            history = out;
+        }
+        let mut probe = 0.0;
+        let mut exact = 0.0;
+        for (c, sum) in sums.iter().enumerate() {
+            let mean = sum / f64::from(frames);
+            let t = f64::from(truth(c));
+            assert!((mean - t).abs() < 0.08 * t, "cell {c}: {mean} against {t}");
+            probe += mean;
+            exact += t;
+        }
+        assert!(
+            (probe / exact - 1.0).abs() < 0.01,
+            "{probe} against {exact}"
+        );
+        // An empty frame keeps nothing of the history: a cell no ray reached reads 0.
+        let rays = [ray(3, 1.0); 64].map(|mut r| {
+            r.cell_probability = 1.0;
+            r
+        });
+        let out = blend_workgroup(&params(0), &rays, &[radiance(1.0); 64], &history);
+        assert_eq!(out[5], make_cell(Vec3::ZERO, history[5][3]));
+        assert!((out[3][0] - 1.0).abs() < 1e-6, "{:?}", out[3]);
     }
 
     #[test]

@@ -14,11 +14,11 @@
 //!   damped only brightening, and lost 3.8 % of the Cornell box's mean (`gi render --no
 //!   filter,feedback,temporal,spatial`, 128 frames averaged, with and without hysteresis).
 //!
-//! Known cost: the history hemisphere is the mean of the 3 × 3 neighbouring probes (ray
-//! guiding's gather), so an average over frames of it is also a spatial blur. It moves the
-//! converged image's mean by −3.4 to +6.3 points and raises its relMSE by up to 46 % (README,
-//! "Bias budget"), and the fireflies counted by `gi_frame` fall by only 17 %: a history of the
-//! probe's own cells is the next step.
+//! The history is the probe's own: the cells of the probe its tile held, mapped to the new seed
+//! (`ray_guiding::blend_history`; the 3 × 3 neighbourhood's mean only where those are empty).
+//! Until issue 22's round 5 it was the neighbourhood's mean, so the average over frames was also
+//! a spatial blur that moved the converged mean by −6 to +4 points; what remains is measured in
+//! the bias budget's "no hysteresis" column (README, "Bias budget").
 
 use glam::Vec3;
 

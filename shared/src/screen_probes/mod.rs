@@ -285,8 +285,11 @@ pub struct ProbeRay {
     pub cell: u32,
     /// Distance to the hit, [`MISS_DISTANCE`] for a miss.
     pub hit_distance: f32,
+    /// Guided rays: the probability that one ray of the probe lands in this ray's cell (its
+    /// share of the guiding CDF). 0 when the rays are not guided (each cell traces its own ray).
+    pub cell_probability: f32,
     /// Explicit padding.
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 2],
 }
 
 /// A cell `[r, g, b, hit distance]` as radiance and distance.
