@@ -17,10 +17,9 @@ use gi_shared::gbuffer::in_image;
 use gi_shared::packing::unpack_seed;
 use gi_shared::screen_probes::LANES;
 use gi_shared::screen_probes::blend::{
-    blend_cell, cell_estimate, cell_rays, finish_cell, ray_source, spawned_record,
+    blend_cell, cell_estimate, finish_cell, gather_rays, ray_source, spawned_record,
 };
 use gi_shared::screen_probes::hemisphere::UNMAPPED;
-use gi_shared::screen_probes::hemisphere::gather_mapped;
 use gi_shared::screen_probes::hysteresis::{cell_change, other_cells};
 use gi_shared::screen_probes::spawn::spawned_seed;
 use gi_shared::screen_probes::{EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord};
@@ -98,9 +97,8 @@ pub fn blend_screen_probes(
     } else {
         EMPTY
     };
-    let mean = gather_mapped(mapped, cells, lane);
+    let (mean, rays, probability) = gather_rays(mapped, cells, probabilities, lane);
     changes[l] = cell_change(mean, history);
-    let (rays, probability) = cell_rays(mapped, probabilities, lane);
     let new = cell_estimate(probabilities[0] > 0.0, mean, rays, probability, history);
     workgroup_memory_barrier_with_group_sync();
 

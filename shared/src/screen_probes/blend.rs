@@ -6,7 +6,7 @@
 //! 1. lane = ray: [`ray_source`] loads the ray's cell and `[radiance, hit distance]`, and the
 //!    ray's cell probability, into workgroup memory (a ray with non-finite or negative radiance,
 //!    or one not traced, is dropped);
-//! 2. lane = cell: `hemisphere::gather_mapped` averages the rays that landed in the cell,
+//! 2. lane = cell: [`gather_rays`] averages the rays that landed in the cell and counts them,
 //!    [`super::hysteresis::cell_change`] leaves that mean's relative change from the history in
 //!    workgroup memory, and [`cell_estimate`] turns the mean into the cell's new value (guided
 //!    rays: weighted by how many landed there against how many its probability expects, so that
@@ -21,8 +21,7 @@
 //! The ray radiance is not quantised: workgroup memory holds plain floats and each cell sums its
 //! rays in lane order (the reference bins with fixed-point atomics, ×1e4).
 
-#[cfg(not(target_arch = "spirv"))]
-use super::hemisphere::gather_mapped;
+use super::hemisphere::gather_mapped_counted;
 use super::radiance_backup::radiance_backup;
 use glam::{UVec2, Vec3, Vec4};
 
@@ -89,21 +88,23 @@ pub fn ray_source(ray: ProbeRay, record: CacheViewPixel) -> (u32, [f32; 4]) {
     }
 }
 
-/// Phase 2, lane = cell `target`: how many of the rays in `mapped` landed in it, and the
-/// probability (`probabilities`, per ray) its rays were drawn with (0: not guided, or no ray).
+/// Phase 2, lane = cell `target`: the mean of the rays in `mapped` that landed in it ([`EMPTY`]
+/// when none), how many did, and the probability (`probabilities`, per ray) they were drawn with
+/// (0: not guided, or no ray), in one pass over the rays.
 #[inline]
-pub fn cell_rays(mapped: &[u32; LANES], probabilities: &[f32; LANES], target: u32) -> (u32, f32) {
-    let mut n = 0;
-    let mut probability = 0.0;
-    let mut i = 0;
-    while i < LANES {
-        if mapped[i] == target {
-            n += 1;
-            probability = probabilities[i];
-        }
-        i += 1;
-    }
-    (n, probability)
+pub fn gather_rays(
+    mapped: &[u32; LANES],
+    cells: &[[f32; 4]; LANES],
+    probabilities: &[f32; LANES],
+    target: u32,
+) -> ([f32; 4], u32, f32) {
+    let (mean, n, last) = gather_mapped_counted(mapped, cells, target);
+    let probability = if last < LANES {
+        probabilities[last]
+    } else {
+        0.0
+    };
+    (mean, n, probability)
 }
 
 /// Phase 2, lane = cell: the cell's new value from the `mean` of the `rays` that landed in it
@@ -208,9 +209,8 @@ pub fn blend_workgroup(
     let mut changes = [[0.0; 2]; LANES];
     let h = |lane: usize| history.get(lane).copied().unwrap_or(EMPTY);
     for lane in 0..LANES {
-        let mean = gather_mapped(&mapped, &cells, lane as u32);
+        let (mean, n, p) = gather_rays(&mapped, &cells, &probabilities, lane as u32);
         changes[lane] = cell_change(mean, h(lane));
-        let (n, p) = cell_rays(&mapped, &probabilities, lane as u32);
         new[lane] = cell_estimate(guided, mean, n, p, h(lane));
     }
     let mut blended = [EMPTY; LANES];

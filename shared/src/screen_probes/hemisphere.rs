@@ -129,9 +129,21 @@ pub fn gather_mapped(
     cells: &[[f32; 4]; LANES],
     target_cell: u32,
 ) -> [f32; 4] {
+    gather_mapped_counted(mapped, cells, target_cell).0
+}
+
+/// [`gather_mapped`], with how many sources landed in the cell and the last of them (`LANES`
+/// when none), in the same pass over the sources.
+#[inline]
+pub fn gather_mapped_counted(
+    mapped: &[u32; LANES],
+    cells: &[[f32; 4]; LANES],
+    target_cell: u32,
+) -> ([f32; 4], u32, usize) {
     let mut sum = Vec3::ZERO;
     let mut distance = 0.0;
     let mut n = 0u32;
+    let mut last = LANES;
     let mut i = 0;
     while i < LANES {
         if mapped[i] == target_cell {
@@ -139,14 +151,15 @@ pub fn gather_mapped(
             sum += cell_radiance(c);
             distance += c[3];
             n += 1;
+            last = i;
         }
         i += 1;
     }
     if n == 0 {
-        EMPTY
+        (EMPTY, 0, LANES)
     } else {
         let inv = 1.0 / n as f32;
-        make_cell(sum * inv, distance * inv)
+        (make_cell(sum * inv, distance * inv), n, last)
     }
 }
 
