@@ -41,7 +41,7 @@ field() { sed -n "s/.*$1 \([-+0-9.e]*%\{0,1\}\).*/\1/p" | tail -1; }
 } > "$OUT/table.md"
 for scene in "${SCENES[@]}"; do
   s=$(basename "${scene%.*}")
-  ref=$OUT/$s-ref-${W}x$H-${REF_SPP}spp.exr
+  ref=$OUT/$s-ref-${W}x$H-${REF_SPP}spp-filtered.exr
   # shellcheck disable=SC2046
   [ -f "$ref" ] || "$GI" render "$scene" $(extra "$scene") --width "$W" --height "$H" \
     --spp "$REF_SPP" --pixel-centre --out "$ref" > "$OUT/$s-ref.log"

@@ -29,7 +29,7 @@ flip() { sed -n 's/.*FLIP \([0-9.]*\).*/\1/p' | tail -1; }
 } > "$OUT/table.md"
 for s in "${SCENES[@]}"; do
   scene=scenes/$s.gltf
-  ref=$OUT/$s-ref-centre.exr
+  ref=$OUT/$s-ref-centre-filtered.exr
   [ -f "$ref" ] || "$GI" render "$scene" --width "$W" --height "$H" --spp "$REF_SPP" --pixel-centre --out "$ref" > "$OUT/$s-ref.log"
   "$GI" render "$scene" --method gi --width "$W" --height "$H" --frames "$FRAMES" --reference "$ref" \
     --out "$OUT/$s-gi.exr" --debug-views "$OUT/$s-debug" > "$OUT/$s-gi.log"

@@ -66,8 +66,9 @@ pub struct PathTracerSettings {
     pub light_candidates: u32,
     /// How light sampling and BSDF sampling are combined.
     pub strategy: Strategy,
-    /// Every path through its pixel's centre (no antialiasing): the GI frame's primary
-    /// visibility, so that relMSE and FLIP against GI measure its lighting, not its edges.
+    /// Every path through its pixel's centre (no antialiasing), the camera hit's textures read
+    /// over the pixel as the G-buffer reads them: the GI frame's primary visibility, so that
+    /// relMSE and FLIP against GI measure its lighting, not its edges or texture aliasing.
     pub pixel_centre: bool,
 }
 

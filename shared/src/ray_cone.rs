@@ -20,7 +20,9 @@
 //! would vanish), the differentials keep what the path tracer's pixel keeps.
 //!
 //! The path tracer, the ground truth, reads level 0 ([`RayFootprint::POINT`]): its samples
-//! integrate the pixel and the hemisphere themselves, so any prefiltering would be a bias.
+//! integrate the pixel and the hemisphere themselves, so any prefiltering would be a bias. Its
+//! pixel-centre mode, which compares lighting with the GI frame's, reads the camera hit as the
+//! G-buffer does ([`RayFootprint::pixel`]): one point per pixel would alias.
 
 use glam::{Vec2, Vec3};
 use num_traits::Float;

@@ -23,7 +23,7 @@ pub fn reference_path(
         Motion::Orbit => format!("-frame{}", frames - 1),
     };
     config.out.join("references").join(format!(
-        "{}-{}{last}-{}x{}-{}spp-centre.exr",
+        "{}-{}{last}-{}x{}-{}spp-centre-filtered.exr",
         bench.name,
         motion.name(),
         config.width,

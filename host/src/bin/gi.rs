@@ -115,8 +115,9 @@ enum Command {
         /// (one technique alone, for comparisons).
         #[arg(long, default_value = "mis", value_parser = parse_strategy)]
         strategy: Strategy,
-        /// Trace every path through its pixel's centre (no antialiasing): the GI frame's primary
-        /// visibility, the reference to measure GI's lighting error against.
+        /// Trace every path through its pixel's centre (no antialiasing), its textures read over
+        /// the pixel as the G-buffer reads them: the GI frame's primary visibility, the reference
+        /// to measure GI's lighting error against.
         #[arg(long)]
         pixel_centre: bool,
         #[command(flatten)]
