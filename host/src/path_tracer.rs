@@ -269,6 +269,7 @@ pub fn render_pixel_on_cpu(
             shade(
                 &mut path,
                 &hit,
+                camera,
                 &params,
                 &shading.instances,
                 &shading.meshes,

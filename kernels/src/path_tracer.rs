@@ -54,6 +54,7 @@ traced_kernel! {
             shade(
                 &mut path,
                 &hit,
+                camera,
                 params,
                 scene.instances,
                 scene.meshes,

@@ -8,7 +8,7 @@
 //! let mut path = begin_path(camera, params, pixel);
 //! while path.active {
 //!     let hit = closest_hit(&path.ray);
-//!     shade(&mut path, &hit, params, <scene buffers>, lights, environment);
+//!     shade(&mut path, &hit, camera, params, <scene buffers>, lights, environment);
 //!     if path.shadow_pending && !any_hit(&path.shadow_ray) {
 //!         path.radiance += path.shadow_radiance;
 //!     }
@@ -185,9 +185,6 @@ pub struct PathState {
     pub shadow_radiance: Vec3,
     /// Whether [`shade`] left a shadow ray.
     pub shadow_pending: bool,
-    /// What the next hit's texture reads filter over: a pixel-centre camera ray's pixel
-    /// ([`RayFootprint::pixel`], the G-buffer's), else a point (level 0).
-    pub footprint: RayFootprint,
 }
 
 /// The random stream of `pixel`'s sample `params.sample_index`.
@@ -209,15 +206,6 @@ pub fn begin_path(camera: &CameraParams, params: &PathTracerParams, pixel: UVec2
         jitter = Vec2::ZERO;
     }
     let ray = primary_ray(camera, pixel, jitter);
-    // One point per pixel aliases textures, and GI's comparisons counted that as its error
-    // (textured.gltf at 128 × 72: relMSE 0.049 against a level-0 reference, 5.8e-5 against
-    // this one); filtered over the pixel as the G-buffer filters, the pixel-centre image differs
-    // from GI's by lighting alone. Jittered samples integrate the pixel themselves.
-    let footprint = if params.primary == PRIMARY_PIXEL_CENTRE {
-        RayFootprint::pixel(camera)
-    } else {
-        RayFootprint::POINT
-    };
     PathState {
         ray,
         throughput: Vec3::ONE,
@@ -229,7 +217,24 @@ pub fn begin_path(camera: &CameraParams, params: &PathTracerParams, pixel: UVec2
         shadow_ray: ray,
         shadow_radiance: Vec3::ZERO,
         shadow_pending: false,
-        footprint,
+    }
+}
+
+/// What the texture reads at `path`'s next hit filter over: a pixel-centre camera ray's pixel
+/// ([`RayFootprint::pixel`], the G-buffer's read), else a point (level 0). One point per pixel
+/// aliases textures, and GI's comparisons counted that as its error (textured.gltf at 128 × 72:
+/// relMSE 0.049 against a level-0 reference, 5.8e-5 against this one); jittered samples
+/// integrate the pixel themselves, and later bounces the hemisphere.
+#[inline]
+pub fn hit_footprint(
+    camera: &CameraParams,
+    params: &PathTracerParams,
+    path: &PathState,
+) -> RayFootprint {
+    if path.bounce == 0 && params.primary == PRIMARY_PIXEL_CENTRE {
+        RayFootprint::pixel(camera)
+    } else {
+        RayFootprint::POINT
     }
 }
 
@@ -467,6 +472,7 @@ pub fn emitter_light_pdf(
 pub fn shade<I: TextureImages + ?Sized>(
     path: &mut PathState,
     hit: &HitRecord,
+    camera: &CameraParams,
     params: &PathTracerParams,
     instances: &[GpuInstance],
     meshes: &[GpuMesh],
@@ -495,11 +501,16 @@ pub fn shade<I: TextureImages + ?Sized>(
         path.active = false;
         return;
     }
-    // Secondary hits read level 0: the samples integrate the hemisphere themselves.
-    let footprint = path.footprint;
-    path.footprint = RayFootprint::POINT;
     let (surface, material) = hit_surface(
-        instances, meshes, vertices, triangles, materials, textures, images, &path.ray, footprint,
+        instances,
+        meshes,
+        vertices,
+        triangles,
+        materials,
+        textures,
+        images,
+        &path.ray,
+        hit_footprint(camera, params, path),
         hit,
     );
     let mut ng = surface.geometric_normal;
@@ -828,6 +839,7 @@ mod tests {
         shade(
             &mut path,
             &HitRecord::miss(),
+            &camera,
             &params,
             &[],
             &[],
@@ -875,8 +887,16 @@ mod tests {
         assert_eq!(jittered.next_vec2(), centred.next_vec2());
         // A pixel-centre camera ray filters its hit's textures over the pixel as the G-buffer
         // does; a jittered one, and every later bounce, reads level 0.
-        assert_eq!(a.footprint, RayFootprint::pixel(&camera));
-        assert_ne!(a.footprint, RayFootprint::POINT);
-        assert_eq!(again.footprint, RayFootprint::POINT);
+        assert_eq!(
+            hit_footprint(&camera, &centre, &a),
+            RayFootprint::pixel(&camera)
+        );
+        assert_ne!(hit_footprint(&camera, &centre, &a), RayFootprint::POINT);
+        assert_eq!(hit_footprint(&camera, &params, &again), RayFootprint::POINT);
+        let bounced = PathState { bounce: 1, ..a };
+        assert_eq!(
+            hit_footprint(&camera, &centre, &bounced),
+            RayFootprint::POINT
+        );
     }
 }
