@@ -9,3 +9,6 @@ bash scripts/setup.sh
 . scripts/env.sh
 cargo test --profile dev --workspace --test gi_furnace --test gi_frame --test radiance_cache \
   -- --ignored --nocapture --test-threads 1 "$@"
+# The GPU check (scripts/gpu-check.sh, for machines with a GPU) at its small size: it keeps working
+# between the sessions that have a GPU (about a minute).
+bash scripts/gpu-check.sh --small --out out/gpu-check-small

@@ -66,14 +66,14 @@
 //! Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection", JCGT 2(1), 2013, in the
 //! mesh's object space: the vertices are translated to the ray's origin and sheared so that the
 //! ray runs along +z, and three 2D edge functions decide. Each edge function of an edge shared by
-//! two triangles of a mesh is computed from the same vertex values with the operands swapped, so
-//! it comes out exactly negated: a ray cannot pass between two triangles that share an edge, nor
-//! through a vertex shared by a fan. The paper recomputes an edge function that is exactly 0 in
+//! two triangles of a mesh is computed from the same vertex values, in one canonical order of
+//! the edge's two vertices, so it comes out exactly negated: a ray cannot pass between two
+//! triangles that share an edge, nor through a vertex shared by a fan. The paper recomputes an edge function that is exactly 0 in
 //! double precision; kernels have no `f64`, so here 0 counts as inside for both triangles of the
 //! edge instead, which keeps the test watertight (both may report the hit, and the tie rule below
-//! picks one). On the device this relies on the compiler evaluating both products of an edge
-//! function alike; one that fused only one of them into an FMA could break the exact negation
-//! (lavapipe lets none through: `tests/tests/tracing.rs`).
+//! picks one). The canonical order keeps the negation exact where a compiler fuses one product
+//! of an edge function into an FMA, as NVIDIA's does (`tests/tests/tracing.rs` and
+//! `tests/tests/gbuffer.rs` count the rays that slip through).
 //!
 //! Hits obey `t_min <= t <= t_max`, with `t` in units of the world direction's length, like
 //! `VK_KHR_ray_query`; `t` is compared against the bounds scaled by the determinant before the
@@ -437,9 +437,10 @@ impl TraceRay {
         let cx = component(c, self.kx) - self.sx * c_z;
         let cy = component(c, self.ky) - self.sy * c_z;
         // Edge functions; each is the weight of the vertex opposite its edge.
-        let u = cx * by - cy * bx;
-        let v = ax * cy - ay * cx;
-        let w = bx * ay - by * ax;
+        let (a2, b2, c2) = (Vec2::new(ax, ay), Vec2::new(bx, by), Vec2::new(cx, cy));
+        let u = edge_function(c2, b2);
+        let v = edge_function(a2, c2);
+        let w = edge_function(b2, a2);
         let mut out = TriangleHit {
             t: f32::INFINITY,
             u: 0.0,
@@ -476,6 +477,20 @@ impl TraceRay {
         out.front_face = if det > 0.0 { 1 } else { 0 };
         out
     }
+}
+
+/// The edge function of the directed edge `p → q` in the ray's sheared 2D space, `p × q`,
+/// evaluated with the edge's vertices in one canonical order and negated when they come the
+/// other way round: the two triangles of a shared edge then run the same arithmetic on the same
+/// operands, and their values are exact negatives even where a compiler fuses one product of
+/// the difference into an FMA (NVIDIA's does; without this order, 11 rays of a 64 × 64 Cornell
+/// box slipped between its triangles on an H200).
+#[inline]
+fn edge_function(p: Vec2, q: Vec2) -> f32 {
+    let swap = q.x < p.x || (q.x == p.x && q.y < p.y);
+    let (lo, hi) = if swap { (q, p) } else { (p, q) };
+    let e = lo.x * hi.y - lo.y * hi.x;
+    if swap { -e } else { e }
 }
 
 /// Clips `[t_enter, t_exit]` to one slab, whose planes the ray reaches at `t_lo` (the lower

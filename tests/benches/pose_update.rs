@@ -6,14 +6,15 @@
 //!
 //! `cargo bench --profile dev -p gi-tests --bench pose_update`
 
-use gi_host::KernelVariant;
 use gi_host::scene::Scene;
 use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::synthetic::{SyntheticParams, parse_count, write};
 use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::Context;
-use gi_tests::{context, finish_without_validation_messages, scene_path, third_party_scene_path};
+use gi_tests::{
+    context, finish_without_validation_messages, scene_path, third_party_scene_path, variants,
+};
 use glam::{Mat4, Vec3};
 use std::time::Instant;
 
@@ -82,7 +83,7 @@ fn main() {
         Ok((scene, _)) => scenes.push(("interior", scene)),
         Err(e) => println!("no interior ({e}): set GI_POSE_SCENE"),
     }
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         time_poses("moving-box", &ctx, &mut boxes, cube);
         for (name, scene) in &mut scenes {

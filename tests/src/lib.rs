@@ -23,6 +23,54 @@ pub fn context(variant: KernelVariant) -> Context {
     ctx
 }
 
+/// The kernel variants the test device runs, in [`KernelVariant::ALL`]'s order: software BVH
+/// traversal always, ray queries where the device has them. A device without them (GPUs without
+/// ray tracing, e.g. NVIDIA's H100 and H200) says so, and a test then checks the software
+/// variant alone; lavapipe, the suite's device in CI, must have them (Mesa >= 25, which
+/// `scripts/setup.sh` installs), so there nothing is skipped.
+pub fn variants() -> Vec<KernelVariant> {
+    static RAY_QUERY: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    let ray_query = *RAY_QUERY.get_or_init(|| {
+        let probe = Context::new(&ContextOptions {
+            validation: false,
+            device: None,
+            trace: TraceMode::Auto,
+        })
+        .unwrap_or_else(|e| panic!("cannot open a Vulkan device: {e}"));
+        let has = probe.variant() == KernelVariant::RayQuery;
+        let name = probe.capabilities().name.clone();
+        assert!(
+            has || !name.contains("llvmpipe"),
+            "{name} lacks ray queries: the suite needs Mesa >= 25's lavapipe (scripts/setup.sh)"
+        );
+        if !has {
+            println!("{name} lacks ray queries: testing the software BVH traversal kernels only");
+        }
+        has
+    });
+    KernelVariant::ALL
+        .into_iter()
+        .filter(|&v| ray_query || v == KernelVariant::Software)
+        .collect()
+}
+
+/// Whether `ctx`'s device runs kernels with the CPU's arithmetic: a CPU device (lavapipe), which
+/// neither fuses a product and a sum into an FMA nor flushes denormals, nor takes liberties with
+/// infinities and NaN. A GPU may do all three (Vulkan allows it: NVIDIA's do), so checks that a
+/// kernel equals the CPU bit for bit hold on such a device only; elsewhere the tests hold the
+/// device to Vulkan's precision.
+pub fn computes_like_the_cpu(ctx: &Context) -> bool {
+    ctx.capabilities().device_type == ash::vk::PhysicalDeviceType::CPU
+}
+
+/// The fastest variant the test device runs ([`variants`]' last): ray queries where it has
+/// them. For references and checks that need one variant only.
+pub fn fastest_variant() -> KernelVariant {
+    *variants()
+        .last()
+        .expect("software traversal runs everywhere")
+}
+
 /// Destroys `ctx` and fails the test on any validation warning or error, leaks included.
 pub fn finish_without_validation_messages(ctx: Context) {
     let messages = ctx.finish().expect("tests always run with validation on");

@@ -12,7 +12,6 @@
 //!
 //! Images are tiny (lavapipe): G-buffer 32 × 32, path tracer 24 × 24 at 4 samples.
 
-use gi_host::KernelVariant;
 use gi_host::gbuffer::{GBufferImages, GBufferPass};
 use gi_host::path_tracer::{PathTracerPass, PathTracerSettings};
 use gi_host::scene::bvh::Bvh;
@@ -26,7 +25,7 @@ use gi_shared::path_tracer::path_random;
 use gi_shared::random::Random;
 use gi_shared::ray::{HitRecord, Ray};
 use gi_shared::scene_data::MESH_ALPHA_TESTED;
-use gi_tests::{context, finish_without_validation_messages};
+use gi_tests::{context, finish_without_validation_messages, variants};
 use glam::{Mat4, UVec2, Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -243,7 +242,7 @@ fn closest_hits_pass_through_the_holes_in_both_variants() {
     }
     assert_eq!((holes, solid), (32, 32));
     assert!(judged > rays.len() * 3 / 4, "only {judged} rays judged");
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         let gpu_scene = gpu_scene(&ctx, &scene, &shading);
         let pass = TraceRays::new(&ctx).unwrap();
@@ -287,7 +286,7 @@ fn the_gbuffer_shows_the_floor_through_the_holes() {
     let camera = CameraParams::new(Vec3::new(-2.0, 0.0, 4.0), Vec3::NEG_Z, Vec3::Y, 0.6, w, h);
     let cpu = gi_host::gbuffer::render_on_cpu(&shading, &bvh, &camera, &[]);
     let mut outputs = vec![("cpu".to_owned(), cpu)];
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         let gpu_scene = gpu_scene(&ctx, &scene, &shading);
         let mut pass = GBufferPass::new(&ctx).unwrap();
@@ -410,7 +409,7 @@ fn sunlight_reaches_the_floor_through_the_holes() {
     let cpu =
         gi_host::path_tracer::render_on_cpu(&shading, &set, &bvh, &camera, &settings).unwrap();
     let mut images = vec![("cpu".to_owned(), cpu)];
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         let gpu_scene = gpu_scene(&ctx, &scene, &shading);
         let mut pass = PathTracerPass::new(&ctx).unwrap();

@@ -23,7 +23,7 @@ use gi_shared::machinery_tests::{
 };
 use gi_shared::random::Random;
 use gi_shared::scan::exclusive_scan;
-use gi_tests::{context, finish_without_validation_messages};
+use gi_tests::{context, finish_without_validation_messages, variants};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// A kernel of `module` with `buffers` storage buffers and push constants of `P`.
@@ -44,7 +44,7 @@ fn groups(invocations: u32) -> [u32; 3] {
 
 /// Runs `check` on a fresh context of each variant, then fails on any validation message.
 fn each_variant(mut check: impl FnMut(&Context, &KernelModule, KernelVariant)) {
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         let module = KernelModule::new(&ctx).unwrap();
         check(&ctx, &module, variant);

@@ -30,7 +30,9 @@ use gi_shared::hash::pcg_chain;
 use gi_shared::light_grid::{
     LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams, build_light_grid_cell,
 };
-use gi_tests::{context, finish_without_validation_messages, load_scene, reference_image};
+use gi_tests::{
+    context, finish_without_validation_messages, load_scene, reference_image, variants,
+};
 use glam::{Quat, Vec3};
 
 /// Side of the test images.
@@ -442,9 +444,14 @@ fn no_gi_buffer_holds_nan_or_inf_after_1000_moving_frames() {
 
 #[test]
 fn both_tracing_variants_render_the_same_frame_cleanly() {
+    let variants = variants();
+    if variants.len() < 2 {
+        return; // `variants` said why
+    }
     let scene = load_scene("indirect-room.gltf");
-    let images: Vec<HdrImage> = KernelVariant::ALL
-        .into_iter()
+    let images: Vec<HdrImage> = variants
+        .iter()
+        .copied()
         .map(|variant| {
             let gpu = Gpu::new(variant, &scene);
             let image = gpu.converged(&scene, settings(), 8);
@@ -455,13 +462,13 @@ fn both_tracing_variants_render_the_same_frame_cleanly() {
     let (relmse, _, bias) = errors(&images[0], &images[1]);
     println!(
         "{} vs {}: relMSE {relmse:.2e}, mean {:+.3}%",
-        KernelVariant::ALL[0],
-        KernelVariant::ALL[1],
+        variants[0],
+        variants[1],
         bias * 100.0
     );
-    // Not bit-identical: appends from many invocations (spawns, queries) land in another order
-    // from run to run and the random streams follow the order, so even one variant's means differ
-    // by up to 0.6 % between runs (measured); the traversal itself must not add a visible error.
+    // Not bit-identical: the driver's ray/triangle test is not ours, so the variants agree on
+    // hits only up to rounding and ties, and the frame's random streams carry any difference on;
+    // the traversal itself must not add a visible error.
     assert!(
         relmse < 1e-3 && bias.abs() < 0.01,
         "relMSE {relmse}, bias {bias}"
@@ -490,7 +497,7 @@ fn the_same_run_twice_gives_the_same_image_bit_for_bit() {
             SIDE,
         )
     };
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let gpu = Gpu::new(variant, &scene);
         let runs: Vec<(HdrImage, HdrImage)> = (0..3)
             .map(|_| {

@@ -15,7 +15,7 @@ use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_shared::camera::CameraParams;
-use gi_tests::{context, finish_without_validation_messages, furnace};
+use gi_tests::{context, finish_without_validation_messages, furnace, variants};
 use glam::Vec3;
 
 /// Image side.
@@ -127,7 +127,7 @@ fn run(
 fn assert_converges(albedo: f32, bound: f64, preset: Preset, frames: u32) {
     let scene = furnace(albedo, EMISSION);
     let expected = f64::from(EMISSION / (1.0 - albedo));
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         for gi in [false, true] {
             let view = if gi { "GI frame" } else { "cache view" };
             let before = run(variant, &scene, preset, gi, false, 32).last();

@@ -22,10 +22,11 @@ use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_shared::camera::CameraParams;
-use gi_tests::{context, finish_without_validation_messages, load_scene};
+use gi_tests::{
+    context, fastest_variant, finish_without_validation_messages, load_scene, variants,
+};
 use glam::Vec3;
 
-const VARIANTS: [KernelVariant; 2] = [KernelVariant::RayQuery, KernelVariant::Software];
 /// Image side of the Cornell-box tests.
 const SIDE: u32 = 64;
 /// Frames of the convergence test.
@@ -78,7 +79,7 @@ fn cache_view(
 
 /// The reference path tracer's image.
 fn path_traced(scene: &Scene, camera: &CameraParams, samples: u32, strategy: Strategy) -> HdrImage {
-    let ctx = context(KernelVariant::RayQuery);
+    let ctx = context(fastest_variant());
     let lights = LightSet::new(scene, None, false);
     let shading = ShadingData::new(scene).unwrap();
     let gpu = GpuScene::upload(&ctx, scene, None, &shading, &lights).unwrap();
@@ -119,7 +120,7 @@ fn the_cornell_box_converges_toward_the_path_tracer() {
     let bsdf_only = path_traced(&scene, &camera, FRAMES, Strategy::BsdfOnly);
     let bsdf_relmse = relative_mse(&reference, &bsdf_only).unwrap();
     let settings = GiSettings::for_resolution(SIDE, SIDE);
-    for variant in VARIANTS {
+    for variant in variants() {
         let (image, occupancy) = cache_view(variant, &scene, settings, FRAMES, |_| camera);
         assert!(
             image
@@ -153,8 +154,7 @@ fn the_cornell_box_converges_toward_the_path_tracer() {
         restir: true,
         ..settings
     };
-    let (image, occupancy) =
-        cache_view(KernelVariant::RayQuery, &scene, restir, FRAMES, |_| camera);
+    let (image, occupancy) = cache_view(fastest_variant(), &scene, restir, FRAMES, |_| camera);
     assert_occupancy_consistent(&occupancy, settings.tile_count());
     let relmse = relative_mse(&reference, &image).unwrap();
     let bias = mean(&image) / mean(&reference) - 1.0;
@@ -190,7 +190,7 @@ fn occupancy_counters_track_inserts_and_evictions() {
     );
     let settings = GiSettings::for_resolution(32, 32);
     let frames = 60;
-    for variant in VARIANTS {
+    for variant in variants() {
         let (image, occupancy) = cache_view(variant, &scene, settings, frames, |f| {
             if f < 4 { near } else { far }
         });
@@ -292,7 +292,7 @@ fn punctual_lights_reach_the_primary_hit_through_its_shadow_ray() {
     let camera = scene_camera(&scene, SIDE, SIDE);
     let reference = path_traced(&scene, &camera, 1024, Strategy::Mis);
     let settings = GiSettings::for_resolution(SIDE, SIDE);
-    for variant in VARIANTS {
+    for variant in variants() {
         let (image, occupancy) = cache_view(variant, &scene, settings, FRAMES, |_| camera);
         assert_occupancy_consistent(&occupancy, settings.tile_count());
         let relmse = relative_mse(&reference, &image).unwrap();

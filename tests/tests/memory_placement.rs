@@ -18,7 +18,7 @@ use gi_host::vulkan::{
 };
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_tests::{
-    assert_device_local_except, context, finish_without_validation_messages, scene_path,
+    assert_device_local_except, context, finish_without_validation_messages, scene_path, variants,
 };
 
 /// The only host-visible buffers a scene and a G-buffer pass keep alive: parameters the host
@@ -39,7 +39,7 @@ fn scene_bvh_and_outputs_are_device_local_in_both_variants() {
     // The textured scene has every kind of shading data, textures and texels included.
     let (scene, _warnings) = Scene::load(scene_path("textured.gltf")).unwrap();
     let shading_data = ShadingData::new(&scene).unwrap();
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         assert!(
             ctx.live_buffers().is_empty(),
@@ -218,7 +218,7 @@ fn path_tracer_buffers_are_device_local_while_rendering() {
     let shading_data = ShadingData::new(&scene).unwrap();
     let environment = Environment::new([2, 1], vec![[1.0; 4]; 2]).unwrap();
     let set = LightSet::new(&scene, Some(environment), true);
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         let gpu = GpuScene::upload(&ctx, &scene, None, &shading_data, &set).unwrap();
         let mut pass = PathTracerPass::new(&ctx).unwrap();

@@ -11,7 +11,6 @@
 //!   last one) and on the cube, with per-object reprojection and with camera-only reprojection:
 //!   neither leaves the dark trail of a shadow-holding hysteresis (bias above −0.28).
 
-use gi_host::KernelVariant;
 use gi_host::gbuffer::{GBufferData, GBufferImages, GBufferPass, render_on_cpu, scene_camera};
 use gi_host::gi::renderer::GiRenderer;
 use gi_host::gi::{GiSettings, ViewOptions};
@@ -24,7 +23,7 @@ use gi_host::scene::upload::{GpuScene, previous_transforms};
 use gi_host::vulkan::Context;
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::GBufferTexel;
-use gi_tests::{context, finish_without_validation_messages, scene_path};
+use gi_tests::{context, finish_without_validation_messages, scene_path, variants};
 use glam::{DVec3, DVec4, Mat4, UVec2, Vec2};
 
 const WIDTH: u32 = 64;
@@ -151,7 +150,7 @@ fn motion_vectors_follow_a_moving_box() {
             .iter()
             .all(|t| t.motion.x == 0.0 && t.motion.y == 0.0)
     );
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         let lights = LightSet::new(&scene, None, false);
         let mut gpu = GpuScene::upload(&ctx, &scene, None, &shading, &lights).unwrap();
@@ -294,7 +293,7 @@ fn a_moving_box_leaves_no_trail() {
         object_motion: false,
         ..base
     };
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         let reference = still_reference(&ctx, &mut scene, base);
         let (with, covered, old, last) = animate(&ctx, &mut scene, base, TRAIL_FRAMES);

@@ -23,11 +23,10 @@ use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::path_tracer::path_random;
 use gi_tests::{
     context, finish_without_validation_messages, furnace, lambertian, quad_scene, scene_path,
+    variants,
 };
 use glam::{Mat4, UVec2, Vec2, Vec3};
 use std::f32::consts::PI;
-
-const VARIANTS: [KernelVariant; 2] = [KernelVariant::RayQuery, KernelVariant::Software];
 
 /// Renders `scene` from `camera` on the device with `variant`.
 fn render_gpu(
@@ -150,7 +149,7 @@ fn assert_furnace(
     settings: &PathTracerSettings,
 ) -> f64 {
     let expected = f64::from(emission / (1.0 - albedo));
-    for variant in VARIANTS {
+    for variant in variants() {
         let m = mean(&render_gpu(variant, scene, &furnace_camera(), settings).image);
         let error = (m - expected).abs() / expected;
         println!(
@@ -294,7 +293,7 @@ fn punctual_lights_over_a_plane_match_the_analytic_irradiance() {
             })
             .collect();
         let peak = expected.iter().copied().fold(0.0, f32::max);
-        for variant in VARIANTS {
+        for variant in variants() {
             let image = render_gpu(variant, &scene, &camera, &settings).image;
             let worst = image
                 .pixels()
@@ -339,7 +338,7 @@ fn cpu_and_both_variants_agree_within_noise() {
     let n = cpu.pixels().len() as f64;
     let mean_error = noise / n.sqrt();
     let mut gpu = vec![];
-    for variant in VARIANTS {
+    for variant in variants() {
         let image = render_gpu(variant, &scene, &camera, &settings).image;
         let d = rmse(&cpu, &image);
         let dm = (mean(&cpu) - mean(&image)).abs();
@@ -401,7 +400,7 @@ fn a_constant_sky_lights_a_plane() {
         8,
         8,
     );
-    for variant in VARIANTS {
+    for variant in variants() {
         for bounces in [0, 1, 5] {
             let settings = PathTracerSettings {
                 samples: 4,
@@ -473,7 +472,7 @@ fn an_environment_image_lights_a_plane() {
     let shading = ShadingData::new(&scene).unwrap();
     let bvh = Bvh::new(&scene).unwrap();
     let cpu = render_on_cpu(&shading, &set, &bvh, &camera, &settings).unwrap();
-    for variant in VARIANTS {
+    for variant in variants() {
         let ctx = context(variant);
         let gpu = GpuScene::upload(&ctx, &scene, None, &shading, &set).unwrap();
         assert_eq!(gpu.lights.count(), 0);
@@ -584,7 +583,7 @@ fn a_quad_light_over_a_plane_matches_the_form_factor() {
         })
         .collect();
     let peak = expected.iter().copied().fold(0.0, f64::max);
-    for variant in VARIANTS {
+    for variant in variants() {
         let image = render_gpu(variant, &scene, &camera, &settings).image;
         let residuals: Vec<f64> = image
             .pixels()
@@ -705,7 +704,7 @@ fn the_cornell_box_renders_the_same_at_any_scale_and_offset() {
         light_area(&flat),
         light_area(&back)
     );
-    for variant in VARIANTS {
+    for variant in variants() {
         let render = |scene: &Scene, place: &dyn Fn(Vec3) -> Vec3, seed| {
             let settings = PathTracerSettings { seed, ..settings };
             mean(&render_gpu(variant, scene, &camera(place), &settings).image)

@@ -29,7 +29,7 @@ use gi_shared::random::Random;
 use gi_shared::ray::{HitRecord, Ray};
 use gi_shared::sampling::sample_uniform_sphere;
 use gi_shared::scene_data::GpuInstance;
-use gi_tests::{context, finish_without_validation_messages, scene_path};
+use gi_tests::{context, finish_without_validation_messages, scene_path, variants};
 use glam::{Mat4, Vec3};
 use std::time::Instant;
 
@@ -173,7 +173,7 @@ fn set_pose_traces_the_new_pose() {
         cube_lights == 12 && emitters > cube_lights,
         "{emitters} emitters"
     );
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         scene.set_time(POSES[0]);
         let lights = LightSet::new(&scene, None, true);
@@ -312,7 +312,7 @@ fn spheres(levels: u32) -> Scene {
 
 #[test]
 fn pose_upload_does_not_grow_with_triangles() {
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         let mut uploads = vec![];
         for levels in [2, 5] {

@@ -44,7 +44,9 @@ use gi_shared::layout::{HashCellValue, HashGridParams, HashGridQuery};
 use gi_shared::light_grid::{LightGridEntry, LightGridParams};
 use gi_shared::random::Random;
 use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
-use gi_tests::{context, finish_without_validation_messages, load_scene};
+use gi_tests::{
+    context, fastest_variant, finish_without_validation_messages, load_scene, variants,
+};
 use glam::{Mat4, Vec3};
 
 /// A context with `scene` uploaded (its lights and `environment`, importance-sampled).
@@ -267,7 +269,7 @@ fn the_cache_converges_to_the_furnace_radiance() {
         buckets_log2: settings.buckets_log2 + 2,
         ..settings
     };
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let gpu = Gpu::new(variant, &scene, Some(environment.clone()));
         let mut view = gpu.view(FURNACE_SIDE, settings);
         let occupancy = run(&gpu, &mut view, FURNACE_FRAMES, |_| camera);
@@ -597,7 +599,7 @@ fn the_cpu_model_equals_the_gpu() {
         cell_size_pixels: MODEL_CELL_SIZE_PIXELS,
         ..GiSettings::for_resolution(MODEL_SIDE, MODEL_SIDE)
     };
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let gpu = Gpu::new(variant, &scene, None);
         let mut view = gpu.view(MODEL_SIDE, settings);
         let mut model: Option<HashGridModel> = None;
@@ -788,12 +790,12 @@ fn a_cache_smaller_than_the_scene_degrades_gracefully() {
         ..normal
     };
     let reference = {
-        let gpu = Gpu::new(KernelVariant::RayQuery, &scene, None);
+        let gpu = Gpu::new(fastest_variant(), &scene, None);
         let image = gpu.path_traced(&camera, 1024, 0);
         gpu.finish();
         image
     };
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let gpu = Gpu::new(variant, &scene, None);
         let mut errors = Vec::new();
         let mut means = Vec::new();
@@ -878,7 +880,7 @@ fn tiles_expire_after_exactly_50_untouched_frames() {
     );
     let settings = GiSettings::for_resolution(side, side);
     let frames = 56;
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let gpu = Gpu::new(variant, &scene, None);
         let mut view = gpu.view(side, settings);
         let mut before: BTreeMap<(usize, u32), u32> = BTreeMap::new();
@@ -1040,7 +1042,7 @@ fn no_cache_buffer_holds_nan_or_inf_after_1000_moving_frames() {
     };
     assert_eq!(home.image_size, camera_at(0).image_size);
     let layouts = float_words();
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let gpu = Gpu::new(variant, &scene, None);
         let check = FiniteCheck::new(&gpu.ctx, &KernelModule::new(&gpu.ctx).unwrap()).unwrap();
         check_the_check(&gpu.ctx, &check);
@@ -1125,7 +1127,7 @@ fn the_leak_fixes_keep_the_dark_room_dark() {
     let camera = scene_camera(&scene, LEAK_SIDE, LEAK_SIDE);
     // Columns right of the wall's (the middle one), a pixel of margin.
     let dark = |x: u32| x > LEAK_SIDE / 2;
-    let gpu = Gpu::new(KernelVariant::RayQuery, &scene, None);
+    let gpu = Gpu::new(fastest_variant(), &scene, None);
     let means: Vec<f64> = (0..LEAK_REFERENCE_IMAGES)
         .map(|seed| {
             mean(
@@ -1150,7 +1152,7 @@ fn the_leak_fixes_keep_the_dark_room_dark() {
         buckets_log2: defaults.buckets_log2 + 2,
         ..defaults
     };
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let gpu = Gpu::new(variant, &scene, None);
         let leaks: Vec<f64> = [true, false]
             .into_iter()

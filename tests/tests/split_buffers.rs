@@ -16,7 +16,7 @@ use gi_host::scene::upload::{GeometryData, GpuScene};
 use gi_host::vulkan::Context;
 use gi_shared::gbuffer::SKY_DEPTH;
 use gi_shared::layout::SCENE_BUFFER_CHUNKS;
-use gi_tests::{context, finish_without_validation_messages};
+use gi_tests::{context, finish_without_validation_messages, variants};
 
 const SIDE: u32 = 32;
 /// Bindings of 4 KiB: 128 vertices, 256 triangles or 64 BVH nodes each.
@@ -77,7 +77,7 @@ fn render(
 #[test]
 fn tiny_bindings_render_exactly_like_whole_buffers() {
     let scene = room();
-    for variant in [KernelVariant::Software, KernelVariant::RayQuery] {
+    for variant in variants() {
         let ctx = context(variant);
         let mut passes = (
             GBufferPass::new(&ctx).unwrap(),

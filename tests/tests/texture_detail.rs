@@ -4,7 +4,6 @@
 //! the pixel's ray differentials (`gi_shared::ray_cone`, `gi_shared::textures::sample_footprint`)
 //! keeps them.
 
-use gi_host::KernelVariant;
 use gi_host::gi::renderer::GiRenderer;
 use gi_host::gi::{Preset, ViewOptions};
 use gi_host::image_io::HdrImage;
@@ -14,7 +13,7 @@ use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_shared::camera::CameraParams;
 use gi_shared::color::luminance;
-use gi_tests::{context, finish_without_validation_messages, load_scene};
+use gi_tests::{context, finish_without_validation_messages, load_scene, variants};
 use glam::Vec3;
 
 const WIDTH: u32 = 128;
@@ -55,7 +54,7 @@ fn texture_detail_at_a_grazing_angle_matches_the_path_tracer() {
         WIDTH,
         HEIGHT,
     );
-    for variant in KernelVariant::ALL {
+    for variant in variants() {
         let ctx = context(variant);
         let shading = ShadingData::new(&scene).unwrap();
         let lights = LightSet::new(&scene, None, true);

@@ -106,7 +106,8 @@ pub fn points(
                 GiSettings {
                     cell_size_pixels: cell,
                     ..b
-                },
+                }
+                .with_cache_for(width, height),
             ));
         }
         // The bucket count alone: the cache's size (and memory) moves.

@@ -144,7 +144,8 @@ enum Command {
         frames: u32,
         #[command(flatten)]
         view: ViewArgs,
-        /// log2 of the hash grid's bucket count (default: scaled with the resolution).
+        /// log2 of the hash grid's bucket count (default: scaled with the resolution and the
+        /// cell size).
         #[arg(long)]
         buckets_log2: Option<u32>,
         /// log2 of the tiles per bucket.
@@ -474,12 +475,14 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         debug_views,
     }) = &cli.command
     {
-        let defaults = GiSettings::for_resolution(*width, *height);
+        let sized = GiSettings {
+            tiles_per_bucket_log2: *tiles_per_bucket_log2,
+            cell_size_pixels: *cell_size_pixels,
+            ..GiSettings::default()
+        }
+        .with_cache_for(*width, *height);
         let settings = GiSettings {
-            buckets_log2: buckets_log2.unwrap_or(
-                (defaults.buckets_log2 + defaults.tiles_per_bucket_log2)
-                    .saturating_sub(*tiles_per_bucket_log2),
-            ),
+            buckets_log2: buckets_log2.unwrap_or(sized.buckets_log2),
             tiles_per_bucket_log2: *tiles_per_bucket_log2,
             cell_size_pixels: *cell_size_pixels,
             min_cell_size: *min_cell_size,
@@ -488,7 +491,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
             short_ray_flag: !*no_leak_fixes,
             bypass: !*no_leak_fixes,
             restir: *restir,
-            ..defaults
+            ..sized
         };
         let options = ViewOptions {
             sky: view.sky.unwrap_or(Vec3::ZERO),

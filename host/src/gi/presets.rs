@@ -42,7 +42,7 @@ impl Preset {
     }
 
     /// Its settings for a `width × height` frame (the cache sized by
-    /// [`GiSettings::for_resolution`]).
+    /// [`GiSettings::with_cache_for`] for the preset's cell size).
     pub fn settings(self, width: u32, height: u32) -> GiSettings {
         // Every preset bounces light through the world cache and adapts its blend to change
         // (the reference does neither).
@@ -64,6 +64,7 @@ impl Preset {
                 ..base
             },
         }
+        .with_cache_for(width, height)
     }
 }
 

@@ -14,8 +14,8 @@ use gi_shared::lights::MAX_LIGHT_CANDIDATES;
 /// cells that bounce rays reach about double a closed room's live tiles (a 64 × 64 view of
 /// `indirect-room` overflowed 1024).
 pub const MIN_AUTO_TILES_LOG2: u32 = 11;
-/// Pixels per tile [`GiSettings::for_resolution`] budgets: one tile per 32 pixels gives the
-/// reference's 65 536 tiles at 1920 × 1080.
+/// Pixels per tile [`GiSettings::for_resolution`] budgets at the default cell size: one tile per
+/// 32 pixels gives the reference's 65 536 tiles at 1920 × 1080.
 pub const AUTO_PIXELS_PER_TILE: u64 = 32;
 
 /// Largest [`GiSettings::sample_cap`]: a cell's sum stays exact in `f32` far beyond it, and a
@@ -226,20 +226,35 @@ impl Default for GiSettings {
 }
 
 impl GiSettings {
-    /// The defaults with the cache sized for a `width × height` frame: one tile per
-    /// [`AUTO_PIXELS_PER_TILE`] pixels, rounded up to a power of two, between
-    /// 2^[`MIN_AUTO_TILES_LOG2`] and 2^[`MAX_NUM_TILES_LOG2`] tiles.
+    /// The defaults with the cache sized for a `width × height` frame ([`Self::with_cache_for`]).
     pub fn for_resolution(width: u32, height: u32) -> Self {
-        let tiles = (u64::from(width) * u64::from(height)).div_ceil(AUTO_PIXELS_PER_TILE);
+        Self::default().with_cache_for(width, height)
+    }
+
+    /// `self` with [`Self::buckets_log2`] sized for a `width × height` frame at
+    /// `self`'s cell size and tiles per bucket: one tile per [`AUTO_PIXELS_PER_TILE`] pixels at
+    /// the default cell size, and `(default / cell)²` times as many for smaller cells (a cell
+    /// spans fewer pixels, so more cells are live), rounded up to a power of two, between
+    /// 2^[`MIN_AUTO_TILES_LOG2`] and 2^[`MAX_NUM_TILES_LOG2`] tiles. Larger cells keep the
+    /// default cell's count. Call it after changing the cell size: cells of 8 pixels in a cache
+    /// sized for 32 filled every tile at 128 × 72 and darkened the image by 11 points.
+    pub fn with_cache_for(self, width: u32, height: u32) -> Self {
+        let pixels = u64::from(width) * u64::from(height);
+        let finer = (DEFAULT_CELL_SIZE_PIXELS / self.cell_size_pixels).max(1.0);
+        // At most 2^MAX_NUM_TILES_LOG2 tiles whatever the factor (NaN saturates to 0).
+        let factor = (finer * finer).min((1u64 << MAX_NUM_TILES_LOG2) as f32) as u64;
+        let tiles = pixels
+            .div_ceil(AUTO_PIXELS_PER_TILE)
+            .saturating_mul(factor.max(1));
         let tiles_log2 = tiles
             .max(1)
-            .next_power_of_two()
-            .trailing_zeros()
-            .clamp(MIN_AUTO_TILES_LOG2, MAX_NUM_TILES_LOG2);
-        let defaults = Self::default();
+            .checked_next_power_of_two()
+            .map_or(MAX_NUM_TILES_LOG2, u64::trailing_zeros)
+            .clamp(MIN_AUTO_TILES_LOG2, MAX_NUM_TILES_LOG2)
+            .max(self.tiles_per_bucket_log2.saturating_add(1));
         Self {
-            buckets_log2: tiles_log2 - defaults.tiles_per_bucket_log2,
-            ..defaults
+            buckets_log2: tiles_log2 - self.tiles_per_bucket_log2,
+            ..self
         }
     }
 
@@ -336,6 +351,35 @@ mod tests {
         for (w, h) in [(1, 1), (64, 48), (3840, 2160)] {
             GiSettings::for_resolution(w, h).validate(w, h).unwrap();
         }
+    }
+
+    #[test]
+    fn smaller_cells_get_a_larger_cache() {
+        let cells = |px: f32, w, h| {
+            GiSettings {
+                cell_size_pixels: px,
+                ..GiSettings::default()
+            }
+            .with_cache_for(w, h)
+        };
+        // 128 × 72: 288 tiles' worth of 32-pixel cells (the floor, 2048), 16 × as many of 8.
+        assert_eq!(cells(32.0, 128, 72).tile_count(), 1 << 11);
+        assert_eq!(cells(8.0, 128, 72).tile_count(), 1 << 13);
+        assert_eq!(cells(16.0, 640, 480).tile_count(), 1 << 16);
+        // Larger cells keep the default's count; the ceiling holds for any cell.
+        assert_eq!(cells(64.0, 640, 480).tile_count(), 1 << 14);
+        for px in [1e-30, 0.5, f32::NAN] {
+            let s = cells(px, 3840, 2160);
+            assert_eq!(s.tile_count(), 1 << MAX_NUM_TILES_LOG2, "{px}");
+        }
+        // Tiles per bucket are kept; the buckets make up the rest.
+        let wide = GiSettings {
+            tiles_per_bucket_log2: 6,
+            cell_size_pixels: 8.0,
+            ..GiSettings::default()
+        }
+        .with_cache_for(128, 72);
+        assert_eq!((wide.buckets_log2, wide.tile_count()), (7, 1 << 13));
     }
 
     #[test]
