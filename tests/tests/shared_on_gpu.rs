@@ -286,10 +286,18 @@ fn shared_functions_agree_between_cpu_and_gpu() {
         // asks for `SignedZeroInfNanPreserve`, and bounds precision only within 2^±126: only a
         // device computing like the CPU is held to the CPU's answer beyond.
         let strict = computes_like_the_cpu(&ctx);
+        // A GPU may also fuse a product and a sum into one FMA (SPIR-V allows it without
+        // `NoContraction`; NVIDIA's does): a few ulp more than the bounds, which are exact
+        // arithmetic's (the Halton sequence's digit sum came out 1 ulp off on an H200).
+        let contraction = if strict { 0.0 } else { 4.0 * f32::EPSILON };
         let gpu = run_on_gpu(&ctx, &cases);
         let mut failures = vec![];
         println!("{variant}: {} cases per function", cases.len());
         for (f, info) in FUNCTIONS.iter().enumerate() {
+            let info = &FunctionInfo {
+                relative: info.relative.max(contraction),
+                ..*info
+            };
             let (mut worst_ulps, mut worst_error, mut int_mismatches, mut snapped) =
                 (0, 0f32, 0, 0);
             let (mut flushed, mut unchecked) = (0, 0);
