@@ -2,9 +2,9 @@
 # The GPU check: one command for a machine with a discrete GPU. It builds, renders one GI frame
 # per preset for its per-pass GPU times and memory table, runs a presets-only `gi sweep` on the
 # Cornell box and a Bitterli interior from ../shared, the tracing benchmark, and last the GPU
-# tests (the `gi-tests` binaries, the long ignored ones included); every step's output goes under one folder, with a
-# summary (step, exit status, seconds) in summary.md. A failing step is recorded and the others
-# still run; the exit status is non-zero when any failed.
+# tests (the `gi-tests` binaries, the long ignored ones included). Every step's output goes
+# under one folder, with a summary (step, exit status, seconds) in summary.md. A failing step is
+# recorded and the others still run; the exit status is non-zero when any failed.
 #
 #   bash scripts/gpu-check.sh [--small] [--out DIR] [--shared DIR] [--prebuilt DIR]
 #   bash scripts/gpu-check.sh --bundle DIR
@@ -97,7 +97,11 @@ if [ -n "$prebuilt" ]; then
   bench=$bin/tracing
 else
   t0=$SECONDS
-  exes=$(build 2>"$out/build.log") || { cat "$out/build.log"; echo "gpu-check: the build failed"; exit 1; }
+  if ! exes=$(build 2>"$out/build.log"); then
+    cat "$out/build.log"
+    echo "gpu-check: the build failed"
+    exit 1
+  fi
   printf '| build | 0 | %s |\n' $((SECONDS - t0)) >>"$summary"
   gi=$(awk '$1 == "gi" { print $2; exit }' <<<"$exes")
   bench=$(awk '$1 == "bench" { print $2; exit }' <<<"$exes")
@@ -118,7 +122,11 @@ interior=$shared/scenes/third-party/bitterli/staircase/staircase.glb
 step info "$gi" info
 
 scenes=(scenes/cornell-box.gltf)
-if [ -f "$interior" ]; then scenes+=("$interior"); else echo "gpu-check: $interior absent: the sweep runs on the Cornell box alone"; fi
+if [ -f "$interior" ]; then
+  scenes+=("$interior")
+else
+  echo "gpu-check: $interior absent: the Cornell box alone"
+fi
 
 # Per-pass GPU time and memory table of one GI frame per preset (gi render prints both).
 frame_tables() {

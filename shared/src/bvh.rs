@@ -68,12 +68,12 @@
 //! ray runs along +z, and three 2D edge functions decide. Each edge function of an edge shared by
 //! two triangles of a mesh is computed from the same vertex values, in one canonical order of
 //! the edge's two vertices, so it comes out exactly negated: a ray cannot pass between two
-//! triangles that share an edge, nor through a vertex shared by a fan. The paper recomputes an edge function that is exactly 0 in
-//! double precision; kernels have no `f64`, so here 0 counts as inside for both triangles of the
-//! edge instead, which keeps the test watertight (both may report the hit, and the tie rule below
-//! picks one). The canonical order keeps the negation exact where a compiler fuses one product
-//! of an edge function into an FMA, as NVIDIA's does (`tests/tests/tracing.rs` and
-//! `tests/tests/gbuffer.rs` count the rays that slip through).
+//! triangles that share an edge, nor through a vertex shared by a fan. The paper recomputes an
+//! edge function that is exactly 0 in double precision; kernels have no `f64`, so here 0 counts
+//! as inside for both triangles of the edge instead, which keeps the test watertight (both may
+//! report the hit, and the tie rule below picks one). The canonical order keeps the negation
+//! exact where a compiler fuses one product of an edge function into an FMA, as NVIDIA's does
+//! (`tests/tests/tracing.rs` and `tests/tests/gbuffer.rs` count the rays that slip through).
 //!
 //! Hits obey `t_min <= t <= t_max`, with `t` in units of the world direction's length, like
 //! `VK_KHR_ray_query`; `t` is compared against the bounds scaled by the determinant before the
@@ -483,7 +483,7 @@ impl TraceRay {
 /// evaluated with the edge's vertices in one canonical order and negated when they come the
 /// other way round: the two triangles of a shared edge then run the same arithmetic on the same
 /// operands, and their values are exact negatives even where a compiler fuses one product of
-/// the difference into an FMA (NVIDIA's does; without this order, 11 rays of a 64 × 64 Cornell
+/// the difference into an FMA (NVIDIA's does; without this order, 11 rays of a 64 × 48 Cornell
 /// box slipped between its triangles on an H200).
 #[inline]
 fn edge_function(p: Vec2, q: Vec2) -> f32 {
