@@ -161,6 +161,10 @@ pub const FLAG_PROBE_RAYS: u32 = 128;
 /// [`CacheViewParams::flags`]: multi-bounce through the world cache (`crate::multi_bounce`):
 /// every query that takes a light sample also traces a bounce ray and adds the cell it hits.
 pub const FLAG_MULTI_BOUNCE: u32 = 256;
+/// [`CacheViewParams::flags`], with [`FLAG_PROBE_RAYS`]: the GI frame's primary hit samples the
+/// emissive triangles (`FLAG_EMITTER_SAMPLING`), so a probe ray's emissive hit adds nothing (a
+/// miss still brings the sky in full).
+pub const FLAG_EMITTERS_SAMPLED: u32 = 512;
 
 /// Counter words of the cache view's counter buffer (the hash grid keeps its own counters in its
 /// list buffer, `hash_cells::lists`): queries appended this frame.
@@ -651,7 +655,9 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
         );
         // The emitter's light, MIS-weighted; what it reflects still comes from its cell below
         // (a cell never holds emission, so neither is counted twice).
-        out.radiance = emission * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
+        if !view.has(FLAG_PROBE_RAYS | FLAG_EMITTERS_SAMPLED) {
+            out.radiance = emission * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
+        }
     }
     if let Some(query) = surface_query(ray, hit, &surface, &material, ray_index) {
         out.query = query;

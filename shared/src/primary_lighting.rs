@@ -14,11 +14,14 @@
 //!   other estimator sees it. Up to [`EXACT_DIRECT_LIGHTS`] lights are summed exactly, one shadow
 //!   ray each; with more, the host sets [`FLAG_SAMPLED_DIRECT`] and one light is resampled (RIS
 //!   over `GiFrameParams::light_candidates` uniformly drawn punctual lights, one shadow ray).
-//! * **Everything else** arrives through the screen probes: emissive surfaces and the sky (which
-//!   probe rays take at full weight when they hit or miss), and all multi-bounce light (probe rays
-//!   that hit another surface read the world cache, which lights secondary hits with every
-//!   light, punctual ones included, and feeds back the previous frame's radiance, resolved from
-//!   its irradiance before the denoiser: [`resolve_feedback`]).
+//! * **Direct light of emissive triangles**, under `FLAG_EMITTER_SAMPLING` (the setting
+//!   `emitter_sampling`), also comes from DirectLight: one light sample and shadow ray
+//!   ([`emitter_light`]); probe rays then add nothing where they hit an emitter.
+//! * **Everything else** arrives through the screen probes: emissive surfaces (without emitter
+//!   sampling) and the sky (which probe rays take at full weight when they hit or miss), and all
+//!   multi-bounce light (probe rays that hit another surface read the world cache, which lights
+//!   secondary hits with every light, punctual ones included, and feeds back the previous frame's
+//!   radiance, resolved from its irradiance before the denoiser: [`resolve_feedback`]).
 //!
 //! ResolveGI puts them together ([`resolve_color`]): `emission + albedo / π × (GI irradiance +
 //! direct)`. Sampled direct light (many punctual lights) is one RIS sample per pixel and frame,
@@ -31,12 +34,15 @@ use glam::Vec3;
 
 use crate::cache_view::{FeedbackTexel, PrimarySurface, finite_sample};
 use crate::color::luminance;
-use crate::lights::{GpuLight, MAX_LIGHT_CANDIDATES, punctual_incidence, sky_radiance};
+use crate::lights::{
+    GpuLight, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, punctual_incidence, sample_triangle_light,
+    select_light, sky_radiance,
+};
 use crate::math::{INV_PI, max, max_u32, min_u32, to_u32_clamped};
 use crate::random::Random;
 use crate::ray::Ray;
 use crate::reservoir::Reservoir;
-use crate::screen_probes::{FLAG_SAMPLED_DIRECT, GiFrameParams};
+use crate::screen_probes::{FLAG_EMITTER_SAMPLING, FLAG_SAMPLED_DIRECT, GiFrameParams};
 
 /// Most punctual lights DirectLight sums exactly (one shadow ray each); beyond this the host sets
 /// [`FLAG_SAMPLED_DIRECT`] and one light is resampled.
@@ -245,10 +251,11 @@ pub fn sky_lighting(
 
 /// DirectLight for a surface pixel: its `emission` toward the camera (already × the multiplier)
 /// and the punctual lights' direct irradiance, exact or (under [`FLAG_SAMPLED_DIRECT`]) resampled
-/// from `rng`; `occluded` traces a shadow ray, given `images`: the scene's textures, which tracing
-/// reads for the alpha test. They are an argument rather than a capture because on the device
-/// they are the bindless image array, and a closure holding it would be a composite holding an
-/// opaque handle, which SPIR-V forbids.
+/// from `rng`, plus under [`FLAG_EMITTER_SAMPLING`] the emissive triangles' ([`emitter_light`]);
+/// `occluded` traces a shadow ray, given `images`: the scene's textures, which tracing reads for
+/// the alpha test. They are an argument rather than a capture because on the device they are the
+/// bindless image array, and a closure holding it would be a composite holding an opaque handle,
+/// which SPIR-V forbids.
 #[inline]
 pub fn surface_lighting<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
     frame: &GiFrameParams,
@@ -276,12 +283,74 @@ pub fn surface_lighting<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
     } else {
         exact_direct_light(surface, lights, frame.punctual_count, images, &mut occluded)
     };
+    let direct = if frame.has(FLAG_EMITTER_SAMPLING) {
+        direct + emitter_light(frame, surface, lights, rng, images, &mut occluded)
+    } else {
+        direct
+    };
     PrimaryLighting {
         emission: emission.to_array(),
         surface: 1,
         direct: direct.to_array(),
         emissive: if emission.max_element() > 0.0 { 1 } else { 0 },
     }
+}
+
+/// One light-sampled estimate of the emissive triangles' direct irradiance at `surface`
+/// (`FLAG_EMITTER_SAMPLING`): a light drawn from the light buffer's alias table (punctual lights
+/// and the environment, drawn too, add nothing here: they have their own estimators), a uniform
+/// point on it, one shadow ray; `radiance × cos θ / (pdf_area→solid angle × pmf)`. The emitter's
+/// factor is its radiance (its emissive texture is not read, as at the cache's light samples).
+/// The cells of a probe average a small source's cosine over the cell's solid angle; this
+/// estimate takes its own.
+#[inline]
+pub fn emitter_light<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
+    frame: &GiFrameParams,
+    surface: &PrimarySurface,
+    lights: &[GpuLight],
+    rng: &mut Random,
+    images: &I,
+    occluded: &mut F,
+) -> Vec3 {
+    let count = min_u32(frame.light_count, lights.len() as u32);
+    let u = rng.next_vec2();
+    let u2 = rng.next_vec2();
+    if count <= frame.punctual_count {
+        return Vec3::ZERO;
+    }
+    let light = lights[select_light(lights, count, u) as usize];
+    if light.kind != LIGHT_TRIANGLE || light.select_pmf.is_nan() || light.select_pmf <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let t = sample_triangle_light(&light, surface.position, u2);
+    if t.pdf.is_nan() || t.pdf <= 0.0 || !light.emits_toward(-t.direction) {
+        return Vec3::ZERO;
+    }
+    let (p0, p1, p2) = (
+        Vec3::from_array(light.p0),
+        Vec3::from_array(light.p1),
+        Vec3::from_array(light.p2),
+    );
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let mut n = e1.cross(e2).normalize_or_zero();
+    if n.dot(t.direction) > 0.0 {
+        n = -n;
+    }
+    let size = e1.abs().max(e2.abs()).max((p2 - p1).abs()).max_element();
+    let end = crate::ray::offset_ray_origin(t.point, n, size);
+    let ray = Ray {
+        origin: surface.position.to_array(),
+        t_min: 0.0,
+        direction: (end - surface.position).to_array(),
+        t_max: 1.0,
+    };
+    let cos_g = surface.geometric_normal.dot(t.direction);
+    let cos_s = max(surface.shading_normal.dot(t.direction), 0.0);
+    if cos_g <= 0.0 || cos_s <= 0.0 || occluded(&ray, images) {
+        return Vec3::ZERO;
+    }
+    let radiance = Vec3::from_array(light.intensity) * frame.emissive_multiplier;
+    finite_sample(radiance * cos_s / (t.pdf * light.select_pmf))
 }
 
 /// ResolveGI's colour of a pixel (linear HDR radiance): `emission + albedo / π × (irradiance +
@@ -322,6 +391,7 @@ pub fn resolve_feedback(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lights::{EMIT_BACK, EMIT_FRONT};
     use crate::math::PI;
     use core::mem::{offset_of, size_of};
 
@@ -341,6 +411,80 @@ mod tests {
             shading_normal: Vec3::Z,
             valid: true,
         }
+    }
+
+    /// A point light and a tilted triangle light (radiance 3) above [`plane`], drawn with
+    /// probability ½ each.
+    fn point_and_triangle() -> ([GpuLight; 2], [Vec3; 3]) {
+        let tri = [
+            Vec3::new(-0.5, -0.2, 1.0),
+            Vec3::new(0.7, 0.1, 1.3),
+            Vec3::new(0.0, 0.8, 0.9),
+        ];
+        let mut lights = [
+            GpuLight::point(Vec3::new(0.0, 0.0, 2.0), Vec3::ONE),
+            GpuLight::triangle(0, 0, tri, Vec3::splat(3.0), EMIT_FRONT | EMIT_BACK),
+        ];
+        for l in &mut lights {
+            l.select_pmf = 0.5;
+            l.alias_threshold = 1.0;
+        }
+        (lights, tri)
+    }
+
+    #[test]
+    fn emitter_light_estimates_the_triangles_irradiance() {
+        let (lights, tri) = point_and_triangle();
+        let frame = GiFrameParams {
+            flags: FLAG_EMITTER_SAMPLING,
+            punctual_count: 1,
+            light_count: 2,
+            emissive_multiplier: 1.0,
+            ..GiFrameParams::default()
+        };
+        // Lambert's formula for a polygon of radiance L over a unit normal n at the origin.
+        let mut exact = 0.0;
+        for i in 0..3 {
+            let (a, b) = (tri[i].normalize(), tri[(i + 1) % 3].normalize());
+            exact += a.dot(b).acos() * Vec3::Z.dot(a.cross(b).normalize());
+        }
+        let exact = 3.0 * 0.5 * exact.abs();
+        let mut rng = Random::new(5, 0);
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        let mut sum2 = 0.0f64;
+        for _ in 0..n {
+            let e = emitter_light(&frame, &plane(), &lights, &mut rng, &(), &mut |_, _| false);
+            sum += f64::from(e.x);
+            sum2 += f64::from(e.x) * f64::from(e.x);
+        }
+        let mean = sum / f64::from(n);
+        let error = ((sum2 / f64::from(n) - mean * mean) / f64::from(n)).sqrt();
+        assert!(
+            (mean - f64::from(exact)).abs() < 4.0 * error,
+            "{mean} ± {error} vs {exact}"
+        );
+        // An occluded shadow ray adds nothing.
+        let blocked = emitter_light(&frame, &plane(), &lights, &mut rng, &(), &mut |_, _| true);
+        assert_eq!(blocked, Vec3::ZERO);
+    }
+
+    #[test]
+    fn without_emitter_sampling_the_direct_light_is_the_punctual_lights_alone() {
+        let (lights, _) = point_and_triangle();
+        let off = GiFrameParams {
+            punctual_count: 1,
+            light_count: 2,
+            ..GiFrameParams::default()
+        };
+        let (mut a, b) = (Random::new(9, 0), Random::new(9, 0));
+        let lit = surface_lighting(&off, &plane(), Vec3::ZERO, &lights, &mut a, &(), |_, _| {
+            false
+        });
+        let point = punctual_term(&lights[0], &plane()).irradiance;
+        assert_eq!(lit.direct(), point);
+        // The random stream is untouched, so the frame's other samples are as before.
+        assert_eq!(a.next_u32(), { b }.next_u32());
     }
 
     #[test]

@@ -30,7 +30,8 @@ use crate::vulkan::{
 };
 use ash::vk;
 use gi_shared::cache_view::{
-    CachePassParams, CacheQuery, CacheViewPixel, FLAG_PROBE_RAYS, FeedbackTexel, ShadowRay,
+    CachePassParams, CacheQuery, CacheViewPixel, FLAG_EMITTERS_SAMPLED, FLAG_PROBE_RAYS,
+    FeedbackTexel, ShadowRay,
 };
 use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::cell_size_const;
@@ -450,7 +451,11 @@ impl GiRenderer {
                 camera: &frame_camera,
                 previous: previous.as_ref(),
                 restir_history: self.restir_history,
-                extra_flags: FLAG_PROBE_RAYS,
+                extra_flags: if self.settings.emitter_sampling {
+                    FLAG_PROBE_RAYS | FLAG_EMITTERS_SAMPLED
+                } else {
+                    FLAG_PROBE_RAYS
+                },
             },
         );
         let max_groups = ctx.capabilities().max_workgroup_count[0];

@@ -571,6 +571,7 @@ pub fn technique_flags(settings: &GiSettings) -> u32 {
         (settings.denoiser_temporal, FLAG_DENOISER_TEMPORAL),
         (settings.denoiser_spatial, FLAG_DENOISER_SPATIAL),
         (settings.object_motion, FLAG_OBJECT_MOTION),
+        (settings.emitter_sampling, FLAG_EMITTER_SAMPLING),
     ]
     .into_iter()
     .filter(|(on, _)| *on)

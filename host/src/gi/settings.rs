@@ -168,6 +168,16 @@ pub struct GiSettings {
     /// moved. Quality: off, the moving object's history lags behind it and it leaves a dark
     /// trail; static scenes render the same either way.
     pub object_motion: bool,
+    /// Emitter sampling: the primary hit takes the emissive triangles' direct light from one
+    /// light sample and shadow ray per pixel, and probe rays leave the emitters they hit to it
+    /// (the sky stays in the probes). Cost: a shadow ray per pixel. Quality: the probes' cells
+    /// average a small emitter's cosine over their solid angle and their direct light comes out
+    /// blocky; with it, the converged error falls by three quarters where small emitters light
+    /// the scene (relMSE at 128 × 72: Cornell box 0.022 → 0.004, staircase 0.084 → 0.019,
+    /// bathroom 0.24 → 0.07), but each frame's estimate is added undenoised, so one frame of a
+    /// scene of many small lights is noisier (bathroom 0.22 → 0.31). Off by default until it is
+    /// denoised. Scenes without emissive triangles render the same either way.
+    pub emitter_sampling: bool,
 }
 
 /// The screen probes' spawn rate: one probe traced per spawn tile per frame.
@@ -221,6 +231,7 @@ impl Default for GiSettings {
             denoiser_temporal: true,
             denoiser_spatial: true,
             object_motion: true,
+            emitter_sampling: false,
         }
     }
 }

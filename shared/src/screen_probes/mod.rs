@@ -112,6 +112,10 @@ pub const FLAG_SAMPLED_DIRECT: u32 = 1 << 13;
 /// so that history follows the object (off: the previous camera reprojects every surface point as
 /// if the scene were static, and a moving object's history stays behind, a trail).
 pub const FLAG_OBJECT_MOTION: u32 = 1 << 14;
+/// Emitter sampling: DirectLight adds one light-sampled estimate of the emissive triangles'
+/// direct light ([`crate::primary_lighting::emitter_light`]), and probe rays leave the emission
+/// they hit to it ([`crate::cache_view::FLAG_EMITTERS_SAMPLED`]), so each path still counts once.
+pub const FLAG_EMITTER_SAMPLING: u32 = 1 << 15;
 
 /// Counter word: probes appended to the spawn list this frame.
 pub const SPAWN_COUNT: usize = 0;

@@ -126,6 +126,10 @@ pub struct GiArgs {
     /// GI: world-space ReSTIR temporal reuse of the cache's light samples.
     #[arg(long)]
     pub restir: bool,
+    /// GI: emitter sampling: the emissive triangles' direct light from a light sample at the
+    /// primary hit instead of through the probes (`GiSettings::emitter_sampling`).
+    #[arg(long)]
+    pub emitter_sampling: bool,
     /// GI: frames per second at which the scene's animation (glTF node animations) plays: frame
     /// `f` shows time `f / fps`, looped. `0` holds the scene in its rest pose. Scenes without
     /// animation ignore it.
@@ -176,6 +180,7 @@ impl GiArgs {
             s.sample_cap = cap;
         }
         s.restir |= self.restir;
+        s.emitter_sampling |= self.emitter_sampling;
         switch_off(&mut s, &self.no);
         s
     }
@@ -242,7 +247,8 @@ pub fn render_gi(
         "gi:                  {} frames, spawn tile {} px, cache cells {} px, sample cap {}, \
          reprojection {}, parallax {}, backup {}, patching {}, guiding {}, hysteresis {}, \
          probe filter {}, jitter {}, relaxed {}, temporal {}, spatial {}, feedback {}, \
-         multi-bounce {}, adaptive blend {}, leak fixes {}, object motion {}, ReSTIR {}",
+         multi-bounce {}, adaptive blend {}, leak fixes {}, object motion {}, ReSTIR {}, \
+         emitter sampling {}",
         args.frames,
         s.spawn_rate.tile(),
         s.cell_size_pixels,
@@ -263,7 +269,8 @@ pub fn render_gi(
         on_off(s.adaptive_cache_blend),
         on_off(s.short_ray_flag && s.bypass),
         on_off(s.object_motion),
-        on_off(s.restir)
+        on_off(s.restir),
+        on_off(s.emitter_sampling)
     );
     let mut gi = GiRenderer::new(ctx, &lights, width, height, settings, options)?;
     let compare = CompareSettings {
