@@ -636,7 +636,9 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
         hit,
     );
     let emission = material.emissive * view.emissive_multiplier;
+    // With emitter sampling the primary hit has taken a probe ray's emitter already.
     if emission.max_element() > 0.0
+        && !view.has(FLAG_PROBE_RAYS | FLAG_EMITTERS_SAMPLED)
         && emits_toward(
             materials,
             surface.material,
@@ -655,9 +657,7 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
         );
         // The emitter's light, MIS-weighted; what it reflects still comes from its cell below
         // (a cell never holds emission, so neither is counted twice).
-        if !view.has(FLAG_PROBE_RAYS | FLAG_EMITTERS_SAMPLED) {
-            out.radiance = emission * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
-        }
+        out.radiance = emission * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
     }
     if let Some(query) = surface_query(ray, hit, &surface, &material, ray_index) {
         out.query = query;

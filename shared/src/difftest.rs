@@ -109,10 +109,11 @@ const fn floats(
 }
 
 /// Every function under test, indexed by [`DiffPush::function`]. The bounds follow what Vulkan
-/// allows a device that computes like the CPU (lavapipe): `+ - *` exact; division 2.5 ulp; `sqrt` inherits `inversesqrt`'s bound (lavapipe was
-/// measured at up to 111 ulp for tiny arguments, hence 2^-16 relative wherever a square root
-/// feeds the result); `sin`, `cos` and `atan` only an absolute bound (2^-11 in GLSL.std.450; on
-/// lavapipe the measured worst absolute error of the maps that use them is below 1e-5).
+/// allows a device that computes like the CPU (lavapipe): `+ - *` exact; division 2.5 ulp;
+/// `sqrt` inherits `inversesqrt`'s bound (lavapipe was measured at up to 111 ulp for tiny
+/// arguments, hence 2^-16 relative wherever a square root feeds the result); `sin`, `cos` and
+/// `atan` only an absolute bound (2^-11 in GLSL.std.450; on lavapipe the measured worst absolute
+/// error of the maps that use them is below 1e-5).
 pub const FUNCTIONS: [FunctionInfo; 25] = [
     exact("hash::pcg"),
     exact("hash::xxhash32"),

@@ -421,6 +421,57 @@ pub struct LightSample {
     pub barycentrics: Vec2,
 }
 
+impl LightSample {
+    /// No sample: zero radiance and density, an empty shadow ray from `origin`.
+    #[inline]
+    pub fn none(origin: Vec3) -> Self {
+        Self {
+            direction: Vec3::ZERO,
+            radiance: Vec3::ZERO,
+            pdf: 0.0,
+            ray: Ray {
+                origin: origin.to_array(),
+                t_min: 0.0,
+                direction: [0.0; 3],
+                t_max: 0.0,
+            },
+            barycentrics: Vec2::ZERO,
+        }
+    }
+}
+
+/// [`sample_light`] of a triangle light (`u` uniform in `[0, 1)²`): a point uniform in area, its
+/// solid-angle density, and the shadow ray from `origin` to just off the light; no sample (pdf
+/// 0, direction and barycentrics kept) when the triangle is seen edge-on or from a side that does
+/// not emit.
+#[inline]
+pub fn sample_triangle_light_ray(light: &GpuLight, origin: Vec3, u: Vec2) -> LightSample {
+    let mut s = LightSample::none(origin);
+    let t = sample_triangle_light(light, origin, u);
+    s.direction = t.direction;
+    s.barycentrics = t.barycentrics;
+    if t.pdf > 0.0 && light.emits_toward(-t.direction) {
+        let (p0, p1, p2) = (
+            Vec3::from_array(light.p0),
+            Vec3::from_array(light.p1),
+            Vec3::from_array(light.p2),
+        );
+        let (e1, e2) = (p1 - p0, p2 - p0);
+        let mut n = e1.cross(e2).normalize_or_zero();
+        if n.dot(t.direction) > 0.0 {
+            n = -n;
+        }
+        // The shadow ray ends just off the light, on the shading point's side.
+        let size = e1.abs().max(e2.abs()).max((p2 - p1).abs()).max_element();
+        let end = offset_ray_origin(t.point, n, size);
+        s.radiance = Vec3::from_array(light.intensity);
+        s.pdf = t.pdf;
+        s.ray.direction = (end - origin).to_array();
+        s.ray.t_max = 1.0;
+    }
+    s
+}
+
 /// Samples `light` from the shading point `origin` (`u` uniform in `[0, 1)²`): a point on a
 /// triangle (uniform in area), a direction of the environment (by its distribution `cdf` of a
 /// `environment_size` image, radiance from `environment`), or a punctual light's incidence.
@@ -432,41 +483,9 @@ pub fn sample_light(
     environment_cdf: &[f32],
     u: Vec2,
 ) -> LightSample {
-    let mut s = LightSample {
-        direction: Vec3::ZERO,
-        radiance: Vec3::ZERO,
-        pdf: 0.0,
-        ray: Ray {
-            origin: origin.to_array(),
-            t_min: 0.0,
-            direction: [0.0; 3],
-            t_max: 0.0,
-        },
-        barycentrics: Vec2::ZERO,
-    };
+    let mut s = LightSample::none(origin);
     if light.kind == LIGHT_TRIANGLE {
-        let t = sample_triangle_light(light, origin, u);
-        s.direction = t.direction;
-        s.barycentrics = t.barycentrics;
-        if t.pdf > 0.0 && light.emits_toward(-t.direction) {
-            let (p0, p1, p2) = (
-                Vec3::from_array(light.p0),
-                Vec3::from_array(light.p1),
-                Vec3::from_array(light.p2),
-            );
-            let (e1, e2) = (p1 - p0, p2 - p0);
-            let mut n = e1.cross(e2).normalize_or_zero();
-            if n.dot(t.direction) > 0.0 {
-                n = -n;
-            }
-            // The shadow ray ends just off the light, on the shading point's side.
-            let size = e1.abs().max(e2.abs()).max((p2 - p1).abs()).max_element();
-            let end = offset_ray_origin(t.point, n, size);
-            s.radiance = Vec3::from_array(light.intensity);
-            s.pdf = t.pdf;
-            s.ray.direction = (end - origin).to_array();
-            s.ray.t_max = 1.0;
-        }
+        s = sample_triangle_light_ray(light, origin, u);
     } else if light.kind == LIGHT_ENVIRONMENT {
         let e = sample_environment(environment_size, environment_cdf, u);
         s.direction = e.direction;

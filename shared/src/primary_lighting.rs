@@ -35,7 +35,7 @@ use glam::Vec3;
 use crate::cache_view::{FeedbackTexel, PrimarySurface, finite_sample};
 use crate::color::luminance;
 use crate::lights::{
-    GpuLight, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, punctual_incidence, sample_triangle_light,
+    GpuLight, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, punctual_incidence, sample_triangle_light_ray,
     select_light, sky_radiance,
 };
 use crate::math::{INV_PI, max, max_u32, min_u32, to_u32_clamped};
@@ -322,35 +322,19 @@ pub fn emitter_light<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
     if light.kind != LIGHT_TRIANGLE || light.select_pmf.is_nan() || light.select_pmf <= 0.0 {
         return Vec3::ZERO;
     }
-    let t = sample_triangle_light(&light, surface.position, u2);
-    if t.pdf.is_nan() || t.pdf <= 0.0 || !light.emits_toward(-t.direction) {
+    let sample = sample_triangle_light_ray(&light, surface.position, u2);
+    let cos_g = surface.geometric_normal.dot(sample.direction);
+    let cos_s = max(surface.shading_normal.dot(sample.direction), 0.0);
+    if sample.pdf.is_nan()
+        || sample.pdf <= 0.0
+        || cos_g <= 0.0
+        || cos_s <= 0.0
+        || occluded(&sample.ray, images)
+    {
         return Vec3::ZERO;
     }
-    let (p0, p1, p2) = (
-        Vec3::from_array(light.p0),
-        Vec3::from_array(light.p1),
-        Vec3::from_array(light.p2),
-    );
-    let (e1, e2) = (p1 - p0, p2 - p0);
-    let mut n = e1.cross(e2).normalize_or_zero();
-    if n.dot(t.direction) > 0.0 {
-        n = -n;
-    }
-    let size = e1.abs().max(e2.abs()).max((p2 - p1).abs()).max_element();
-    let end = crate::ray::offset_ray_origin(t.point, n, size);
-    let ray = Ray {
-        origin: surface.position.to_array(),
-        t_min: 0.0,
-        direction: (end - surface.position).to_array(),
-        t_max: 1.0,
-    };
-    let cos_g = surface.geometric_normal.dot(t.direction);
-    let cos_s = max(surface.shading_normal.dot(t.direction), 0.0);
-    if cos_g <= 0.0 || cos_s <= 0.0 || occluded(&ray, images) {
-        return Vec3::ZERO;
-    }
-    let radiance = Vec3::from_array(light.intensity) * frame.emissive_multiplier;
-    finite_sample(radiance * cos_s / (t.pdf * light.select_pmf))
+    let radiance = sample.radiance * frame.emissive_multiplier;
+    finite_sample(radiance * cos_s / (sample.pdf * light.select_pmf))
 }
 
 /// ResolveGI's colour of a pixel (linear HDR radiance): `emission + albedo / π × (irradiance +

@@ -483,8 +483,6 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         .with_cache_for(*width, *height);
         let settings = GiSettings {
             buckets_log2: buckets_log2.unwrap_or(sized.buckets_log2),
-            tiles_per_bucket_log2: *tiles_per_bucket_log2,
-            cell_size_pixels: *cell_size_pixels,
             min_cell_size: *min_cell_size,
             temporal_feedback: !*no_feedback,
             multi_bounce: *multi_bounce,

@@ -49,7 +49,7 @@ impl Preset {
         let base = GiSettings {
             multi_bounce: true,
             adaptive_cache_blend: true,
-            ..GiSettings::for_resolution(width, height)
+            ..GiSettings::default()
         };
         match self {
             Self::Fast => GiSettings {
