@@ -52,8 +52,8 @@ for line in sys.stdin:
     if not exe:
         continue
     kinds = t.get("kind", [])
-    if t.get("name") == "gi" and "bin" in kinds:
-        print("gi", exe)  # twice: the uplifted copy first
+    if t.get("name") == "gi" and "bin" in kinds and not m["profile"]["test"]:
+        print("gi", exe)  # not its unit-test harness, which cargo also builds
     elif t.get("name") == "tracing" and "bench" in kinds:
         print("bench", exe)
     elif "test" in kinds and "#gi-tests@" in m.get("package_id", ""):
