@@ -911,11 +911,11 @@ pub fn accumulate_into_cell<A: AtomicWords + ?Sized>(
 /// The cache's filtered radiance for a query that [`needs_cache_radiance`] (adaptive mip read);
 /// black when its tile holds no sample.
 #[inline]
-pub fn cache_radiance(values: &[HashCellValue], query: &CacheQuery, sample_cap: u32) -> Vec3 {
+pub fn cache_radiance(values: &[HashCellValue], query: &CacheQuery, min_samples: f32) -> Vec3 {
     if !needs_cache_radiance(query) {
         return Vec3::ZERO;
     }
-    match filtered_radiance(values, query.tile, query.cell_xy(), sample_cap) {
+    match filtered_radiance(values, query.tile, query.cell_xy(), min_samples) {
         Some(v) => finite_sample(v),
         None => Vec3::ZERO,
     }

@@ -303,17 +303,31 @@ pub struct HashGridParams {
     /// Work items of a directly dispatched pass (e.g. the queries of a batch), which invocations
     /// compare their index against; indirectly dispatched passes read their counts from buffers.
     pub item_count: u32,
-    /// Sample-count cap of a cell's history, also the adaptive read's mip threshold (default
-    /// [`crate::hash_cells::MAX_SAMPLE_COUNT`]; 0 reads as 1).
+    /// Sample-count cap of a cell's history (default [`crate::hash_cells::MAX_SAMPLE_COUNT`]; 0
+    /// reads as 1).
     pub sample_cap: u32,
     /// 1: the blend adapts its cap to how much a tile's lighting changed
     /// ([`crate::hash_cells::adaptive_blend`]); 0: the fixed `sample_cap` (the reference).
     pub adaptive_blend: u32,
-    /// Explicit padding to 48 bytes.
-    pub _pad: u32,
+    /// Time constant, in updates of its tile, over which a cell's history fades: each update
+    /// weighs the history `1 − 1/history_frames` before blending ([`crate::hash_cells::update`]);
+    /// 0 keeps it whole (the reference: a history of `sample_cap` samples, however old).
+    pub history_frames: u32,
 }
 
 impl HashGridParams {
+    /// The count from which a read takes a cell rather than its parent mip
+    /// ([`crate::hash_cells::read`]): the sample cap while the history never fades (the
+    /// reference), [`crate::hash_cells::READ_MIN_SAMPLES`] when it does.
+    #[inline]
+    pub fn read_min_samples(&self) -> f32 {
+        if self.history_frames == 0 {
+            crate::math::max_u32(self.sample_cap, 1) as f32
+        } else {
+            crate::hash_cells::READ_MIN_SAMPLES
+        }
+    }
+
     /// Parameters with the GI-1.0 defaults (4096 buckets × 16 tiles, 0.1 minimum cell size).
     #[inline]
     pub fn new(eye: Vec3, cell_size_const: f32, frame_index: u32) -> Self {
@@ -327,7 +341,7 @@ impl HashGridParams {
             item_count: 0,
             sample_cap: crate::hash_cells::MAX_SAMPLE_COUNT,
             adaptive_blend: 1,
-            _pad: 0,
+            history_frames: 0,
         }
     }
 
@@ -480,7 +494,7 @@ mod tests {
         assert_eq!(offset_of!(HashGridParams, item_count), 32);
         assert_eq!(offset_of!(HashGridParams, sample_cap), 36);
         assert_eq!(offset_of!(HashGridParams, adaptive_blend), 40);
-        assert_eq!(offset_of!(HashGridParams, _pad), 44);
+        assert_eq!(offset_of!(HashGridParams, history_frames), 44);
         // All alignments are 4: no implicit padding anywhere.
         assert_eq!(core::mem::align_of::<HashGridParams>(), 4);
     }

@@ -175,7 +175,7 @@ pub fn bounce_radiance<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
             (find_tile(keys, &desc, grid), desc.cell)
         };
         let found = match tile {
-            Some(t) => filtered_radiance(values, t, cell, grid.sample_cap),
+            Some(t) => filtered_radiance(values, t, cell, grid.read_min_samples()),
             None => None,
         };
         let stale = match tile {

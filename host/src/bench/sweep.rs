@@ -151,6 +151,17 @@ pub fn points(
                 },
             ));
         }
+        // 0: the history never fades (the reference).
+        for frames in [0, 4, 32] {
+            points.push(knob(
+                "cache_history_frames",
+                frames.to_string(),
+                GiSettings {
+                    cache_history_frames: frames,
+                    ..b
+                },
+            ));
+        }
         let switches: [Switch; 7] = [
             ("probe_filter", "off", |s| s.probe_filter = false),
             ("restir", "on", |s| s.restir = true),
@@ -214,6 +225,7 @@ mod tests {
             "buckets",
             "tiles_per_bucket",
             "sample_cap",
+            "cache_history_frames",
             "probe_filter",
             "restir",
             "temporal_feedback",

@@ -130,7 +130,7 @@ fn pixel_cell(
                 best.evicted = true;
             }
             if let Some(tile) = find_tile(keys, &desc, grid) {
-                let v = filtered_value(values, tile, desc.cell, grid.sample_cap);
+                let v = filtered_value(values, tile, desc.cell, grid.read_min_samples());
                 if best.value.is_none_or(|b| v.count > b.count) {
                     best.desc = desc;
                     best.value = Some(v);

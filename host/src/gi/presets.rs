@@ -4,6 +4,7 @@
 //! The fourth preset of `gi`, `reference`, is the path tracer itself (`--method path`).
 
 use super::settings::{GiSettings, SpawnRate};
+use gi_shared::hash_cells::HISTORY_FRAMES;
 use std::fmt;
 
 /// A named set of [`GiSettings`].
@@ -44,11 +45,12 @@ impl Preset {
     /// Its settings for a `width × height` frame (the cache sized by
     /// [`GiSettings::with_cache_for`] for the preset's cell size).
     pub fn settings(self, width: u32, height: u32) -> GiSettings {
-        // Every preset bounces light through the world cache and adapts its blend to change
-        // (the reference does neither).
+        // Every preset bounces light through the world cache, lets its cells' history fade
+        // with time and adapts its blend to change (the reference does none of these).
         let base = GiSettings {
             multi_bounce: true,
             adaptive_cache_blend: true,
+            cache_history_frames: HISTORY_FRAMES,
             ..GiSettings::default()
         };
         match self {
@@ -90,6 +92,7 @@ mod tests {
             GiSettings {
                 multi_bounce: true,
                 adaptive_cache_blend: true,
+                cache_history_frames: HISTORY_FRAMES,
                 ..GiSettings::for_resolution(320, 180)
             }
         );

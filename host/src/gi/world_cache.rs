@@ -147,6 +147,7 @@ impl WorldCache {
         grid.num_buckets_log2 = s.buckets_log2;
         grid.tiles_per_bucket_log2 = s.tiles_per_bucket_log2;
         grid.sample_cap = s.sample_cap;
+        grid.history_frames = s.cache_history_frames;
         grid.adaptive_blend = u32::from(s.adaptive_cache_blend);
         let mut flags = frame.extra_flags;
         for (on, flag) in [

@@ -27,7 +27,7 @@ pub fn resolve_radiance_cache(
         return;
     }
     let query = queries[id.x as usize];
-    let radiance = cache_radiance(values, &query, params.grid.sample_cap);
+    let radiance = cache_radiance(values, &query, params.grid.read_min_samples());
     let r = query.ray_index as usize;
     if radiance.max_element() > 0.0 && r < pixels.len() {
         let mut pixel = pixels[r];

@@ -137,6 +137,7 @@ pub fn update_pass<A, L>(
             tile,
             params.sample_cap,
             params.adaptive_blend != 0,
+            params.history_frames,
         );
     }
 }

@@ -1,14 +1,26 @@
 //! Reading the cache (`HashGridCache_FilteredRadiance`): start at the query's mip-0 cell and step
-//! to the parent cell while the count is below the sample cap ([`super::MAX_SAMPLE_COUNT`] by default) and a coarser mip exists, so
+//! to the parent cell while the count is below `min_samples` and a coarser mip exists, so
 //! sparsely sampled cells are prefiltered over a larger footprint.
+//!
+//! The reference steps up while the count is below the sample cap (16), and so does a cache whose
+//! history never fades ([`HashGridParams::read_min_samples`]): there a count is every sample the
+//! cell ever had, and a cell with few of them may hold a shadow that has long moved on. With
+//! fading ([`super::update`]) a count weighs recent samples, and a cell with one
+//! ([`READ_MIN_SAMPLES`]) answers itself. A parent is the
+//! count-weighted mean of its children, so it is weighted by where probe rays land, not by where
+//! reads land: where sparsely sampled cells are lit differently from densely sampled ones (the
+//! surroundings of a small light, seen by few rays), the parent moves their light toward the dense
+//! cells'. With a 6-frame fading history, stepping up below 4 samples left the Bitterli staircase
+//! at −17.7% after 64 frames, below one sample −12.1% (balanced, 128 × 72), at 12% more relMSE.
 
 use glam::Vec3;
 
+#[cfg(doc)]
+use super::READ_MIN_SAMPLES;
 use super::storage::find_tile;
 use super::{CellDescriptor, NUM_MIPS, cell_index};
 use crate::atomics::AtomicWords;
 use crate::layout::{HashCellValue, HashGridParams};
-use crate::math::max_u32;
 
 /// The `(rgb · n, n)` value the adaptive read stops at for mip-0 cell `cell` (`[x, y]`) of tile
 /// `tile`.
@@ -17,12 +29,12 @@ pub fn filtered_value(
     values: &[HashCellValue],
     tile: u32,
     cell: [u32; 2],
-    cap: u32,
+    min_samples: f32,
 ) -> HashCellValue {
     let (mut x, mut y) = (cell[0], cell[1]);
     let mut mip = 0;
     let mut value = values[cell_index(tile, 0, x, y) as usize];
-    while value.count < max_u32(cap, 1) as f32 && mip + 1 < NUM_MIPS {
+    while value.count < min_samples && mip + 1 < NUM_MIPS {
         mip += 1;
         x /= 2;
         y /= 2;
@@ -38,9 +50,9 @@ pub fn filtered_radiance(
     values: &[HashCellValue],
     tile: u32,
     cell: [u32; 2],
-    cap: u32,
+    min_samples: f32,
 ) -> Option<Vec3> {
-    let value = filtered_value(values, tile, cell, cap);
+    let value = filtered_value(values, tile, cell, min_samples);
     if value.count > 0.0 {
         Some(value.radiance_sum() / value.count)
     } else {
@@ -58,7 +70,7 @@ pub fn lookup<W: AtomicWords + ?Sized>(
     params: &HashGridParams,
 ) -> Option<Vec3> {
     match find_tile(keys, desc, params) {
-        Some(tile) => filtered_radiance(values, tile, desc.cell, params.sample_cap),
+        Some(tile) => filtered_radiance(values, tile, desc.cell, params.read_min_samples()),
         None => None,
     }
 }
@@ -66,62 +78,52 @@ pub fn lookup<W: AtomicWords + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hash_cells::{CELLS_PER_TILE, MAX_SAMPLE_COUNT};
+    use crate::hash_cells::CELLS_PER_TILE;
 
     #[test]
-    fn steps_to_parents_until_16_samples() {
+    fn steps_to_parents_until_a_sample() {
         let mut values = vec![HashCellValue::ZERO; 2 * CELLS_PER_TILE as usize];
         let set = |v: &mut Vec<HashCellValue>, mip, x, y, r: f32, n: f32| {
             v[cell_index(1, mip, x, y) as usize] = HashCellValue::new(Vec3::splat(r * n), n);
         };
         // Nothing anywhere: no radiance.
-        assert_eq!(
-            filtered_radiance(&values, 1, [5, 6], MAX_SAMPLE_COUNT),
-            None
-        );
-        // Only the root has samples (fewer than 16): the root answers.
+        assert_eq!(filtered_radiance(&values, 1, [5, 6], 1.0), None);
+        // Only the root has samples: the root answers.
         set(&mut values, 3, 0, 0, 7.0, 3.0);
         assert_eq!(
-            filtered_radiance(&values, 1, [5, 6], MAX_SAMPLE_COUNT),
+            filtered_radiance(&values, 1, [5, 6], 1.0),
             Some(Vec3::splat(7.0))
         );
-        // Mip 1 parent (2, 3) of (5, 6) with 20 samples answers before the root.
-        set(&mut values, 1, 2, 3, 2.0, 20.0);
+        // Mip 1 parent (2, 3) of (5, 6) answers before the root.
+        set(&mut values, 1, 2, 3, 2.0, 2.0);
         assert_eq!(
-            filtered_radiance(&values, 1, [5, 6], MAX_SAMPLE_COUNT),
+            filtered_radiance(&values, 1, [5, 6], 1.0),
             Some(Vec3::splat(2.0))
         );
+        assert_eq!(filtered_value(&values, 1, [5, 6], 1.0).count, 2.0);
+        // A mip-0 cell with one sample answers itself.
+        set(&mut values, 0, 5, 6, 0.5, 1.0);
         assert_eq!(
-            filtered_value(&values, 1, [5, 6], MAX_SAMPLE_COUNT).count,
-            20.0
-        );
-        // A mip-0 cell with exactly 16 samples answers itself.
-        set(&mut values, 0, 5, 6, 0.5, 16.0);
-        assert_eq!(
-            filtered_radiance(&values, 1, [5, 6], MAX_SAMPLE_COUNT),
+            filtered_radiance(&values, 1, [5, 6], 1.0),
             Some(Vec3::splat(0.5))
         );
-        // Its neighbour (4, 6) with 15 samples shares the mip-1 parent.
-        set(&mut values, 0, 4, 6, 9.0, 15.0);
+        // Its neighbour (4, 6), whose decayed history weighs under one sample, reads the parent.
+        set(&mut values, 0, 4, 6, 9.0, 0.8);
         assert_eq!(
-            filtered_radiance(&values, 1, [4, 6], MAX_SAMPLE_COUNT),
+            filtered_radiance(&values, 1, [4, 6], 1.0),
             Some(Vec3::splat(2.0))
         );
         // Another mip-1 parent without samples falls through to the root.
         assert_eq!(
-            filtered_radiance(&values, 1, [0, 0], MAX_SAMPLE_COUNT),
+            filtered_radiance(&values, 1, [0, 0], 1.0),
             Some(Vec3::splat(7.0))
         );
         // Tile 0 is untouched.
+        assert_eq!(filtered_radiance(&values, 0, [5, 6], 1.0), None);
+        // A threshold of 16 (a history that never fades) steps over the one-sample cell.
         assert_eq!(
-            filtered_radiance(&values, 0, [5, 6], MAX_SAMPLE_COUNT),
-            None
+            filtered_radiance(&values, 1, [5, 6], 16.0),
+            Some(Vec3::splat(7.0))
         );
-        // A cap of 15 lets the 15-sample cell answer itself; a cap of 0 reads as 1.
-        assert_eq!(
-            filtered_radiance(&values, 1, [4, 6], 15),
-            Some(Vec3::splat(9.0))
-        );
-        assert_eq!(filtered_value(&values, 1, [4, 6], 0).count, 15.0);
     }
 }
