@@ -25,8 +25,9 @@
 //! is measured: at most 0.6 points of the mean over the repository's scenes and the Bitterli
 //! interiors, with no rise in relMSE (README, "Bias budget").
 //!
-//! A cell's stored count stays `min(count + k, sample_cap)`: the adaptive read still steps to a
-//! coarser mip only for cells with few samples, not for cells whose history a change cut short.
+//! A cell's stored count stays `min(count + k, sample_cap)` (less what a fading history,
+//! [`super::update`], takes): the adaptive read steps to a coarser mip for cells with few recent
+//! samples, not for cells whose history a change cut short.
 //!
 //! Memory: one word per tile, after its cells' accumulators ([`crate::layout::TREND_WORD`]).
 
