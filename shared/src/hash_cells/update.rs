@@ -22,7 +22,8 @@
 //! samples spanning 160 frames. Multi-bounce compounds that age, since each bounce reads cells
 //! as old as their samples: the light of a room lit mostly by bounces (the Bitterli staircase,
 //! 44% of it direct) rose for over 700 frames. With `history_frames` `H > 0`, each update of a
-//! tile first weighs every mip-0 cell's history `1 − 1/H`, sample or not ([`decayed`]), so a
+//! tile first weighs every mip-0 cell's history `1 − 1/H` ([`history_keep`]), sample or not
+//! ([`decayed`]), so a
 //! history spans about `H` updates at most and a further bounce arrives within about `H` frames.
 //! The mean is kept, the count falls: a cell without recent samples reads its parent mip
 //! ([`super::read`]).
@@ -75,20 +76,29 @@ pub fn blend_cell(
     HashCellValue::new(sum, c)
 }
 
-/// `value` with its history weighed `1 − 1/history_frames` (unchanged for 0 and for an empty
-/// cell): the mean is kept, the count falls.
+/// The weight an update gives a cell's history: `1 − 1/history_frames`, or 1 (no fading) for 0.
 #[inline]
-pub fn decayed(value: HashCellValue, history_frames: u32) -> HashCellValue {
-    if history_frames == 0 || value.count <= 0.0 {
+pub fn history_keep(history_frames: u32) -> f32 {
+    if history_frames == 0 {
+        1.0
+    } else {
+        1.0 - 1.0 / history_frames as f32
+    }
+}
+
+/// `value` with its history weighed `keep` ([`history_keep`]; unchanged for an empty cell): the
+/// mean is kept, the count falls.
+#[inline]
+pub fn decayed(value: HashCellValue, keep: f32) -> HashCellValue {
+    if keep >= 1.0 || value.count <= 0.0 {
         return value;
     }
-    let keep = 1.0 - 1.0 / history_frames as f32;
     HashCellValue::new(value.radiance_sum() * keep, value.count * keep)
 }
 
-/// Blends mip-0 cell `cell` (`x + 8 · y`, in 0..64) of tile `tile`, its history [`decayed`] over
-/// `history_frames`, with its accumulator ([`blend_cell`], weights capped at `blend_cap`) and
-/// clears the accumulator.
+/// Blends mip-0 cell `cell` (`x + 8 · y`, in 0..64) of tile `tile`, its history [`decayed`] by
+/// `keep` ([`history_keep`], computed once per tile), with its accumulator ([`blend_cell`],
+/// weights capped at `blend_cap`) and clears the accumulator.
 #[inline]
 pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
     values: &mut [HashCellValue],
@@ -97,18 +107,18 @@ pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
     cell: u32,
     cap: u32,
     blend_cap: f32,
-    history_frames: u32,
+    keep: f32,
 ) {
     let cell = min_u32(cell, MIP0_CELLS_PER_TILE - 1);
     let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
     let index = cell_index(tile, 0, xy[0], xy[1]) as usize;
     let base = accumulator_word(tile, xy);
-    let old = decayed(values[index], history_frames);
+    let old = decayed(values[index], keep);
     if accumulator_count(accumulators, base) != 0 {
         let acc = load_accumulator(accumulators, base);
         values[index] = blend_cell(old, acc, cap, blend_cap);
         clear_accumulator(accumulators, base);
-    } else if history_frames != 0 {
+    } else if keep < 1.0 {
         values[index] = old;
     }
 }
@@ -192,17 +202,10 @@ pub fn update_tile<W: AtomicWords + ?Sized>(
     history_frames: u32,
 ) {
     let blend_cap = tile_blend_cap(values, accumulators, tile, cap, adaptive);
+    let keep = history_keep(history_frames);
     let mut cell = 0;
     while cell < MIP0_CELLS_PER_TILE {
-        update_mip0_cell(
-            values,
-            accumulators,
-            tile,
-            cell,
-            cap,
-            blend_cap,
-            history_frames,
-        );
+        update_mip0_cell(values, accumulators, tile, cell, cap, blend_cap, keep);
         cell += 1;
     }
     let mut mip = 1;
@@ -483,7 +486,7 @@ mod tests {
                 cell,
                 MAX_SAMPLE_COUNT,
                 16.0,
-                0,
+                1.0,
             );
         }
         for mip in 1..NUM_MIPS {
