@@ -70,7 +70,7 @@ pub use gbuffer_import::import_gbuffer;
 pub use hash_cells::populate::populate_radiance_cache;
 #[cfg(not(feature = "ray-query"))]
 pub use hash_cells::{
-    insert::insert_radiance_cache,
+    insert::{admit_to_full_buckets, insert_radiance_cache, settle_full_buckets},
     purge::{begin_frame, carry_queries, purge_tiles},
     resolve::resolve_radiance_cache,
     update_tiles::update_radiance_cache,

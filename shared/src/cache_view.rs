@@ -75,6 +75,7 @@ use crate::camera::{CameraParams, primary_ray};
 use crate::elements::Elements;
 use crate::hash::pcg_chain;
 use crate::hash_cells::accumulate::accumulate_sample as accumulate_cell_sample;
+use crate::hash_cells::full_buckets::{is_admitted, is_new_tile, note_new_key, settle_tile};
 use crate::hash_cells::lists::{
     FAILED_INSERTS, UPDATE_TILES, begin_frame, count, live_list, push_tile,
 };
@@ -129,6 +130,9 @@ pub const QUERY_BYPASS: u32 = 2;
 /// (`crate::multi_bounce`): it refreshes the cell a bounce ray read, and has no ray of its own
 /// (its `ray_index` has [`CARRIED_QUERY_BIT`] set, past every ray record).
 pub const QUERY_CARRIED: u32 = 4;
+/// [`CacheQuery::flags`], within InsertRadianceCache only: the query's bucket was full
+/// ([`admit_query`] clears it).
+pub const QUERY_REFUSED: u32 = 8;
 /// Set in a carried query's `ray_index` (its parent's, so that its random streams stay keyed by
 /// a ray, not by a list slot): no ray record is that large.
 pub const CARRIED_QUERY_BIT: u32 = 1 << 31;
@@ -834,22 +838,25 @@ pub fn feedback_lookup(
     out
 }
 
-/// InsertRadianceCache for one query: its descriptor (from the eye, the hit, the direction and the
-/// keyed hit distance, [`keyed_hit_distance`]) finds or inserts its tile; a new tile joins the live
-/// list with zeroed values (and counts in [`INSERTED_TILES`]); the first touch of the frame lists
-/// the tile for the update; a full bucket counts a failed insert and leaves [`NO_TILE`]. The
-/// query's [`QUERY_BYPASS`] flag is set here too (it needs the cell size).
+/// InsertRadianceCache for one query, its first step ([`crate::hash_cells::full_buckets`]): its
+/// descriptor (from the eye, the hit, the direction and the keyed hit distance,
+/// [`keyed_hit_distance`]) finds or inserts its tile; a new tile joins the live list with zeroed
+/// values (and counts in [`INSERTED_TILES`]); the first touch of the frame lists the tile for the
+/// update; a full bucket leaves [`NO_TILE`] and [`QUERY_REFUSED`] for [`admit_query`]. New keys
+/// are noted in `marks`. The query's [`QUERY_BYPASS`] flag is set here too (it needs the cell
+/// size).
 #[allow(
     clippy::too_many_arguments,
     reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
 )]
 #[inline]
-pub fn insert_query<K, T, L, C>(
+pub fn insert_query<K, T, L, C, M>(
     keys: &mut K,
     last_touch: &mut T,
     values: &mut [HashCellValue],
     lists: &mut L,
     counters: &mut C,
+    marks: &mut M,
     params: &CachePassParams,
     query: &mut CacheQuery,
 ) where
@@ -857,15 +864,10 @@ pub fn insert_query<K, T, L, C>(
     T: AtomicWords + ?Sized,
     L: AtomicWords + ?Sized,
     C: AtomicWords + ?Sized,
+    M: AtomicWords + ?Sized,
 {
-    let grid = &params.grid;
     query.tile = NO_TILE;
-    let desc = hit_descriptor(
-        params,
-        query.position(),
-        query.ray_direction(),
-        query.hit_distance,
-    );
+    let desc = query_cell(params, query);
     if desc.is_none() {
         return;
     }
@@ -873,17 +875,63 @@ pub fn insert_query<K, T, L, C>(
         query.flags |= QUERY_BYPASS;
         counters.fetch_add(BYPASS_COUNT, 1);
     }
+    place_query(
+        keys, last_touch, values, lists, counters, marks, params, query, &desc,
+    );
+}
+
+/// The cell a query's hit falls into, as InsertRadianceCache keys it.
+#[inline]
+fn query_cell(params: &CachePassParams, query: &CacheQuery) -> CellDescriptor {
+    hit_descriptor(
+        params,
+        query.position(),
+        query.ray_direction(),
+        query.hit_distance,
+    )
+}
+
+/// Finds or inserts the tile of `desc` for `query` (see [`insert_query`]). A tile inserted into a
+/// slot a full bucket took back this frame is on the frame's lists already: it is neither listed
+/// nor counted again.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
+#[inline]
+fn place_query<K, T, L, C, M>(
+    keys: &mut K,
+    last_touch: &mut T,
+    values: &mut [HashCellValue],
+    lists: &mut L,
+    counters: &mut C,
+    marks: &mut M,
+    params: &CachePassParams,
+    query: &mut CacheQuery,
+    desc: &CellDescriptor,
+) where
+    K: AtomicWords + ?Sized,
+    T: AtomicWords + ?Sized,
+    L: AtomicWords + ?Sized,
+    C: AtomicWords + ?Sized,
+    M: AtomicWords + ?Sized,
+{
+    let grid = &params.grid;
     let tile_count = grid.tile_count();
-    let tile = match insert_tile(keys, &desc, grid) {
+    let tile = match insert_tile(keys, desc, grid) {
         TileInsert::Found(tile) => tile,
         TileInsert::Inserted(tile) => {
-            push_tile(lists, live_list(grid.frame_index), tile_count, tile);
+            if !is_new_tile(marks, tile) {
+                push_tile(lists, live_list(grid.frame_index), tile_count, tile);
+                counters.fetch_add(INSERTED_TILES, 1);
+            }
+            note_new_key(marks, desc, Some(tile), grid);
             clear_tile_values(values, tile);
-            counters.fetch_add(INSERTED_TILES, 1);
             tile
         }
         TileInsert::Full => {
-            count(lists, FAILED_INSERTS);
+            note_new_key(marks, desc, None, grid);
+            query.flags |= QUERY_REFUSED;
             return;
         }
     };
@@ -892,6 +940,69 @@ pub fn insert_query<K, T, L, C>(
     }
     query.tile = tile;
     query.cell = desc.cell[0] + TILE_CELL_RATIO * desc.cell[1];
+}
+
+/// InsertRadianceCache's second step for one query: a tile a full bucket takes back leaves the
+/// query without a tile (a failed insert). The slot stays listed, and counted in
+/// [`INSERTED_TILES`], until the next purge drops it.
+#[inline]
+pub fn settle_query<K, L, M>(
+    keys: &mut K,
+    lists: &mut L,
+    marks: &M,
+    params: &CachePassParams,
+    query: &mut CacheQuery,
+) where
+    K: AtomicWords + ?Sized,
+    L: AtomicWords + ?Sized,
+    M: AtomicWords + ?Sized,
+{
+    if query.tile == NO_TILE {
+        return;
+    }
+    if settle_tile(keys, marks, query.tile, &params.grid) {
+        count(lists, FAILED_INSERTS);
+        query.tile = NO_TILE;
+    }
+}
+
+/// InsertRadianceCache's third step for one query: a refused query whose key is its bucket's
+/// smallest new one inserts it again; every other refused query counts a failed insert.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
+#[inline]
+pub fn admit_query<K, T, L, C, M>(
+    keys: &mut K,
+    last_touch: &mut T,
+    values: &mut [HashCellValue],
+    lists: &mut L,
+    counters: &mut C,
+    marks: &mut M,
+    params: &CachePassParams,
+    query: &mut CacheQuery,
+) where
+    K: AtomicWords + ?Sized,
+    T: AtomicWords + ?Sized,
+    L: AtomicWords + ?Sized,
+    C: AtomicWords + ?Sized,
+    M: AtomicWords + ?Sized,
+{
+    if query.flags & QUERY_REFUSED == 0 {
+        return;
+    }
+    query.flags &= !QUERY_REFUSED;
+    let desc = query_cell(params, query);
+    if is_admitted(marks, &desc, &params.grid) {
+        place_query(
+            keys, last_touch, values, lists, counters, marks, params, query, &desc,
+        );
+        query.flags &= !QUERY_REFUSED;
+    }
+    if query.tile == NO_TILE {
+        count(lists, FAILED_INSERTS);
+    }
 }
 
 /// Adds a radiance sample to the query's cell (nothing without a tile); false when the sample was
@@ -1539,6 +1650,7 @@ mod tests {
     /// cache refuses a second key and counts it.
     #[test]
     fn insert_query_finds_touches_and_counts() {
+        use crate::hash_cells::full_buckets::{MARKS_CLEAR, marks_words};
         use crate::hash_cells::lists::{list_buffer_words, list_len};
         let mut params = CachePassParams {
             grid: HashGridParams::new(Vec3::ZERO, 0.01, 5),
@@ -1556,31 +1668,51 @@ mod tests {
         let mut values = vec![HashCellValue::new(Vec3::ONE, 1.0); tiles * 85];
         let mut lists = vec![0u32; list_buffer_words(tiles as u32)];
         let mut counters = [0u32; CACHE_COUNTER_WORDS];
+        let mut marks = vec![
+            MARKS_CLEAR;
+            marks_words(
+                params.grid.num_buckets_log2,
+                params.grid.tiles_per_bucket_log2
+            )
+        ];
         let mut q = query_at(Vec3::new(1.0, 2.0, 3.0), Vec3::Z);
         q.hit_distance = 1e-3;
-        let mut run = |q: &mut CacheQuery| {
+        let mut run = |q: &mut CacheQuery, marks: &mut Vec<u32>| {
             insert_query(
                 &mut keys[..],
                 &mut touch[..],
                 &mut values,
                 &mut lists[..],
                 &mut counters[..],
+                &mut marks[..],
                 &params,
                 q,
-            )
+            );
+            settle_query(&mut keys[..], &mut lists[..], &marks[..], &params, q);
+            admit_query(
+                &mut keys[..],
+                &mut touch[..],
+                &mut values,
+                &mut lists[..],
+                &mut counters[..],
+                &mut marks[..],
+                &params,
+                q,
+            );
         };
         let mut a = q;
-        run(&mut a);
+        run(&mut a, &mut marks);
         assert_eq!(a.tile, 0);
         assert!(a.has(QUERY_BYPASS));
         let mut b = q;
-        run(&mut b);
+        run(&mut b, &mut marks);
         assert_eq!((b.tile, b.cell), (a.tile, a.cell));
-        // Another place: the single slot is taken.
+        // Another place, in a later insert pass: the single slot is taken by an older key.
+        marks.fill(MARKS_CLEAR);
         let mut c = query_at(Vec3::new(-40.0, 2.0, 3.0), Vec3::Z);
-        run(&mut c);
+        run(&mut c, &mut marks);
         assert_eq!(c.tile, NO_TILE);
-        assert!(!c.has(QUERY_BYPASS));
+        assert!(!c.has(QUERY_BYPASS) && !c.has(QUERY_REFUSED));
         assert_eq!(counters[INSERTED_TILES], 1);
         assert_eq!(counters[BYPASS_COUNT], 2);
         assert_eq!(lists[FAILED_INSERTS as usize], 1);
@@ -1597,10 +1729,153 @@ mod tests {
             &mut values,
             &mut lists[..],
             &mut counters[..],
+            &mut marks[..],
             &params,
             &mut d,
         );
         assert!(!d.has(QUERY_BYPASS));
+    }
+
+    /// A bucket of two slots, one held by an older key, asked for three new keys (two queries
+    /// each) in every order: it ends holding the old key and the smallest new one, every query of
+    /// the others without a tile, and the counts the same. With room for every new key, all get
+    /// in.
+    #[test]
+    fn a_full_bucket_settles_the_same_whatever_the_insert_order() {
+        use crate::hash_cells::full_buckets::{MARKS_CLEAR, marks_words};
+        use crate::hash_cells::lists::{list_buffer_words, list_len};
+        use itertools::Itertools;
+        let mut params = CachePassParams {
+            grid: HashGridParams::new(Vec3::ZERO, 0.01, 9),
+            view: CacheViewParams::default(),
+        };
+        params.grid.num_buckets_log2 = 0;
+        params.grid.tiles_per_bucket_log2 = 1;
+        let places = [-40.0f32, 10.0, 25.0, 60.0];
+        let queries: Vec<CacheQuery> = places
+            .iter()
+            .map(|&x| query_at(Vec3::new(x, 2.0, 3.0), Vec3::Z))
+            .collect();
+        let checksum = |q: &CacheQuery| query_cell(&params, q).checksum;
+        let sums: Vec<u32> = queries.iter().map(checksum).collect();
+        let smallest_new = *sums[1..].iter().min().unwrap();
+        // Every order of the six new queries (two per new key) that keeps no fixed pattern.
+        let new_queries: Vec<usize> = vec![1, 2, 3, 1, 2, 3];
+        let mut outcomes = Vec::new();
+        for order in (0..new_queries.len()).permutations(new_queries.len()) {
+            let tiles = params.grid.tile_count() as usize;
+            let mut keys = vec![0u32; tiles];
+            let mut touch = vec![0u32; tiles];
+            let mut values = vec![HashCellValue::ZERO; tiles * 85];
+            let mut lists = vec![0u32; list_buffer_words(tiles as u32)];
+            let mut counters = [0u32; CACHE_COUNTER_WORDS];
+            let mut marks = vec![
+                MARKS_CLEAR;
+                marks_words(
+                    params.grid.num_buckets_log2,
+                    params.grid.tiles_per_bucket_log2
+                )
+            ];
+            // Frame 8: the old key.
+            params.grid.frame_index = 8;
+            let mut old = queries[0];
+            insert_query(
+                &mut keys[..],
+                &mut touch[..],
+                &mut values,
+                &mut lists[..],
+                &mut counters[..],
+                &mut marks[..],
+                &params,
+                &mut old,
+            );
+            // Frame 9: the new keys, in this order, then the two later steps.
+            params.grid.frame_index = 9;
+            marks.fill(MARKS_CLEAR);
+            counters = [0; CACHE_COUNTER_WORDS];
+            lists = vec![0u32; list_buffer_words(tiles as u32)];
+            let mut frame: Vec<CacheQuery> =
+                order.iter().map(|&i| queries[new_queries[i]]).collect();
+            for q in frame.iter_mut() {
+                insert_query(
+                    &mut keys[..],
+                    &mut touch[..],
+                    &mut values,
+                    &mut lists[..],
+                    &mut counters[..],
+                    &mut marks[..],
+                    &params,
+                    q,
+                );
+            }
+            for q in frame.iter_mut() {
+                settle_query(&mut keys[..], &mut lists[..], &marks[..], &params, q);
+            }
+            for q in frame.iter_mut() {
+                admit_query(
+                    &mut keys[..],
+                    &mut touch[..],
+                    &mut values,
+                    &mut lists[..],
+                    &mut counters[..],
+                    &mut marks[..],
+                    &params,
+                    q,
+                );
+            }
+            let mut held = keys.clone();
+            held.sort_unstable();
+            let mut expected = vec![sums[0], smallest_new];
+            expected.sort_unstable();
+            assert_eq!(held, expected, "order {order:?}");
+            for (q, &i) in frame.iter().zip(order.iter()) {
+                let key = sums[new_queries[i]];
+                assert_eq!(q.tile != NO_TILE, key == smallest_new, "order {order:?}");
+                assert!(!q.has(QUERY_REFUSED));
+            }
+            outcomes.push((
+                counters[INSERTED_TILES],
+                lists[FAILED_INSERTS as usize],
+                list_len(&lists[..], UPDATE_TILES, tiles as u32),
+            ));
+        }
+        assert!(outcomes.windows(2).all(|w| w[0] == w[1]), "{outcomes:?}");
+        assert_eq!(outcomes[0].0, 1);
+        assert_eq!(outcomes[0].1, 4);
+
+        // Room for both new keys: nothing is taken back.
+        params.grid.tiles_per_bucket_log2 = 2;
+        let tiles = params.grid.tile_count() as usize;
+        let mut keys = vec![0u32; tiles];
+        let mut touch = vec![0u32; tiles];
+        let mut values = vec![HashCellValue::ZERO; tiles * 85];
+        let mut lists = vec![0u32; list_buffer_words(tiles as u32)];
+        let mut counters = [0u32; CACHE_COUNTER_WORDS];
+        let mut marks = vec![
+            MARKS_CLEAR;
+            marks_words(
+                params.grid.num_buckets_log2,
+                params.grid.tiles_per_bucket_log2
+            )
+        ];
+        let mut frame: Vec<CacheQuery> = queries[1..].to_vec();
+        for q in frame.iter_mut() {
+            insert_query(
+                &mut keys[..],
+                &mut touch[..],
+                &mut values,
+                &mut lists[..],
+                &mut counters[..],
+                &mut marks[..],
+                &params,
+                q,
+            );
+        }
+        for q in frame.iter_mut() {
+            settle_query(&mut keys[..], &mut lists[..], &marks[..], &params, q);
+            assert_ne!(q.tile, NO_TILE);
+        }
+        assert_eq!(counters[INSERTED_TILES], 3);
     }
 
     #[test]

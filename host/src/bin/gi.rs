@@ -478,6 +478,7 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
         let sized = GiSettings {
             tiles_per_bucket_log2: *tiles_per_bucket_log2,
             cell_size_pixels: *cell_size_pixels,
+            multi_bounce: *multi_bounce,
             ..GiSettings::default()
         }
         .with_cache_for(*width, *height);

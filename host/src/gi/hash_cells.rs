@@ -9,12 +9,14 @@ use crate::frame::{DispatchFromCounter, indirect_offset};
 use crate::scene::lights::GpuLights;
 use crate::vulkan::{
     BindingKind, Buffer, Context, Kernel, KernelModule, Resource, SceneSets, compute_barrier,
+    transfer_barrier,
 };
 use ash::vk;
 use gi_shared::cache_view::{
     ARGS_PURGE, ARGS_QUERIES, ARGS_SHADOW_RAYS, ARGS_UPDATE, CachePassParams, QUERY_COUNT,
     SHADOW_RAY_COUNT,
 };
+use gi_shared::hash_cells::full_buckets::MARKS_CLEAR;
 use gi_shared::hash_cells::lists::{UPDATE_TILES, previous_live_list};
 
 /// Bytes of the push constants every cache pass takes.
@@ -42,6 +44,8 @@ pub struct HashCellPasses {
     carry: Kernel,
     purge: Kernel,
     insert: Kernel,
+    settle: Kernel,
+    admit: Kernel,
     populate: Kernel,
     update: Kernel,
     resolve: Kernel,
@@ -56,7 +60,9 @@ impl HashCellPasses {
             begin_frame: buffers_kernel(ctx, module, "hash_cells::purge::begin_frame", 4)?,
             carry: buffers_kernel(ctx, module, "hash_cells::purge::carry_queries", 3)?,
             purge: buffers_kernel(ctx, module, "hash_cells::purge::purge_tiles", 3)?,
-            insert: buffers_kernel(ctx, module, "hash_cells::insert::insert_radiance_cache", 6)?,
+            insert: buffers_kernel(ctx, module, "hash_cells::insert::insert_radiance_cache", 7)?,
+            settle: buffers_kernel(ctx, module, "hash_cells::insert::settle_full_buckets", 7)?,
+            admit: buffers_kernel(ctx, module, "hash_cells::insert::admit_to_full_buckets", 7)?,
             populate: buffers_kernel(
                 ctx,
                 module,
@@ -141,7 +147,9 @@ impl HashCellPasses {
         Ok(())
     }
 
-    /// InsertRadianceCache over the queries the frame appended.
+    /// InsertRadianceCache over the queries the frame appended: the marks cleared, then the
+    /// inserts, the full buckets settled and their admitted keys inserted
+    /// (`gi_shared::hash_cells::full_buckets`), each a dispatch over the queries.
     pub fn record_insert(
         &self,
         ctx: &Context,
@@ -149,6 +157,8 @@ impl HashCellPasses {
         res: &CacheResources,
         params: &CachePassParams,
     ) -> Result<()> {
+        res.insert_marks.record_fill(ctx, cmd, MARKS_CLEAR);
+        transfer_barrier(ctx, cmd);
         self.dispatch.record(
             ctx,
             cmd,
@@ -158,22 +168,26 @@ impl HashCellPasses {
             &res.args,
             ARGS_QUERIES,
         )?;
-        self.insert.dispatch_indirect(
-            ctx,
-            cmd,
-            &[
-                Resource::Buffer(&res.keys),
-                Resource::Buffer(&res.last_touch),
-                Resource::Buffer(&res.values),
-                Resource::Buffer(&res.lists),
-                Resource::Buffer(&res.counters),
-                Resource::Buffer(&res.queries),
-            ],
-            bytemuck::bytes_of(params),
-            &res.args,
-            indirect_offset(ARGS_QUERIES),
-        )?;
-        compute_barrier(ctx, cmd);
+        let buffers = [
+            Resource::Buffer(&res.keys),
+            Resource::Buffer(&res.last_touch),
+            Resource::Buffer(&res.values),
+            Resource::Buffer(&res.lists),
+            Resource::Buffer(&res.counters),
+            Resource::Buffer(&res.queries),
+            Resource::Buffer(&res.insert_marks),
+        ];
+        for kernel in [&self.insert, &self.settle, &self.admit] {
+            kernel.dispatch_indirect(
+                ctx,
+                cmd,
+                &buffers,
+                bytemuck::bytes_of(params),
+                &res.args,
+                indirect_offset(ARGS_QUERIES),
+            )?;
+            compute_barrier(ctx, cmd);
+        }
         Ok(())
     }
 

@@ -93,8 +93,9 @@ mod tests {
                 multi_bounce: true,
                 adaptive_cache_blend: true,
                 cache_history_frames: HISTORY_FRAMES,
-                ..GiSettings::for_resolution(320, 180)
+                ..GiSettings::default()
             }
+            .with_cache_for(320, 180)
         );
         assert_ne!(settings[0], settings[1]);
         assert_ne!(settings[2], settings[1]);

@@ -20,6 +20,7 @@ use gi_shared::cache_view::{
 };
 use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::CELLS_PER_TILE;
+use gi_shared::hash_cells::full_buckets::marks_words;
 use gi_shared::hash_cells::lists::{
     DROPPED_SAMPLES, EVICTED_TILES, FAILED_INSERTS, UPDATE_TILES, list_buffer_words, live_list,
 };
@@ -71,6 +72,9 @@ pub struct CacheResources {
     /// Queries multi-bounce carries to the next frame (`gi_shared::multi_bounce`):
     /// `carried_capacity(rays)` of them, one placeholder without multi-bounce.
     pub carried: Buffer,
+    /// Hash grid: InsertRadianceCache's marks, a word per tile and two per bucket
+    /// (`gi_shared::hash_cells::full_buckets`), refilled every frame.
+    pub insert_marks: Buffer,
     tile_count: u32,
     pixel_count: u32,
     ray_capacity: u32,
@@ -89,7 +93,7 @@ fn carried_queries(settings: &GiSettings, rays: usize) -> usize {
 }
 
 /// Each resource's name, in the order [`CacheResources::buffers`] lists them.
-pub const RESOURCE_NAMES: [&str; 17] = [
+pub const RESOURCE_NAMES: [&str; 18] = [
     "cache-view camera",
     "hash grid keys",
     "hash grid last touch",
@@ -107,6 +111,7 @@ pub const RESOURCE_NAMES: [&str; 17] = [
     "light grid entries",
     "indirect arguments",
     "carried queries",
+    "hash grid insert marks",
 ];
 
 impl CacheResources {
@@ -154,6 +159,11 @@ impl CacheResources {
             light_grid_entries: Buffer::device_zeroed::<LightGridEntry>(ctx, n[14], entries)?,
             args: indirect_args(ctx, n[15], ARGS_COUNT as usize)?,
             carried: Buffer::device_zeroed::<CacheQuery>(ctx, n[16], carried.max(1))?,
+            insert_marks: Buffer::device_zeroed::<u32>(
+                ctx,
+                n[17],
+                marks_words(settings.buckets_log2, settings.tiles_per_bucket_log2),
+            )?,
             tile_count: tiles as u32,
             pixel_count: pixels as u32,
             ray_capacity: rays as u32,
@@ -223,7 +233,7 @@ impl CacheResources {
     }
 
     /// Every buffer, in [`RESOURCE_NAMES`] order.
-    pub fn buffers(&self) -> [&Buffer; 17] {
+    pub fn buffers(&self) -> [&Buffer; 18] {
         [
             &self.camera,
             &self.keys,
@@ -242,6 +252,7 @@ impl CacheResources {
             &self.light_grid_entries,
             &self.args,
             &self.carried,
+            &self.insert_marks,
         ]
     }
 

@@ -17,6 +17,11 @@ pub const MIN_AUTO_TILES_LOG2: u32 = 11;
 /// Pixels per tile [`GiSettings::for_resolution`] budgets at the default cell size: one tile per
 /// 32 pixels gives the reference's 65 536 tiles at 1920 × 1080.
 pub const AUTO_PIXELS_PER_TILE: u64 = 32;
+/// Times as many tiles [`GiSettings::with_cache_for`] budgets with multi-bounce: bounce rays reach
+/// cells no probe ray does, about doubling a closed room's live tiles. Without the margin the
+/// indirect room at 320 × 180 filled 2048 tiles; a full bucket then admits one new key per frame
+/// (`gi_shared::hash_cells::full_buckets`), and the image read 0.3 points darker.
+pub const MULTI_BOUNCE_TILE_FACTOR: u64 = 2;
 
 /// Largest [`GiSettings::sample_cap`]: a cell's sum stays exact in `f32` far beyond it, and a
 /// history of more than 1024 frames would answer to a change of light only after seconds.
@@ -257,7 +262,8 @@ impl GiSettings {
     /// `self` with [`Self::buckets_log2`] sized for a `width × height` frame at
     /// `self`'s cell size and tiles per bucket: one tile per [`AUTO_PIXELS_PER_TILE`] pixels at
     /// the default cell size, and `(default / cell)²` times as many for smaller cells (a cell
-    /// spans fewer pixels, so more cells are live), rounded up to a power of two, between
+    /// spans fewer pixels, so more cells are live), [`MULTI_BOUNCE_TILE_FACTOR`] times as many
+    /// with multi-bounce, rounded up to a power of two, between
     /// 2^[`MIN_AUTO_TILES_LOG2`] and 2^[`MAX_NUM_TILES_LOG2`] tiles. Larger cells keep the
     /// default cell's count. Call it after changing the cell size: cells of 8 pixels in a cache
     /// sized for 32 filled every tile at 128 × 72 and darkened the image by 11 points.
@@ -266,9 +272,15 @@ impl GiSettings {
         let finer = (DEFAULT_CELL_SIZE_PIXELS / self.cell_size_pixels).max(1.0);
         // At most 2^MAX_NUM_TILES_LOG2 tiles whatever the factor (NaN saturates to 0).
         let factor = (finer * finer).min((1u64 << MAX_NUM_TILES_LOG2) as f32) as u64;
+        let bounce = if self.multi_bounce {
+            MULTI_BOUNCE_TILE_FACTOR
+        } else {
+            1
+        };
         let tiles = pixels
             .div_ceil(AUTO_PIXELS_PER_TILE)
-            .saturating_mul(factor.max(1));
+            .saturating_mul(factor.max(1))
+            .saturating_mul(bounce);
         let tiles_log2 = tiles
             .max(1)
             .checked_next_power_of_two()
@@ -412,6 +424,16 @@ mod tests {
         }
         .with_cache_for(128, 72);
         assert_eq!((wide.buckets_log2, wide.tile_count()), (7, 1 << 13));
+        // Multi-bounce doubles the budget: 320 × 180 is 1800 tiles' worth, 3600 with it.
+        let bouncing = |on| {
+            GiSettings {
+                multi_bounce: on,
+                ..GiSettings::default()
+            }
+            .with_cache_for(320, 180)
+            .tile_count()
+        };
+        assert_eq!((bouncing(false), bouncing(true)), (1 << 11, 1 << 12));
     }
 
     #[test]

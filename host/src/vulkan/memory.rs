@@ -389,9 +389,15 @@ impl Buffer {
     /// Records a fill of the whole buffer with zero bytes. Follow it with [`transfer_barrier`]
     /// before a kernel or the host uses the buffer.
     pub fn record_fill_zero(&self, ctx: &Context, cmd: vk::CommandBuffer) {
+        self.record_fill(ctx, cmd, 0);
+    }
+
+    /// Records a fill of the whole buffer with the word `word`. Follow it with
+    /// [`transfer_barrier`] before a kernel or the host uses the buffer.
+    pub fn record_fill(&self, ctx: &Context, cmd: vk::CommandBuffer, word: u32) {
         unsafe {
             ctx.device
-                .cmd_fill_buffer(cmd, self.handle, 0, vk::WHOLE_SIZE, 0)
+                .cmd_fill_buffer(cmd, self.handle, 0, vk::WHOLE_SIZE, word)
         };
     }
 

@@ -1,12 +1,18 @@
 //! InsertRadianceCache: one invocation per query (dispatched from the query counter) finds or
 //! inserts the query's tile, stamps it, lists it for the update on its first touch of the frame,
-//! and writes the tile and cell into the query (`gi_shared::cache_view::insert_query`).
+//! and writes the tile and cell into the query (`gi_shared::cache_view::insert_query`). Two more
+//! dispatches over the queries settle the buckets that could not take every new key, the same
+//! way whatever order the inserts ran in (`gi_shared::hash_cells::full_buckets`):
+//! [`settle_full_buckets`] and [`admit_to_full_buckets`].
 //!
-//! Set 0: keys, last touch, values, lists, cache-view counters, queries.
+//! Set 0 of all three: keys, last touch, values, lists, cache-view counters, queries, the insert
+//! marks.
 
 use crate::atomics::DeviceWords;
 use gi_shared::atomics::AtomicWords;
-use gi_shared::cache_view::{CachePassParams, CacheQuery, QUERY_COUNT, insert_query};
+use gi_shared::cache_view::{
+    CachePassParams, CacheQuery, QUERY_COUNT, admit_query, insert_query, settle_query,
+};
 use gi_shared::layout::HashCellValue;
 use gi_shared::math::min_u32;
 use spirv_std::glam::UVec3;
@@ -27,13 +33,12 @@ pub fn insert_radiance_cache(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] lists: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] counters: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] queries: &mut [CacheQuery],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] marks: &mut [u32],
 ) {
     let mut counters = DeviceWords(counters);
-    let count = min_u32(counters.load(QUERY_COUNT), queries.len() as u32);
-    if id.x >= count {
+    let Some(i) = query_index(&counters, queries, id.x) else {
         return;
-    }
-    let i = id.x as usize;
+    };
     let mut query = queries[i];
     insert_query(
         &mut DeviceWords(keys),
@@ -41,8 +46,82 @@ pub fn insert_radiance_cache(
         values,
         &mut DeviceWords(lists),
         &mut counters,
+        &mut DeviceWords(marks),
         params,
         &mut query,
     );
     queries[i] = query;
+}
+
+/// Takes back query `id.x`'s tile where a full bucket does not keep it.
+#[spirv(compute(threads(64)))]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "an entry point takes one argument per binding"
+)]
+pub fn settle_full_buckets(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] params: &CachePassParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] keys: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] _last_touch: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] _values: &mut [HashCellValue],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] lists: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] counters: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] queries: &mut [CacheQuery],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] marks: &mut [u32],
+) {
+    let counters = DeviceWords(counters);
+    let Some(i) = query_index(&counters, queries, id.x) else {
+        return;
+    };
+    let mut query = queries[i];
+    settle_query(
+        &mut DeviceWords(keys),
+        &mut DeviceWords(lists),
+        &DeviceWords(marks),
+        params,
+        &mut query,
+    );
+    queries[i] = query;
+}
+
+/// Inserts query `id.x` again where its full bucket admits its key.
+#[spirv(compute(threads(64)))]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "an entry point takes one argument per binding"
+)]
+pub fn admit_to_full_buckets(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] params: &CachePassParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] keys: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] last_touch: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] values: &mut [HashCellValue],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] lists: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] counters: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] queries: &mut [CacheQuery],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] marks: &mut [u32],
+) {
+    let mut counters = DeviceWords(counters);
+    let Some(i) = query_index(&counters, queries, id.x) else {
+        return;
+    };
+    let mut query = queries[i];
+    admit_query(
+        &mut DeviceWords(keys),
+        &mut DeviceWords(last_touch),
+        values,
+        &mut DeviceWords(lists),
+        &mut counters,
+        &mut DeviceWords(marks),
+        params,
+        &mut query,
+    );
+    queries[i] = query;
+}
+
+/// Invocation `x`'s query, if the frame has that many.
+fn query_index(counters: &DeviceWords, queries: &[CacheQuery], x: u32) -> Option<usize> {
+    let count = min_u32(counters.load(QUERY_COUNT), queries.len() as u32);
+    if x < count { Some(x as usize) } else { None }
 }

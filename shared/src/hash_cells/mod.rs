@@ -9,7 +9,7 @@
 //!
 //! The cache's life cycle per frame, each step a function here that the kernels call as they are:
 //! [`purge`] evicts tiles untouched for [`TILE_DECAY_FRAMES`] frames, [`storage`] inserts and
-//! finds tiles, [`touch`] stamps them and lists them for the update, [`accumulate`] adds radiance
+//! finds tiles ([`full_buckets`] settles a bucket that could not take every new key), [`touch`] stamps them and lists them for the update, [`accumulate`] adds radiance
 //! samples, [`update`] blends them into the cells and builds the mips, and [`read`] returns the
 //! adaptively prefiltered radiance. [`lists`] lays out the frame's counters and tile lists,
 //! [`passes`] strings the steps into the per-invocation bodies of the GPU passes, and `model`
@@ -20,6 +20,7 @@
 
 pub mod accumulate;
 pub mod adaptive_blend;
+pub mod full_buckets;
 pub mod lists;
 #[cfg(any(test, feature = "std"))]
 pub mod model;

@@ -19,8 +19,9 @@ pub fn is_expired(frame: u32, last_touch: u32) -> bool {
 }
 
 /// Purges live tile `tile` at frame `frame`: evicts it (zeroes its key) and returns false when it
-/// expired, else returns true (keep it). The tile's values and stamp stay as they are; a later
-/// insert into the slot clears the values.
+/// expired or its key is already zero (a slot a full bucket took back,
+/// [`super::full_buckets`]), else returns true (keep it). The tile's values and stamp stay as
+/// they are; a later insert into the slot clears the values.
 #[inline]
 pub fn purge_tile<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
     keys: &mut K,
@@ -28,7 +29,9 @@ pub fn purge_tile<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
     tile: u32,
     frame: u32,
 ) -> bool {
-    if is_expired(frame, last_touch.load(tile as usize)) {
+    if keys.load(tile as usize) == 0 {
+        false
+    } else if is_expired(frame, last_touch.load(tile as usize)) {
         keys.store(tile as usize, 0);
         false
     } else {

@@ -532,7 +532,7 @@ impl<'a> Viewer<'a> {
         self.size = [width, height];
         self.camera.resize(width, height);
         // The cache follows the resolution; the toggles stay.
-        self.settings.buckets_log2 = GiSettings::for_resolution(width, height).buckets_log2;
+        self.settings = self.settings.with_cache_for(width, height);
         self.restart();
     }
 
