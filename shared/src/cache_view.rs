@@ -992,14 +992,14 @@ pub fn admit_query<K, T, L, C, M>(
     if query.flags & QUERY_REFUSED == 0 {
         return;
     }
-    query.flags &= !QUERY_REFUSED;
     let desc = query_cell(params, query);
     if is_admitted(marks, &desc, &params.grid) {
         place_query(
             keys, last_touch, values, lists, counters, marks, params, query, &desc,
         );
-        query.flags &= !QUERY_REFUSED;
     }
+    // Refused again only where the bucket was full of older keys.
+    query.flags &= !QUERY_REFUSED;
     if query.tile == NO_TILE {
         count(lists, FAILED_INSERTS);
     }
@@ -1646,12 +1646,82 @@ mod tests {
         assert!(!feedback_lookup(&c, &query_at(p, Vec3::Z), &[]).accepted);
     }
 
+    /// A hash grid on the CPU and InsertRadianceCache's three steps over a frame's queries, each
+    /// step over every query before the next (as the three dispatches run).
+    struct CpuCache {
+        keys: Vec<u32>,
+        touch: Vec<u32>,
+        values: Vec<HashCellValue>,
+        lists: Vec<u32>,
+        counters: [u32; CACHE_COUNTER_WORDS],
+        marks: Vec<u32>,
+    }
+
+    impl CpuCache {
+        fn new(grid: &HashGridParams, touch: u32, value: HashCellValue) -> Self {
+            use crate::hash_cells::full_buckets::marks_words;
+            use crate::hash_cells::lists::list_buffer_words;
+            let tiles = grid.tile_count() as usize;
+            Self {
+                keys: vec![0; tiles],
+                touch: vec![touch; tiles],
+                values: vec![value; tiles * crate::hash_cells::CELLS_PER_TILE as usize],
+                lists: vec![0; list_buffer_words(tiles as u32)],
+                counters: [0; CACHE_COUNTER_WORDS],
+                marks: vec![0; marks_words(grid.num_buckets_log2, grid.tiles_per_bucket_log2)],
+            }
+        }
+
+        /// A new frame's counters and lists (the hash grid kept).
+        fn next_frame(&mut self) {
+            self.counters = [0; CACHE_COUNTER_WORDS];
+            self.lists.fill(0);
+        }
+
+        fn insert(&mut self, params: &CachePassParams, queries: &mut [CacheQuery]) {
+            use crate::hash_cells::full_buckets::MARKS_CLEAR;
+            self.marks.fill(MARKS_CLEAR);
+            for q in queries.iter_mut() {
+                insert_query(
+                    &mut self.keys[..],
+                    &mut self.touch[..],
+                    &mut self.values,
+                    &mut self.lists[..],
+                    &mut self.counters[..],
+                    &mut self.marks[..],
+                    params,
+                    q,
+                );
+            }
+            for q in queries.iter_mut() {
+                settle_query(
+                    &mut self.keys[..],
+                    &mut self.lists[..],
+                    &self.marks[..],
+                    params,
+                    q,
+                );
+            }
+            for q in queries.iter_mut() {
+                admit_query(
+                    &mut self.keys[..],
+                    &mut self.touch[..],
+                    &mut self.values,
+                    &mut self.lists[..],
+                    &mut self.counters[..],
+                    &mut self.marks[..],
+                    params,
+                    q,
+                );
+            }
+        }
+    }
+
     /// Inserts on the CPU: a query finds its tile the second time, short hits bypass, a one-tile
     /// cache refuses a second key and counts it.
     #[test]
     fn insert_query_finds_touches_and_counts() {
-        use crate::hash_cells::full_buckets::{MARKS_CLEAR, marks_words};
-        use crate::hash_cells::lists::{list_buffer_words, list_len};
+        use crate::hash_cells::lists::list_len;
         let mut params = CachePassParams {
             grid: HashGridParams::new(Vec3::ZERO, 0.01, 5),
             view: CacheViewParams {
@@ -1661,79 +1731,34 @@ mod tests {
         };
         params.grid.num_buckets_log2 = 0;
         params.grid.tiles_per_bucket_log2 = 0;
-        let tiles = params.grid.tile_count() as usize;
-        assert_eq!(tiles, 1);
-        let mut keys = vec![0u32; tiles];
-        let mut touch = vec![4u32; tiles];
-        let mut values = vec![HashCellValue::new(Vec3::ONE, 1.0); tiles * 85];
-        let mut lists = vec![0u32; list_buffer_words(tiles as u32)];
-        let mut counters = [0u32; CACHE_COUNTER_WORDS];
-        let mut marks = vec![
-            MARKS_CLEAR;
-            marks_words(
-                params.grid.num_buckets_log2,
-                params.grid.tiles_per_bucket_log2
-            )
-        ];
+        assert_eq!(params.grid.tile_count(), 1);
+        let mut cache = CpuCache::new(&params.grid, 4, HashCellValue::new(Vec3::ONE, 1.0));
         let mut q = query_at(Vec3::new(1.0, 2.0, 3.0), Vec3::Z);
         q.hit_distance = 1e-3;
-        let mut run = |q: &mut CacheQuery, marks: &mut Vec<u32>| {
-            insert_query(
-                &mut keys[..],
-                &mut touch[..],
-                &mut values,
-                &mut lists[..],
-                &mut counters[..],
-                &mut marks[..],
-                &params,
-                q,
-            );
-            settle_query(&mut keys[..], &mut lists[..], &marks[..], &params, q);
-            admit_query(
-                &mut keys[..],
-                &mut touch[..],
-                &mut values,
-                &mut lists[..],
-                &mut counters[..],
-                &mut marks[..],
-                &params,
-                q,
-            );
-        };
-        let mut a = q;
-        run(&mut a, &mut marks);
-        assert_eq!(a.tile, 0);
-        assert!(a.has(QUERY_BYPASS));
-        let mut b = q;
-        run(&mut b, &mut marks);
-        assert_eq!((b.tile, b.cell), (a.tile, a.cell));
+        let mut a = [q];
+        cache.insert(&params, &mut a);
+        assert_eq!(a[0].tile, 0);
+        assert!(a[0].has(QUERY_BYPASS));
+        let mut b = [q];
+        cache.insert(&params, &mut b);
+        assert_eq!((b[0].tile, b[0].cell), (a[0].tile, a[0].cell));
         // Another place, in a later insert pass: the single slot is taken by an older key.
-        marks.fill(MARKS_CLEAR);
-        let mut c = query_at(Vec3::new(-40.0, 2.0, 3.0), Vec3::Z);
-        run(&mut c, &mut marks);
-        assert_eq!(c.tile, NO_TILE);
-        assert!(!c.has(QUERY_BYPASS) && !c.has(QUERY_REFUSED));
-        assert_eq!(counters[INSERTED_TILES], 1);
-        assert_eq!(counters[BYPASS_COUNT], 2);
-        assert_eq!(lists[FAILED_INSERTS as usize], 1);
-        assert_eq!(list_len(&lists[..], UPDATE_TILES, 1), 1);
-        assert_eq!(list_len(&lists[..], live_list(5), 1), 1);
-        assert_eq!(touch[0], 5);
-        assert!(values.iter().all(|v| *v == HashCellValue::ZERO));
+        let mut c = [query_at(Vec3::new(-40.0, 2.0, 3.0), Vec3::Z)];
+        cache.insert(&params, &mut c);
+        assert_eq!(c[0].tile, NO_TILE);
+        assert!(!c[0].has(QUERY_BYPASS) && !c[0].has(QUERY_REFUSED));
+        assert_eq!(cache.counters[INSERTED_TILES], 1);
+        assert_eq!(cache.counters[BYPASS_COUNT], 2);
+        assert_eq!(cache.lists[FAILED_INSERTS as usize], 1);
+        assert_eq!(list_len(&cache.lists[..], UPDATE_TILES, 1), 1);
+        assert_eq!(list_len(&cache.lists[..], live_list(5), 1), 1);
+        assert_eq!(cache.touch[0], 5);
+        assert!(cache.values.iter().all(|v| *v == HashCellValue::ZERO));
         // Without the bypass flag nothing bypasses.
         params.view.flags = FLAG_SHORT_RAY;
-        let mut d = q;
-        insert_query(
-            &mut keys[..],
-            &mut touch[..],
-            &mut values,
-            &mut lists[..],
-            &mut counters[..],
-            &mut marks[..],
-            &params,
-            &mut d,
-        );
-        assert!(!d.has(QUERY_BYPASS));
+        let mut d = [q];
+        cache.insert(&params, &mut d);
+        assert!(!d[0].has(QUERY_BYPASS));
     }
 
     /// A bucket of two slots, one held by an older key, asked for three new keys (two queries
@@ -1742,8 +1767,7 @@ mod tests {
     /// in.
     #[test]
     fn a_full_bucket_settles_the_same_whatever_the_insert_order() {
-        use crate::hash_cells::full_buckets::{MARKS_CLEAR, marks_words};
-        use crate::hash_cells::lists::{list_buffer_words, list_len};
+        use crate::hash_cells::lists::list_len;
         use itertools::Itertools;
         let mut params = CachePassParams {
             grid: HashGridParams::new(Vec3::ZERO, 0.01, 9),
@@ -1751,79 +1775,30 @@ mod tests {
         };
         params.grid.num_buckets_log2 = 0;
         params.grid.tiles_per_bucket_log2 = 1;
-        let places = [-40.0f32, 10.0, 25.0, 60.0];
-        let queries: Vec<CacheQuery> = places
+        let queries: Vec<CacheQuery> = [-40.0f32, 10.0, 25.0, 60.0]
             .iter()
             .map(|&x| query_at(Vec3::new(x, 2.0, 3.0), Vec3::Z))
             .collect();
-        let checksum = |q: &CacheQuery| query_cell(&params, q).checksum;
-        let sums: Vec<u32> = queries.iter().map(checksum).collect();
+        let sums: Vec<u32> = queries
+            .iter()
+            .map(|q| query_cell(&params, q).checksum)
+            .collect();
         let smallest_new = *sums[1..].iter().min().unwrap();
-        // Every order of the six new queries (two per new key) that keeps no fixed pattern.
-        let new_queries: Vec<usize> = vec![1, 2, 3, 1, 2, 3];
+        // The six new queries, two per new key, in every order.
+        let new_queries = [1, 2, 3, 1, 2, 3];
         let mut outcomes = Vec::new();
         for order in (0..new_queries.len()).permutations(new_queries.len()) {
-            let tiles = params.grid.tile_count() as usize;
-            let mut keys = vec![0u32; tiles];
-            let mut touch = vec![0u32; tiles];
-            let mut values = vec![HashCellValue::ZERO; tiles * 85];
-            let mut lists = vec![0u32; list_buffer_words(tiles as u32)];
-            let mut counters = [0u32; CACHE_COUNTER_WORDS];
-            let mut marks = vec![
-                MARKS_CLEAR;
-                marks_words(
-                    params.grid.num_buckets_log2,
-                    params.grid.tiles_per_bucket_log2
-                )
-            ];
+            let mut cache = CpuCache::new(&params.grid, 0, HashCellValue::ZERO);
             // Frame 8: the old key.
             params.grid.frame_index = 8;
-            let mut old = queries[0];
-            insert_query(
-                &mut keys[..],
-                &mut touch[..],
-                &mut values,
-                &mut lists[..],
-                &mut counters[..],
-                &mut marks[..],
-                &params,
-                &mut old,
-            );
-            // Frame 9: the new keys, in this order, then the two later steps.
+            cache.insert(&params, &mut [queries[0]]);
+            // Frame 9: the new keys, in this order.
             params.grid.frame_index = 9;
-            marks.fill(MARKS_CLEAR);
-            counters = [0; CACHE_COUNTER_WORDS];
-            lists = vec![0u32; list_buffer_words(tiles as u32)];
+            cache.next_frame();
             let mut frame: Vec<CacheQuery> =
                 order.iter().map(|&i| queries[new_queries[i]]).collect();
-            for q in frame.iter_mut() {
-                insert_query(
-                    &mut keys[..],
-                    &mut touch[..],
-                    &mut values,
-                    &mut lists[..],
-                    &mut counters[..],
-                    &mut marks[..],
-                    &params,
-                    q,
-                );
-            }
-            for q in frame.iter_mut() {
-                settle_query(&mut keys[..], &mut lists[..], &marks[..], &params, q);
-            }
-            for q in frame.iter_mut() {
-                admit_query(
-                    &mut keys[..],
-                    &mut touch[..],
-                    &mut values,
-                    &mut lists[..],
-                    &mut counters[..],
-                    &mut marks[..],
-                    &params,
-                    q,
-                );
-            }
-            let mut held = keys.clone();
+            cache.insert(&params, &mut frame);
+            let mut held = cache.keys.clone();
             held.sort_unstable();
             let mut expected = vec![sums[0], smallest_new];
             expected.sort_unstable();
@@ -1834,48 +1809,22 @@ mod tests {
                 assert!(!q.has(QUERY_REFUSED));
             }
             outcomes.push((
-                counters[INSERTED_TILES],
-                lists[FAILED_INSERTS as usize],
-                list_len(&lists[..], UPDATE_TILES, tiles as u32),
+                cache.counters[INSERTED_TILES],
+                cache.lists[FAILED_INSERTS as usize],
+                list_len(&cache.lists[..], UPDATE_TILES, cache.keys.len() as u32),
             ));
         }
         assert!(outcomes.windows(2).all(|w| w[0] == w[1]), "{outcomes:?}");
         assert_eq!(outcomes[0].0, 1);
         assert_eq!(outcomes[0].1, 4);
 
-        // Room for both new keys: nothing is taken back.
+        // Room for the three new keys: nothing is taken back.
         params.grid.tiles_per_bucket_log2 = 2;
-        let tiles = params.grid.tile_count() as usize;
-        let mut keys = vec![0u32; tiles];
-        let mut touch = vec![0u32; tiles];
-        let mut values = vec![HashCellValue::ZERO; tiles * 85];
-        let mut lists = vec![0u32; list_buffer_words(tiles as u32)];
-        let mut counters = [0u32; CACHE_COUNTER_WORDS];
-        let mut marks = vec![
-            MARKS_CLEAR;
-            marks_words(
-                params.grid.num_buckets_log2,
-                params.grid.tiles_per_bucket_log2
-            )
-        ];
+        let mut cache = CpuCache::new(&params.grid, 0, HashCellValue::ZERO);
         let mut frame: Vec<CacheQuery> = queries[1..].to_vec();
-        for q in frame.iter_mut() {
-            insert_query(
-                &mut keys[..],
-                &mut touch[..],
-                &mut values,
-                &mut lists[..],
-                &mut counters[..],
-                &mut marks[..],
-                &params,
-                q,
-            );
-        }
-        for q in frame.iter_mut() {
-            settle_query(&mut keys[..], &mut lists[..], &marks[..], &params, q);
-            assert_ne!(q.tile, NO_TILE);
-        }
-        assert_eq!(counters[INSERTED_TILES], 3);
+        cache.insert(&params, &mut frame);
+        assert!(frame.iter().all(|q| q.tile != NO_TILE));
+        assert_eq!(cache.counters[INSERTED_TILES], 3);
     }
 
     #[test]

@@ -36,42 +36,70 @@ pub const MARKS_CLEAR: u32 = u32::MAX;
 /// A tile's or a bucket's mark once set.
 const MARKED: u32 = 0;
 
-/// Words of the marks buffer for a grid of `2^num_buckets_log2` buckets of
-/// `2^tiles_per_bucket_log2` tiles: one per tile, then two per bucket.
-#[inline]
-pub fn marks_words(num_buckets_log2: u32, tiles_per_bucket_log2: u32) -> usize {
-    let buckets = 1usize << min_u32(num_buckets_log2, MAX_NUM_TILES_LOG2);
-    (buckets << min_u32(tiles_per_bucket_log2, MAX_NUM_TILES_LOG2)) + 2 * buckets
+/// Where the marks of a grid of `2^num_buckets_log2` buckets of `2^tiles_per_bucket_log2` tiles
+/// lie: one word per tile ([`new_tile_word`]), then per bucket its smallest new checksum, then its "a key was
+/// refused" mark. The counts are clamped as [`super::cell_descriptor`] and [`super::tile_slot`]
+/// clamp them.
+#[derive(Clone, Copy)]
+struct Layout {
+    tiles_per_bucket_log2: u32,
+    buckets: usize,
 }
 
-/// Buckets of the grid, as [`super::cell_descriptor`] clamps their count.
-#[inline]
-fn bucket_count(params: &HashGridParams) -> u32 {
-    1 << min_u32(params.num_buckets_log2, MAX_NUM_TILES_LOG2)
+impl Layout {
+    #[inline]
+    fn new(num_buckets_log2: u32, tiles_per_bucket_log2: u32) -> Self {
+        Self {
+            tiles_per_bucket_log2: min_u32(tiles_per_bucket_log2, MAX_NUM_TILES_LOG2),
+            buckets: 1usize << min_u32(num_buckets_log2, MAX_NUM_TILES_LOG2),
+        }
+    }
+
+    #[inline]
+    fn of(params: &HashGridParams) -> Self {
+        Self::new(params.num_buckets_log2, params.tiles_per_bucket_log2)
+    }
+
+    #[inline]
+    fn tiles(self) -> usize {
+        self.buckets << self.tiles_per_bucket_log2
+    }
+
+    /// The bucket tile `tile` belongs to (the inverse of [`super::tile_slot`]).
+    #[inline]
+    fn bucket_of(self, tile: u32) -> u32 {
+        tile >> self.tiles_per_bucket_log2
+    }
+
+    /// Word of bucket `bucket`'s smallest new checksum.
+    #[inline]
+    fn smallest_key(self, bucket: u32) -> usize {
+        self.tiles() + bucket as usize
+    }
+
+    /// Word of bucket `bucket`'s "a key was refused" mark.
+    #[inline]
+    fn full(self, bucket: u32) -> usize {
+        self.tiles() + self.buckets + bucket as usize
+    }
+
+    #[inline]
+    fn words(self) -> usize {
+        self.tiles() + 2 * self.buckets
+    }
 }
 
-/// The bucket tile `tile` belongs to (the inverse of [`super::tile_slot`]).
-#[inline]
-pub fn bucket_of(tile: u32, params: &HashGridParams) -> u32 {
-    tile >> min_u32(params.tiles_per_bucket_log2, MAX_NUM_TILES_LOG2)
-}
-
-/// Word of tile `tile`'s "inserted this frame" mark.
+/// Word of tile `tile`'s "inserted this frame" mark (the first words, one per tile).
 #[inline]
 fn new_tile_word(tile: u32) -> usize {
     tile as usize
 }
 
-/// Word of bucket `bucket`'s smallest new checksum.
+/// Words of the marks buffer for a grid of `2^num_buckets_log2` buckets of
+/// `2^tiles_per_bucket_log2` tiles: one per tile, then two per bucket.
 #[inline]
-fn smallest_key_word(bucket: u32, params: &HashGridParams) -> usize {
-    params.tile_count() as usize + bucket as usize
-}
-
-/// Word of bucket `bucket`'s "a key was refused" mark.
-#[inline]
-fn full_word(bucket: u32, params: &HashGridParams) -> usize {
-    params.tile_count() as usize + bucket_count(params) as usize + bucket as usize
+pub fn marks_words(num_buckets_log2: u32, tiles_per_bucket_log2: u32) -> usize {
+    Layout::new(num_buckets_log2, tiles_per_bucket_log2).words()
 }
 
 /// Step 1: notes a key that was not in the cache: inserted into `tile`, or refused (`None`).
@@ -82,17 +110,18 @@ pub fn note_new_key<M: AtomicWords + ?Sized>(
     tile: Option<u32>,
     params: &HashGridParams,
 ) {
+    let layout = Layout::of(params);
     let len = marks.word_count();
-    let key_word = smallest_key_word(desc.bucket, params);
+    let key_word = layout.smallest_key(desc.bucket);
     if key_word < len {
         marks.fetch_min(key_word, desc.checksum);
     }
-    match tile {
-        Some(t) if new_tile_word(t) < len => marks.store(new_tile_word(t), MARKED),
-        None if full_word(desc.bucket, params) < len => {
-            marks.store(full_word(desc.bucket, params), MARKED)
-        }
-        _ => {}
+    let mark = match tile {
+        Some(t) => new_tile_word(t),
+        None => layout.full(desc.bucket),
+    };
+    if mark < len {
+        marks.store(mark, MARKED);
     }
 }
 
@@ -106,16 +135,17 @@ pub fn settle_tile<K: AtomicWords + ?Sized, M: AtomicWords + ?Sized>(
     tile: u32,
     params: &HashGridParams,
 ) -> bool {
-    let bucket = bucket_of(tile, params);
+    let layout = Layout::of(params);
+    let bucket = layout.bucket_of(tile);
     if (tile as usize) >= keys.word_count()
-        || full_word(bucket, params) >= marks.word_count()
-        || marks.load(full_word(bucket, params)) != MARKED
+        || layout.full(bucket) >= marks.word_count()
+        || marks.load(layout.full(bucket)) != MARKED
         || marks.load(new_tile_word(tile)) != MARKED
     {
         return false;
     }
     // Zero once another query of the tile took it out: its key was not the smallest either.
-    if keys.load(tile as usize) == marks.load(smallest_key_word(bucket, params)) {
+    if keys.load(tile as usize) == marks.load(layout.smallest_key(bucket)) {
         return false;
     }
     keys.store(tile as usize, 0);
@@ -129,7 +159,7 @@ pub fn is_admitted<M: AtomicWords + ?Sized>(
     desc: &CellDescriptor,
     params: &HashGridParams,
 ) -> bool {
-    let word = smallest_key_word(desc.bucket, params);
+    let word = Layout::of(params).smallest_key(desc.bucket);
     word < marks.word_count() && marks.load(word) == desc.checksum
 }
 
