@@ -279,10 +279,11 @@ fn switching_a_technique_off_moves_the_error_the_expected_way() {
     };
     // Hysteresis: single rays that find the light are fireflies without it (seen before the
     // denoiser averages them away), counted over frames 8 to 31 of four random streams.
-    // Measured: on 7292, off 8767. The hysteresis now keeps each cell's mean (issue 22), so it
-    // spreads a firefly over frames instead of cutting it; the reference's, which cut
-    // brightening, gave 2317 and 4927 with the old probe filter (which also diluted bright near
-    // samples with far ones).
+    // Measured in round 11: on 11558, off 16683 (an earlier round's comment said 7292 and 8767).
+    // The jitter's radius moves the count (README, "Round 11"). The hysteresis keeps each cell's
+    // mean (issue 22), so it spreads a firefly over frames instead of cutting it; the
+    // reference's, which cut brightening, gave 2317 and 4927 with the old probe filter (which
+    // also diluted bright near samples with far ones).
     let fireflies_over_frames = |hysteresis: bool| {
         let camera = scene_camera(&scene, SIDE, SIDE);
         (0..FIREFLY_SEEDS)

@@ -162,6 +162,20 @@ pub fn points(
                 },
             ));
         }
+        // The jitter's reach around the default: the probe grid's blocks against light moved
+        // across shadow edges.
+        for radius in [0.5f32, 1.0, 2.0] {
+            if radius != b.interpolation_jitter_radius {
+                points.push(knob(
+                    "interpolation_jitter_radius",
+                    radius.to_string(),
+                    GiSettings {
+                        interpolation_jitter_radius: radius,
+                        ..b
+                    },
+                ));
+            }
+        }
         let switches: [Switch; 7] = [
             ("probe_filter", "off", |s| s.probe_filter = false),
             ("restir", "on", |s| s.restir = true),
@@ -226,6 +240,7 @@ mod tests {
             "tiles_per_bucket",
             "sample_cap",
             "cache_history_frames",
+            "interpolation_jitter_radius",
             "probe_filter",
             "restir",
             "temporal_feedback",

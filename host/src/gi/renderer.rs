@@ -246,7 +246,8 @@ impl GiRenderer {
             sky: self.options.sky.to_array(),
             light_count: self.lighting.light_count,
             environment_size: self.lighting.environment_size,
-            _pad: [0; 2],
+            interpolation_jitter: self.settings.interpolation_jitter_pixels(),
+            _pad: 0,
         }
     }
 

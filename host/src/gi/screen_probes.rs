@@ -566,7 +566,6 @@ pub fn technique_flags(settings: &GiSettings) -> u32 {
         (settings.ray_guiding, FLAG_RAY_GUIDING),
         (settings.hysteresis, FLAG_HYSTERESIS),
         (settings.probe_filter, FLAG_PROBE_FILTER),
-        (settings.interpolation_jitter, FLAG_INTERPOLATION_JITTER),
         (settings.relaxed_fallback, FLAG_RELAXED_FALLBACK),
         (settings.denoiser_temporal, FLAG_DENOISER_TEMPORAL),
         (settings.denoiser_spatial, FLAG_DENOISER_SPATIAL),

@@ -8,6 +8,8 @@ use gi_shared::hash_cells::{
 };
 use gi_shared::layout::{MAX_FRAME_HEIGHT, MAX_FRAME_WIDTH};
 use gi_shared::lights::MAX_LIGHT_CANDIDATES;
+use gi_shared::screen_probes::PROBE_SIZE;
+use gi_shared::screen_probes::interpolate::MAX_INTERPOLATION_JITTER_PIXELS;
 
 /// Fewest tiles [`GiSettings::for_resolution`] gives a cache (2^11 = 2048 tiles: 2.8 MB of
 /// values), so that a tiny image still has room for a whole small scene: with multi-bounce, the
@@ -26,6 +28,12 @@ pub const MULTI_BOUNCE_TILE_FACTOR: u64 = 2;
 /// Largest [`GiSettings::sample_cap`]: a cell's sum stays exact in `f32` far beyond it, and a
 /// history of more than 1024 frames would answer to a change of light only after seconds.
 pub const MAX_SAMPLE_CAP: u32 = 1024;
+/// Largest [`GiSettings::interpolation_jitter_radius`], in probe tiles: the kernel's limit.
+pub const MAX_INTERPOLATION_JITTER_TILES: f32 =
+    (MAX_INTERPOLATION_JITTER_PIXELS / PROBE_SIZE) as f32;
+/// The default [`GiSettings::interpolation_jitter_radius`], in probe tiles: the reference's ±16
+/// pixels. One tile measures better (README, "Round 11") but fails the hysteresis firefly test.
+pub const DEFAULT_INTERPOLATION_JITTER_TILES: f32 = 2.0;
 
 /// Everything a GI frame can be tuned by.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -164,9 +172,17 @@ pub struct GiSettings {
     /// a neighbour's cell counts where it saw what the centre's saw). Cost: two
     /// passes over every probe. Quality: off, each probe keeps the noise of its own 64 rays.
     pub probe_filter: bool,
-    /// Blue-noise jitter of the per-pixel probe lookup. Cost: a G-buffer read per pixel.
-    /// Quality: hides the probe grid's blocks behind noise the denoiser removes.
+    /// Blue-noise jitter of the per-pixel probe lookup, by up to
+    /// [`Self::interpolation_jitter_radius`]. Cost: a G-buffer read per pixel. Quality: hides the
+    /// probe grid's blocks behind noise the denoiser removes.
     pub interpolation_jitter: bool,
+    /// How far the jitter moves a pixel's probe lookup along each axis, in probe tiles (8
+    /// pixels), 0 to [`MAX_INTERPOLATION_JITTER_TILES`]. Cost: none. Quality: the farther, the
+    /// smoother the probe grid's blocks, but also the more a lit surface and its shadowed part
+    /// (any two pixels on one plane) share their probes: light moves across shadow edges and
+    /// relMSE rises (README, "Round 11"). A radius is a share of the image that
+    /// shrinks as the resolution grows.
+    pub interpolation_jitter_radius: f32,
     /// The relaxed fallback of interpolation: a pixel no probe matches takes the found probes
     /// equally (hinted to the denoiser). Cost: none. Quality: off, such pixels get no indirect
     /// light (black holes at disocclusions and thin features).
@@ -244,6 +260,7 @@ impl Default for GiSettings {
             hysteresis: true,
             probe_filter: true,
             interpolation_jitter: true,
+            interpolation_jitter_radius: DEFAULT_INTERPOLATION_JITTER_TILES,
             relaxed_fallback: true,
             denoiser_temporal: true,
             denoiser_spatial: true,
@@ -254,6 +271,16 @@ impl Default for GiSettings {
 }
 
 impl GiSettings {
+    /// The interpolation jitter's radius in pixels (`GiFrameParams::interpolation_jitter`): 0
+    /// with the jitter off.
+    pub fn interpolation_jitter_pixels(&self) -> u32 {
+        if self.interpolation_jitter {
+            (self.interpolation_jitter_radius * PROBE_SIZE as f32).round() as u32
+        } else {
+            0
+        }
+    }
+
     /// The defaults with the cache sized for a `width × height` frame ([`Self::with_cache_for`]).
     pub fn for_resolution(width: u32, height: u32) -> Self {
         Self::default().with_cache_for(width, height)
@@ -365,6 +392,13 @@ impl GiSettings {
                 ),
             );
         }
+        let jitter = self.interpolation_jitter_radius;
+        if !(jitter.is_finite() && (0.0..=MAX_INTERPOLATION_JITTER_TILES).contains(&jitter)) {
+            return bad(
+                "interpolation_jitter_radius",
+                format!("{jitter}: must be 0 to {MAX_INTERPOLATION_JITTER_TILES} probe tiles"),
+            );
+        }
         if self.light_candidates == 0 || self.light_candidates > MAX_LIGHT_CANDIDATES {
             return bad(
                 "light_candidates",
@@ -381,6 +415,26 @@ impl GiSettings {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_jitter_radius_is_in_probe_tiles_and_zero_when_off() {
+        let s = |radius, on| GiSettings {
+            interpolation_jitter_radius: radius,
+            interpolation_jitter: on,
+            ..GiSettings::default()
+        };
+        assert_eq!(s(1.0, true).interpolation_jitter_pixels(), 8);
+        // The default is the reference's ±16 pixels.
+        assert_eq!(GiSettings::default().interpolation_jitter_pixels(), 16);
+        assert_eq!(s(0.5, true).interpolation_jitter_pixels(), 4);
+        assert_eq!(s(0.0, true).interpolation_jitter_pixels(), 0);
+        assert_eq!(s(2.0, false).interpolation_jitter_pixels(), 0);
+        // The largest radius the settings accept is the largest the kernel reaches.
+        assert_eq!(
+            s(MAX_INTERPOLATION_JITTER_TILES, true).interpolation_jitter_pixels(),
+            MAX_INTERPOLATION_JITTER_PIXELS
+        );
+    }
 
     #[test]
     fn the_cache_scales_with_the_resolution() {
@@ -479,5 +533,17 @@ mod tests {
             ..ok
         };
         assert_eq!(name(cands, 64, 64), "light_candidates");
+        for radius in [
+            -0.5,
+            MAX_INTERPOLATION_JITTER_TILES + 0.5,
+            f32::NAN,
+            f32::INFINITY,
+        ] {
+            let jitter = GiSettings {
+                interpolation_jitter_radius: radius,
+                ..ok
+            };
+            assert_eq!(name(jitter, 64, 64), "interpolation_jitter_radius");
+        }
     }
 }

@@ -1,12 +1,13 @@
 //! InterpolateScreenProbes (GI-1.0 step 21): each pixel's irradiance from at most four screen
 //! probes' SH.
 //!
-//! 1. **Lookup pixel** ([`jitter_candidate`], [`accepts_jitter`]): with
-//!    [`FLAG_INTERPOLATION_JITTER`], the pixel is moved by blue noise by up to
-//!    [`INTERPOLATION_JITTER_PIXELS`] (two probe tiles) each way, and the move is kept only when
-//!    the moved pixel's surface lies within [`JITTER_PLANE_TOLERANCE`] × the probe cell size of
-//!    the pixel's plane; the jitter turns the probe grid's blockiness into noise the denoiser
-//!    removes.
+//! 1. **Lookup pixel** ([`jitter_candidate`], [`accepts_jitter`]): the pixel is moved by blue
+//!    noise by up to [`GiFrameParams::interpolation_jitter`] pixels each way (at most
+//!    [`MAX_INTERPOLATION_JITTER_PIXELS`]; 0: not moved), and the move is kept only when the
+//!    moved pixel's surface lies within [`JITTER_PLANE_TOLERANCE`] × the probe cell size of the
+//!    pixel's plane; the jitter turns the probe grid's blockiness into noise the denoiser
+//!    removes. The farther it reaches, the more a lit surface and its shadowed part share their
+//!    probes: the radius trades the grid's blocks for light moved across shadow edges.
 //! 2. **Probes** ([`gather_probes`]): the lookup pixel's probe tile in the mask's mip 0, or the
 //!    first seed going coarser through the mip chain ([`nearest_probe_seed`]); then the mip-0
 //!    probes of the tiles beside the closest probe's toward ±x, ±y and the diagonal, the side
@@ -27,19 +28,19 @@ use glam::{UVec2, Vec3, Vec4};
 
 use super::probe_mask::{mask_texel, nearest_probe_seed};
 use super::{
-    FLAG_INTERPOLATION_JITTER, FLAG_RELAXED_FALLBACK, GiFrameParams, NO_PROBE, PROBE_SIZE,
-    ProbeRecord, RELAXED_COUNT,
+    FLAG_RELAXED_FALLBACK, GiFrameParams, NO_PROBE, PROBE_SIZE, ProbeRecord, RELAXED_COUNT,
 };
 use crate::atomics::AtomicWords;
 use crate::cache_view::{PrimarySurface, primary_surface};
 use crate::camera::CameraParams;
-use crate::math::{abs, floor_to_i32_clamped, max, saturate};
+use crate::math::{abs, floor_to_i32_clamped, max, min_u32, saturate};
 use crate::packing::unpack_seed;
 use crate::random::pixel_sample;
 use crate::sh::{SH_COEFFICIENT_COUNT, ShL2Rgb};
 
-/// Largest jitter of the lookup pixel along each axis, in pixels (two probe tiles).
-pub const INTERPOLATION_JITTER_PIXELS: i32 = 16;
+/// Largest jitter radius of the lookup pixel along each axis, in pixels (four probe tiles):
+/// [`GiFrameParams::interpolation_jitter`] is clamped to it.
+pub const MAX_INTERPOLATION_JITTER_PIXELS: u32 = 4 * PROBE_SIZE;
 /// The jittered pixel's surface must lie within this many probe cell sizes of the pixel's plane.
 pub const JITTER_PLANE_TOLERANCE: f32 = 0.5;
 /// Most probes one pixel interpolates.
@@ -54,26 +55,26 @@ pub const HINT_SKY: f32 = -1.0;
 pub const SKY_IRRADIANCE: [f32; 4] = [0.0, 0.0, 0.0, HINT_SKY];
 
 /// The blue-noise offset of `pixel`'s lookup in frame `frame_index`, each component in
-/// `[-16, 16]` ([`INTERPOLATION_JITTER_PIXELS`]).
+/// `[-radius, radius]` (`radius` clamped to [`MAX_INTERPOLATION_JITTER_PIXELS`]).
 #[inline]
-pub fn jitter_offset(pixel: UVec2, frame_index: u32) -> [i32; 2] {
+pub fn jitter_offset(pixel: UVec2, frame_index: u32, radius: u32) -> [i32; 2] {
     let u = pixel_sample(pixel, frame_index);
-    let bins = (2 * INTERPOLATION_JITTER_PIXELS + 1) as f32;
-    let r = INTERPOLATION_JITTER_PIXELS;
+    let r = min_u32(radius, MAX_INTERPOLATION_JITTER_PIXELS) as i32;
+    let bins = (2 * r + 1) as f32;
     [
         floor_to_i32_clamped(u.x * bins, 0, 2 * r) - r,
         floor_to_i32_clamped(u.y * bins, 0, 2 * r) - r,
     ]
 }
 
-/// The jittered lookup pixel to test for `pixel`: `None` without [`FLAG_INTERPOLATION_JITTER`],
-/// for a zero offset, or when the moved pixel leaves the image.
+/// The jittered lookup pixel to test for `pixel`: `None` without jitter (a radius of 0), for a
+/// zero offset, or when the moved pixel leaves the image.
 #[inline]
 pub fn jitter_candidate(frame: &GiFrameParams, pixel: UVec2) -> Option<UVec2> {
-    if !frame.has(FLAG_INTERPOLATION_JITTER) {
+    if frame.interpolation_jitter == 0 {
         return None;
     }
-    let [dx, dy] = jitter_offset(pixel, frame.frame_index);
+    let [dx, dy] = jitter_offset(pixel, frame.frame_index, frame.interpolation_jitter);
     let x = pixel.x as i32 + dx;
     let y = pixel.y as i32 + dy;
     let inside = x >= 0
@@ -574,24 +575,37 @@ mod tests {
     }
 
     #[test]
-    fn jitter_stays_within_two_tiles_and_on_the_plane() {
+    fn jitter_stays_within_its_radius_and_on_the_plane() {
         let mut f = frame();
         assert_eq!(jitter_candidate(&f, UVec2::new(5, 5)), None);
-        f.flags = FLAG_INTERPOLATION_JITTER;
-        let mut seen = [false; 33];
-        for frame_index in 0..256 {
-            f.frame_index = frame_index;
-            for p in [UVec2::new(0, 0), UVec2::new(16, 12), UVec2::new(31, 23)] {
-                let [dx, dy] = jitter_offset(p, frame_index);
-                assert!((-16..=16).contains(&dx) && (-16..=16).contains(&dy));
-                seen[(dx + 16) as usize] = true;
-                if let Some(c) = jitter_candidate(&f, p) {
-                    assert!(c.x < W && c.y < H);
-                    assert_eq!(c.x as i32 - p.x as i32, dx);
+        // Each radius (the largest clamped to the limit) reaches every offset within it, and no
+        // farther.
+        for (radius, reach) in [
+            (1, 1),
+            (16, 16),
+            (u32::MAX, MAX_INTERPOLATION_JITTER_PIXELS),
+        ] {
+            let r = reach as i32;
+            f.interpolation_jitter = radius;
+            let mut seen = vec![false; 2 * reach as usize + 1];
+            for frame_index in 0..1024 {
+                f.frame_index = frame_index;
+                for p in [UVec2::new(0, 0), UVec2::new(16, 12), UVec2::new(31, 23)] {
+                    let [dx, dy] = jitter_offset(p, frame_index, radius);
+                    assert!((-r..=r).contains(&dx) && (-r..=r).contains(&dy));
+                    seen[(dx + r) as usize] = true;
+                    if let Some(c) = jitter_candidate(&f, p) {
+                        assert!(c.x < W && c.y < H);
+                        assert_eq!(c.x as i32 - p.x as i32, dx);
+                    }
                 }
             }
+            assert!(
+                seen.iter().all(|&s| s),
+                "radius {radius}: every offset occurs"
+            );
         }
-        assert!(seen.iter().all(|&s| s), "every offset occurs");
+        f.interpolation_jitter = 16;
         // On the wall every candidate is accepted; across the step (1 unit off the plane) none.
         let (depth, normals) = gbuffer(16);
         let a = surface_at(&depth, &normals, UVec2::new(4, 4));

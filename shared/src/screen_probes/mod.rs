@@ -95,8 +95,6 @@ pub const FLAG_RAY_GUIDING: u32 = 1 << 5;
 pub const FLAG_HYSTERESIS: u32 = 1 << 6;
 /// The 7 × 7 separable probe filter.
 pub const FLAG_PROBE_FILTER: u32 = 1 << 8;
-/// Blue-noise jitter of the per-pixel probe lookup.
-pub const FLAG_INTERPOLATION_JITTER: u32 = 1 << 9;
 /// The relaxed fallback of per-pixel interpolation (off: a pixel without a matching probe gets
 /// no indirect light).
 pub const FLAG_RELAXED_FALLBACK: u32 = 1 << 10;
@@ -191,8 +189,11 @@ pub struct GiFrameParams {
     pub light_count: u32,
     /// Width and height of the environment image (zero for none: the sky is `sky`).
     pub environment_size: [u32; 2],
+    /// Largest move of a pixel's probe lookup along each axis, in pixels (InterpolateScreenProbes'
+    /// jitter, `crate::screen_probes::interpolate`); 0: no jitter.
+    pub interpolation_jitter: u32,
     /// Explicit padding.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 impl GiFrameParams {

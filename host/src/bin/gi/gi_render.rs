@@ -120,6 +120,10 @@ pub struct GiArgs {
     /// GI: the world cache's sample cap (1 to 1024), instead of the preset's (16).
     #[arg(long)]
     pub sample_cap: Option<u32>,
+    /// GI: how far the interpolation jitter reaches, in probe tiles of 8 pixels (0 to 4),
+    /// instead of the preset's (`GiSettings::interpolation_jitter_radius`).
+    #[arg(long)]
+    pub jitter_radius: Option<f32>,
     /// GI: techniques to switch off, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub no: Vec<Technique>,
@@ -178,6 +182,9 @@ impl GiArgs {
         }
         if let Some(cap) = self.sample_cap {
             s.sample_cap = cap;
+        }
+        if let Some(radius) = self.jitter_radius {
+            s.interpolation_jitter_radius = radius;
         }
         s.restir |= self.restir;
         s.emitter_sampling |= self.emitter_sampling;
@@ -246,7 +253,7 @@ pub fn render_gi(
     println!(
         "gi:                  {} frames, spawn tile {} px, cache cells {} px, sample cap {}, \
          reprojection {}, parallax {}, backup {}, patching {}, guiding {}, hysteresis {}, \
-         probe filter {}, jitter {}, relaxed {}, temporal {}, spatial {}, feedback {}, \
+         probe filter {}, jitter {} px, relaxed {}, temporal {}, spatial {}, feedback {}, \
          multi-bounce {}, adaptive blend {}, leak fixes {}, object motion {}, ReSTIR {}, \
          emitter sampling {}",
         args.frames,
@@ -260,7 +267,7 @@ pub fn render_gi(
         on_off(s.ray_guiding),
         on_off(s.hysteresis),
         on_off(s.probe_filter),
-        on_off(s.interpolation_jitter),
+        s.interpolation_jitter_pixels(),
         on_off(s.relaxed_fallback),
         on_off(s.denoiser_temporal),
         on_off(s.denoiser_spatial),
