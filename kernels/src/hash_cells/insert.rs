@@ -35,22 +35,9 @@ pub fn insert_radiance_cache(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] queries: &mut [CacheQuery],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] marks: &mut [u32],
 ) {
-    let mut counters = DeviceWords(counters);
-    let Some(i) = query_index(&counters, queries, id.x) else {
-        return;
-    };
-    let mut query = queries[i];
-    insert_query(
-        &mut DeviceWords(keys),
-        &mut DeviceWords(last_touch),
-        values,
-        &mut DeviceWords(lists),
-        &mut counters,
-        &mut DeviceWords(marks),
-        params,
-        &mut query,
+    place::<false>(
+        id, params, keys, last_touch, values, lists, counters, queries, marks,
     );
-    queries[i] = query;
 }
 
 /// Takes back query `id.x`'s tile where a full bucket does not keep it.
@@ -102,21 +89,45 @@ pub fn admit_to_full_buckets(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] queries: &mut [CacheQuery],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] marks: &mut [u32],
 ) {
+    place::<true>(
+        id, params, keys, last_touch, values, lists, counters, queries, marks,
+    );
+}
+
+/// Inserts query `id.x` (`insert_query`), or with `ADMIT` inserts it again where its full bucket
+/// admits its key (`admit_query`): the two steps take the same buffers.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "one argument per binding of the entry points"
+)]
+fn place<const ADMIT: bool>(
+    id: UVec3,
+    params: &CachePassParams,
+    keys: &mut [u32],
+    last_touch: &mut [u32],
+    values: &mut [HashCellValue],
+    lists: &mut [u32],
+    counters: &mut [u32],
+    queries: &mut [CacheQuery],
+    marks: &mut [u32],
+) {
     let mut counters = DeviceWords(counters);
     let Some(i) = query_index(&counters, queries, id.x) else {
         return;
     };
     let mut query = queries[i];
-    admit_query(
+    let (k, t, l, m) = (
         &mut DeviceWords(keys),
         &mut DeviceWords(last_touch),
-        values,
         &mut DeviceWords(lists),
-        &mut counters,
         &mut DeviceWords(marks),
-        params,
-        &mut query,
     );
+    // Both steps are generic: a function pointer would not compile for the GPU.
+    if ADMIT {
+        admit_query(k, t, values, l, &mut counters, m, params, &mut query);
+    } else {
+        insert_query(k, t, values, l, &mut counters, m, params, &mut query);
+    }
     queries[i] = query;
 }
 
