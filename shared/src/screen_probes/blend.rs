@@ -310,54 +310,62 @@ mod tests {
         assert!((out[3][0] - 1.0).abs() < 1e-6, "{:?}", out[3]);
     }
 
-    /// The loop SampleScreenProbes and BlendScreenProbes close: rays guided by the probe's own
-    /// blended cells, whose estimates the hysteresis then blends. One small bright cell and a
-    /// noisy rest (each ray sees nothing or twice its cell's radiance). Over 40 000 frames the
-    /// probe keeps its mean within 1 %, with the hysteresis and without, so the blend is not
-    /// what makes the frame's mean depend on where the rays go (README, "Round 12").
+    /// The loop SampleScreenProbes and BlendScreenProbes close: rays drawn as the kernel draws
+    /// them (`ray_guiding::sample_ray`) from a CDF of the probe's own blended cells, whose
+    /// estimates the hysteresis then blends. One small bright cell and a noisy rest (each ray
+    /// sees nothing or twice its cell's radiance). Over 40 000 frames the probe keeps its mean
+    /// within 1 %, with the hysteresis and without, so the blend is not what makes the frame's
+    /// mean depend on where the rays go (README, "Round 12").
     #[test]
     fn guided_rays_under_the_hysteresis_keep_the_probe_mean() {
         use crate::random::Random;
+        use crate::screen_probes::FLAG_RAY_GUIDING;
+        use crate::screen_probes::hemisphere::ProbeFrame;
         use crate::screen_probes::ray_guiding::{
-            cell_share, guided_cell, guiding_cdf, guiding_raw_weight,
+            guiding_active, guiding_cdf, guiding_raw_weight, sample_ray,
         };
-        let truth = |c: usize| match c {
+        let truth = |c: u32| match c {
             27 => 40.0,
             _ if c % 8 < 3 => 2.0,
             _ => 0.3,
         };
         let exact: f64 = (0..64).map(|c| f64::from(truth(c))).sum();
-        for flags in [FLAG_HYSTERESIS, 0] {
+        let probe = ProbeFrame {
+            position: Vec3::ZERO,
+            normal: Vec3::Z,
+        };
+        for flags in [FLAG_RAY_GUIDING | FLAG_HYSTERESIS, FLAG_RAY_GUIDING] {
             let mut rng = Random::new(7, 0);
             let mut history = [EMPTY; 64];
             let (mut sum, mut frames) = (0.0f64, 0u32);
-            for frame in 0..40_000 {
+            for frame_index in 0..40_000 {
+                let p = GiFrameParams {
+                    flags,
+                    frame_index,
+                    ..Default::default()
+                };
                 let raw: [f32; 64] =
                     core::array::from_fn(|c| guiding_raw_weight(history[c], c as u32));
                 let cdf: [f32; 64] = core::array::from_fn(|c| guiding_cdf(&raw, c as u32));
-                let mut rays = [ray(0, 1.0); 64];
-                let mut records = [radiance(0.0); 64];
-                for lane in 0..64 {
-                    let c = if frame == 0 {
-                        lane as u32
-                    } else {
-                        guided_cell(&cdf, rng.next_f32() * cdf[63])
-                    };
-                    rays[lane] = ray(c, 1.0);
-                    if frame > 0 {
-                        rays[lane].cell_probability = cell_share(&cdf, c);
-                    }
+                let guided = guiding_active(&p, &cdf);
+                let rays: [ProbeRay; 64] = core::array::from_fn(|lane| {
+                    sample_ray(&p, &probe, 0, lane as u32, &cdf, guided)
+                });
+                let records = rays.map(|r| {
                     let seen = if rng.next_f32() < 0.5 { 0.0 } else { 2.0 };
-                    records[lane].ray_radiance = [truth(c as usize) * seen; 3];
-                }
-                history = blend_workgroup(&params(flags), &rays, &records, &history);
-                if frame >= 100 {
+                    radiance(truth(r.cell) * seen)
+                });
+                history = blend_workgroup(&p, &rays, &records, &history);
+                if frame_index >= 100 {
                     sum += history.iter().map(|c| f64::from(c[0])).sum::<f64>();
                     frames += 1;
                 }
             }
             let bias = sum / f64::from(frames) / exact - 1.0;
-            eprintln!("hysteresis {}: probe mean {bias:+.4}", flags != 0);
+            eprintln!(
+                "hysteresis {}: probe mean {bias:+.4}",
+                flags & FLAG_HYSTERESIS != 0
+            );
             assert!(bias.abs() < 0.01, "flags {flags}: {bias}");
         }
     }
