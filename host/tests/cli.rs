@@ -244,6 +244,39 @@ fn presets_choose_the_renderer_and_its_settings() {
 }
 
 #[test]
+fn render_takes_the_cache_cell_size_and_names_an_absurd_one() {
+    let dir = std::env::temp_dir().join(format!("gi-cli-cells-{}", std::process::id()));
+    let out_exr = dir.join("cells.exr");
+    let run = |pixels: &str| {
+        gi(
+            &[
+                "--validation",
+                "render",
+                CORNELL_BOX,
+                "--width",
+                "16",
+                "--height",
+                "16",
+                "--frames",
+                "2",
+                "--preset",
+                "balanced",
+                "--cell-size-pixels",
+                pixels,
+                "--out",
+                out_exr.to_str().unwrap(),
+            ],
+            &[],
+        )
+    };
+    let fine = succeeded(&run("8"));
+    assert!(fine.contains("cache cells 8 px"), "{fine}");
+    let err = single_error_line(&run("0"));
+    assert!(err.contains("cell_size_pixels"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn generate_writes_a_scene_that_renders() {
     use gi_host::image_io::HdrImage;
     let dir = std::env::temp_dir().join(format!("gi-cli-generate-{}", std::process::id()));

@@ -124,6 +124,10 @@ pub struct GiArgs {
     /// instead of the preset's (`GiSettings::interpolation_jitter_radius`).
     #[arg(long)]
     pub jitter_radius: Option<f32>,
+    /// GI: the world cache's cell size in pixels of the screen at the cell's distance, instead of
+    /// the preset's (`GiSettings::cell_size_pixels`).
+    #[arg(long)]
+    pub cell_size_pixels: Option<f32>,
     /// GI: techniques to switch off, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub no: Vec<Technique>,
@@ -185,6 +189,10 @@ impl GiArgs {
         }
         if let Some(radius) = self.jitter_radius {
             s.interpolation_jitter_radius = radius;
+        }
+        if let Some(pixels) = self.cell_size_pixels {
+            s.cell_size_pixels = pixels;
+            s = s.with_cache_for(width, height);
         }
         s.restir |= self.restir;
         s.emitter_sampling |= self.emitter_sampling;
