@@ -11,7 +11,8 @@
 # last frame alone.
 # Defaults: 160 90 1024 192 128, the repository's scenes, then the Bitterli interiors of
 # ../shared/scenes/third-party/bitterli when they are there (skipped, saying so, when not).
-# TECHNIQUES (space-separated `--no` names) narrows the switches; every one by default.
+# TECHNIQUES (space-separated `--no` names; `feedback` switches temporal feedback on, as the presets
+# leave it off) narrows the switches; every one by default.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh >/dev/null
@@ -49,6 +50,8 @@ for scene in "${SCENES[@]}"; do
   for run in balanced quality fast $TECHNIQUES; do
     case "$run" in
       balanced|quality|fast) args=(--preset "$run") ;;
+      # Temporal feedback is off in every preset: its row switches it on.
+      feedback) args=(--preset balanced --feedback) ;;
       *) args=(--preset balanced --no "$run") ;;
     esac
     log=$OUT/$s-$run.log
@@ -62,7 +65,7 @@ for scene in "${SCENES[@]}"; do
       base_mean=$mean
     elif [ -n "$base_mean" ] && [ "$run" != quality ] && [ "$run" != fast ]; then
       moved=$(awk -v a="${mean%\%}" -v b="${base_mean%\%}" 'BEGIN { printf "%+.1f pp", a - b }')
-      run="no $run"
+      if [ "$run" = feedback ]; then run="with feedback"; else run="no $run"; fi
     fi
     echo "| $s | $run | $mean | $rel | $flip | $moved |" >> "$OUT/table.md"
   done

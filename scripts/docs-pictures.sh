@@ -113,11 +113,11 @@ done
 cache_view overflow indirect-room --frames 32 --exposure 2 --buckets-log2 1 --tiles-per-bucket-log2 2
 cache_view overflow-default indirect-room --frames 32 --exposure 2
 
-# ReSTIR bias, without temporal feedback (where it shows most): reservoirs shared by hits that
+# ReSTIR bias (the presets run without temporal feedback, where it shows most): reservoirs shared by hits that
 # see different lights darken the closed indirect-room.
 gi_reference restir-reference indirect-room 256 --exposure 2
-gi_render restir-off indirect-room --exposure 2 --no feedback --reference "$OUT/restir-reference.exr"
-gi_render restir-on indirect-room --exposure 2 --no feedback --restir --reference "$OUT/restir-reference.exr"
+gi_render restir-off indirect-room --exposure 2 --reference "$OUT/restir-reference.exr"
+gi_render restir-on indirect-room --exposure 2 --restir --reference "$OUT/restir-reference.exr"
 
 # Denoiser blur: young history under motion gets the widest spatial filter.
 gi_render denoiser textured --camera-path orbit:1 --frames 8 --debug-views "$OUT/denoiser-debug"

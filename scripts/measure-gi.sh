@@ -64,6 +64,7 @@ for t in none reprojection parallax backup patching guiding hysteresis filter ji
   case $t in
     none) args=() ;;
     restir) args=(--restir) ;;
+    feedback) args=(--feedback) ;;
     spawn-*) args=(--spawn-rate "${t#spawn-}") ;;
     *) args=(--no "$t") ;;
   esac

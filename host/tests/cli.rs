@@ -247,32 +247,64 @@ fn presets_choose_the_renderer_and_its_settings() {
 fn render_takes_the_cache_cell_size_and_names_an_absurd_one() {
     let dir = std::env::temp_dir().join(format!("gi-cli-cells-{}", std::process::id()));
     let out_exr = dir.join("cells.exr");
-    let run = |pixels: &str| {
-        gi(
-            &[
-                "--validation",
-                "render",
-                CORNELL_BOX,
-                "--width",
-                "16",
-                "--height",
-                "16",
-                "--frames",
-                "2",
-                "--preset",
-                "balanced",
-                "--cell-size-pixels",
-                pixels,
-                "--out",
-                out_exr.to_str().unwrap(),
-            ],
-            &[],
-        )
-    };
-    let fine = succeeded(&run("8"));
+    let fine = succeeded(&render_two_small_frames(
+        &out_exr,
+        &["--cell-size-pixels", "8"],
+    ));
     assert!(fine.contains("cache cells 8 px"), "{fine}");
-    let err = single_error_line(&run("0"));
+    let err = single_error_line(&render_two_small_frames(
+        &out_exr,
+        &["--cell-size-pixels", "0"],
+    ));
     assert!(err.contains("cell_size_pixels"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `gi render` of two 16 × 16 `balanced` frames of the Cornell box into `out`, with the
+/// validation layer on and `extra` arguments.
+fn render_two_small_frames(out: &std::path::Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "--validation",
+        "render",
+        CORNELL_BOX,
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--frames",
+        "2",
+        "--preset",
+        "balanced",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    gi(&args, &[])
+}
+
+/// The presets leave temporal feedback off (README, "Round 14"); `--feedback` turns it on, and
+/// then the second frame's secondary hits take the first frame's screen radiance.
+#[test]
+fn render_leaves_feedback_off_unless_asked() {
+    let dir = std::env::temp_dir().join(format!("gi-cli-feedback-{}", std::process::id()));
+    let out_exr = dir.join("feedback.exr");
+    let run = |extra: &[&str]| succeeded(&render_two_small_frames(&out_exr, extra));
+    let fed_back = |out: &str| -> u32 {
+        let line = out
+            .lines()
+            .find(|l| l.starts_with("frame     1:"))
+            .unwrap_or_else(|| panic!("no line for frame 1: {out}"));
+        line.rsplit("fed back")
+            .next()
+            .and_then(|n| n.trim().parse().ok())
+            .unwrap_or_else(|| panic!("no fed-back count: {line}"))
+    };
+    let off = run(&[]);
+    assert!(off.contains("feedback off"), "{off}");
+    assert_eq!(fed_back(&off), 0, "{off}");
+    let on = run(&["--feedback"]);
+    assert!(on.contains("feedback on"), "{on}");
+    assert!(fed_back(&on) > 0, "{on}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -13,10 +13,13 @@ const HEIGHT: u32 = 64;
 const FRAMES: Frames = Frames {
     warm_up: 64,
     steady: 16,
-    after: 24,
+    after: 16,
 };
 /// The frame after the change whose share of the change still missing is bounded.
 const CHECKED_FRAME: u32 = 15;
+/// Random streams the share is the mean of: one stream's figure is one noisy realisation (the
+/// light switched on read 0.032 on stream 0 and 0.088 as the mean of four, same code).
+const SEEDS: u32 = 2;
 
 /// Asserts that the share of `change` still missing [`CHECKED_FRAME`] frames after it is below
 /// `bound`.
@@ -25,7 +28,7 @@ fn assert_missing_below(change: LightChange, bound: f64) {
     let ctx = context(KernelVariant::Software);
     let camera = scene_camera(&scene, WIDTH, HEIGHT);
     let settings = Preset::Balanced.settings(WIDTH, HEIGHT);
-    let response = measure(&ctx, &scene, change, &camera, settings, FRAMES).unwrap();
+    let response = measure(&ctx, &scene, change, &camera, settings, FRAMES, SEEDS).unwrap();
     finish_without_validation_messages(ctx);
     let shares: Vec<String> = response
         .remaining
@@ -45,27 +48,31 @@ fn assert_missing_below(change: LightChange, bound: f64) {
     );
 }
 
-// Bounds: the share measured (in the comment) × about 1.3, so that a lag half as long again
+// Bounds: the share measured (in the comment) × about 1.3, so that a lag a third as long again
 // fails. Lavapipe, software traversal; `gi lag` gives the figures at 128 × 72 in the README.
 
 #[test]
 fn a_light_switched_off_leaves_little_light_after_15_frames() {
-    // Measured: 0.045 (0.047 before the cache's fading history, 0.058 before issue 22's round
-    // 5, 0.069 before the cache's adaptive blend;
+    // Measured: 0.044, the mean of 2 streams (0.044 with temporal feedback, before round 14;
+    // stream 0 alone: 0.047 before the cache's fading history, 0.058 before issue 22's round 5,
+    // 0.069 before the cache's adaptive blend;
     // the issue's goal is 0.05, met here but not at 128 × 72: README "Response to change").
     assert_missing_below(LightChange::Off, 0.06);
 }
 
 #[test]
 fn a_light_switched_on_is_mostly_there_after_15_frames() {
-    // Measured: 0.032 (0.038 before the fading history, 0.084 before round 5, 0.098 before the
-    // adaptive blend).
-    assert_missing_below(LightChange::On, 0.05);
+    // Measured: 0.078, the mean of 2 streams (0.081 with temporal feedback, before round 14,
+    // whose bound of 0.05 held stream 0 alone, 0.032; stream 1 read 0.13).
+    // Stream 0 alone: 0.038 before the fading history, 0.084 before round 5, 0.098 before the
+    // adaptive blend.
+    assert_missing_below(LightChange::On, 0.10);
 }
 
 #[test]
 fn a_moved_light_is_mostly_followed_after_15_frames() {
-    // Measured: 0.093 (0.078 before the fading history, whose cells read their own recent samples
+    // Measured: 0.088, the mean of 2 streams (0.112 with temporal feedback, before round 14).
+    // Stream 0 alone: 0.093 (0.078 before the fading history, whose cells read their own recent samples
     // where they used to read coarser mips; 0.086 before round 5, 0.088 before the adaptive
     // blend; 0.061 with the
     // denoiser's linear weights alone: the probes' unbiased guided cells follow a moved light

@@ -179,7 +179,7 @@ pub fn points(
         let switches: [Switch; 7] = [
             ("probe_filter", "off", |s| s.probe_filter = false),
             ("restir", "on", |s| s.restir = true),
-            ("temporal_feedback", "off", |s| s.temporal_feedback = false),
+            ("temporal_feedback", "on", |s| s.temporal_feedback = true),
             ("multi_bounce", "off", |s| s.multi_bounce = false),
             ("adaptive_cache_blend", "off", |s| {
                 s.adaptive_cache_blend = false

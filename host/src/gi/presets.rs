@@ -46,9 +46,12 @@ impl Preset {
     /// [`GiSettings::with_cache_for`] for the preset's cell size).
     pub fn settings(self, width: u32, height: u32) -> GiSettings {
         // Every preset bounces light through the world cache, lets its cells' history fade
-        // with time and adapts its blend to change (the reference does none of these).
+        // with time and adapts its blend to change (the reference does none of these). The
+        // cache's own bounces replace temporal feedback, which fed the screen's biases back into
+        // the cache (README, "Round 14").
         let base = GiSettings {
             multi_bounce: true,
+            temporal_feedback: false,
             adaptive_cache_blend: true,
             cache_history_frames: HISTORY_FRAMES,
             ..GiSettings::default()
@@ -91,6 +94,7 @@ mod tests {
             settings[1],
             GiSettings {
                 multi_bounce: true,
+                temporal_feedback: false,
                 adaptive_cache_blend: true,
                 cache_history_frames: HISTORY_FRAMES,
                 ..GiSettings::default()

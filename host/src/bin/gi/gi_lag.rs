@@ -36,6 +36,13 @@ pub struct LagArgs {
     /// Techniques to switch off in every preset (to find where the lag comes from).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub no: Vec<Technique>,
+    /// Random streams each figure is the mean of (one stream is one noisy realisation of the
+    /// response).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub seeds: u32,
+    /// Temporal radiance feedback on in every preset (the presets leave it off).
+    #[arg(long)]
+    pub feedback: bool,
     /// The cache's sample cap in every preset, instead of the preset's (1 to 1024; with
     /// `--no adaptive-blend`, a fixed cap: how fast the cache alone can follow).
     #[arg(long)]
@@ -73,11 +80,12 @@ pub fn run_lag(ctx: &Context, args: &LagArgs) -> Result<(), Box<dyn std::error::
         after: args.after,
     };
     println!(
-        "{}, {}x{}: share of the change still missing after 5, 15 and 30 frames; frames until it \
-         stays at most {:.0} %",
+        "{}, {}x{}: share of the change still missing after 5, 15 and 30 frames (the mean of {} \
+         random stream(s)); frames until it stays at most {:.0} %",
         args.scene.display(),
         args.width,
         args.height,
+        args.seeds,
         SETTLED * 100.0
     );
     println!(
@@ -93,11 +101,13 @@ pub fn run_lag(ctx: &Context, args: &LagArgs) -> Result<(), Box<dyn std::error::
     for preset in presets {
         for change in LightChange::ALL {
             let mut settings = preset.settings(args.width, args.height);
+            settings.temporal_feedback |= args.feedback;
             switch_off(&mut settings, &args.no);
             if let Some(cap) = args.sample_cap {
                 settings.sample_cap = cap;
             }
-            let r = light_change::measure(ctx, &scene, change, &camera, settings, frames)?;
+            let r =
+                light_change::measure(ctx, &scene, change, &camera, settings, frames, args.seeds)?;
             let share = |f| r.after(f).map_or("-".to_owned(), |s| format!("{:.3}", s));
             let settle = r
                 .frames_to_settle()

@@ -51,8 +51,6 @@ pub enum Technique {
     Temporal,
     /// The denoiser's bilateral blur.
     Spatial,
-    /// Temporal radiance feedback at secondary hits.
-    Feedback,
     /// Multi-bounce through the world cache (bounce rays from the cache's hits).
     MultiBounce,
     /// The cache's change-adaptive blend (its history cut while a tile's light changes).
@@ -84,7 +82,8 @@ pub struct GiArgs {
     #[arg(long, value_enum, default_value_t = Method::Path)]
     pub method: Method,
     /// A quality preset: `fast`, `balanced` or `quality` (GI, its settings before --spawn-rate,
-    /// --no and --restir), or `reference` (the path tracer); instead of --method.
+    /// --no, --restir, --emitter-sampling and --feedback), or `reference` (the path tracer);
+    /// instead of --method.
     #[arg(long, value_enum, conflicts_with = "method")]
     pub preset: Option<PresetArg>,
     /// GI: frames to render; the last is written. The default lets the denoiser's history
@@ -138,6 +137,10 @@ pub struct GiArgs {
     /// primary hit instead of through the probes (`GiSettings::emitter_sampling`).
     #[arg(long)]
     pub emitter_sampling: bool,
+    /// GI: temporal radiance feedback at secondary hits (`GiSettings::temporal_feedback`; off in
+    /// every preset, whose cache bounces light itself).
+    #[arg(long)]
+    pub feedback: bool,
     /// GI: frames per second at which the scene's animation (glTF node animations) plays: frame
     /// `f` shows time `f / fps`, looped. `0` holds the scene in its rest pose. Scenes without
     /// animation ignore it.
@@ -196,6 +199,7 @@ impl GiArgs {
         }
         s.restir |= self.restir;
         s.emitter_sampling |= self.emitter_sampling;
+        s.temporal_feedback |= self.feedback;
         switch_off(&mut s, &self.no);
         s
     }
@@ -412,7 +416,6 @@ pub fn switch_off(s: &mut GiSettings, off: &[Technique]) {
             Technique::Relaxed => s.relaxed_fallback = false,
             Technique::Temporal => s.denoiser_temporal = false,
             Technique::Spatial => s.denoiser_spatial = false,
-            Technique::Feedback => s.temporal_feedback = false,
             Technique::MultiBounce => s.multi_bounce = false,
             Technique::AdaptiveBlend => s.adaptive_cache_blend = false,
             Technique::ObjectMotion => s.object_motion = false,
