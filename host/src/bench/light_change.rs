@@ -256,38 +256,38 @@ pub fn measure(
     let upload = |s: &Scene| GpuScene::upload_lit(ctx, s, None, true);
     let (before_lights, before_gpu) = upload(&before)?;
     let (after_lights, after_gpu) = upload(&after)?;
+    let renderer = |lights: &LightSet, seed: u32| {
+        GiRenderer::new(
+            ctx,
+            lights,
+            camera.image_size[0],
+            camera.image_size[1],
+            settings,
+            ViewOptions {
+                seed,
+                ..ViewOptions::default()
+            },
+        )
+    };
+    let steady = |gi: &mut GiRenderer, gpu: &GpuScene| -> Result<Vec<f64>> {
+        let mut sum: Vec<f64> = Vec::new();
+        for f in 0..frames.warm_up {
+            gi.render_frame(ctx, gpu, camera)?;
+            if f >= frames.warm_up - frames.steady {
+                let b = blocks(&gi.image(ctx)?);
+                sum.resize(b.len(), 0.0);
+                sum.iter_mut().zip(b).for_each(|(s, v)| *s += v);
+            }
+        }
+        Ok(sum
+            .into_iter()
+            .map(|s| s / f64::from(frames.steady))
+            .collect())
+    };
     let mut remaining = vec![0.0; frames.after as usize];
     for seed in 0..seeds {
-        let renderer = |lights: &LightSet| {
-            GiRenderer::new(
-                ctx,
-                lights,
-                camera.image_size[0],
-                camera.image_size[1],
-                settings,
-                ViewOptions {
-                    seed,
-                    ..ViewOptions::default()
-                },
-            )
-        };
-        let steady = |gi: &mut GiRenderer, gpu: &GpuScene| -> Result<Vec<f64>> {
-            let mut sum: Vec<f64> = Vec::new();
-            for f in 0..frames.warm_up {
-                gi.render_frame(ctx, gpu, camera)?;
-                if f >= frames.warm_up - frames.steady {
-                    let b = blocks(&gi.image(ctx)?);
-                    sum.resize(b.len(), 0.0);
-                    sum.iter_mut().zip(b).for_each(|(s, v)| *s += v);
-                }
-            }
-            Ok(sum
-                .into_iter()
-                .map(|s| s / f64::from(frames.steady))
-                .collect())
-        };
-        let new_state = steady(&mut renderer(&after_lights)?, &after_gpu)?;
-        let mut gi = renderer(&before_lights)?;
+        let new_state = steady(&mut renderer(&after_lights, seed)?, &after_gpu)?;
+        let mut gi = renderer(&before_lights, seed)?;
         let old_state = steady(&mut gi, &before_gpu)?;
         let total: f64 = old_state
             .iter()
