@@ -11,9 +11,7 @@ use crate::scene::Scene;
 use crate::scene::bvh::Bvh;
 use crate::scene::gpu_data::ShadingData;
 use crate::scene::upload::GpuScene;
-use crate::vulkan::{
-    BindingKind, Buffer, Context, Image, Kernel, KernelModule, Resource, submit_timed,
-};
+use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, submit_timed};
 use ash::vk;
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::{GBUFFER_TILE, GBufferTexel, PreviousTransform, gbuffer_texel};
@@ -80,6 +78,30 @@ pub struct GBufferImages {
     pub images: [Image; 7],
 }
 
+crate::bindings! {
+    /// The G-buffer pass's set 0 (`kernels::gbuffer::gbuffer`): [`GBufferImages::bindings`].
+    pub struct GBufferBindings<'a> {
+        /// The camera ([`CameraParams`]).
+        camera: &'a Buffer,
+        /// Linear depth.
+        depth: &'a Image,
+        /// Geometric normal.
+        geometric_normal: &'a Image,
+        /// Shading normal.
+        shading_normal: &'a Image,
+        /// Albedo.
+        albedo: &'a Image,
+        /// Emission.
+        emissive: &'a Image,
+        /// Motion vectors.
+        motion: &'a Image,
+        /// Instance and primitive ids.
+        ids: &'a Image,
+        /// The instances' previous transforms.
+        previous_transforms: &'a Buffer,
+    }
+}
+
 impl GBufferImages {
     /// Creates the images for a `width × height` G-buffer.
     pub fn new(ctx: &Context, width: u32, height: u32) -> Result<Self> {
@@ -109,14 +131,33 @@ impl GBufferImages {
         self.images[0].height
     }
 
-    /// Seven storage images.
-    pub fn binding_kinds() -> [BindingKind; 7] {
-        [BindingKind::StorageImage; 7]
-    }
-
-    /// The images as resources for [`GBufferImages::binding_kinds`].
-    pub fn resources(&self) -> Vec<Resource<'_>> {
-        self.images.iter().map(Resource::Image).collect()
+    /// The G-buffer pass's set 0 writing these images, with the pass's `camera` and the
+    /// instances' `previous_transforms`.
+    pub fn bindings<'a>(
+        &'a self,
+        camera: &'a Buffer,
+        previous_transforms: &'a Buffer,
+    ) -> GBufferBindings<'a> {
+        let [
+            depth,
+            geometric_normal,
+            shading_normal,
+            albedo,
+            emissive,
+            motion,
+            ids,
+        ] = &self.images;
+        GBufferBindings {
+            camera,
+            depth,
+            geometric_normal,
+            shading_normal,
+            albedo,
+            emissive,
+            motion,
+            ids,
+            previous_transforms,
+        }
     }
 
     /// Copies every image to the host (after the pass that wrote them was submitted).
@@ -195,10 +236,7 @@ impl GBufferPass {
     /// Creates the pipeline.
     pub fn new(ctx: &Context) -> Result<Self> {
         let module = KernelModule::new(ctx)?;
-        let mut bindings = vec![BindingKind::StorageBuffer];
-        bindings.extend(GBufferImages::binding_kinds());
-        bindings.push(BindingKind::StorageBuffer);
-        let kernel = Kernel::new(ctx, &module, "gbuffer::gbuffer", &bindings, 0)?;
+        let kernel = Kernel::new::<GBufferBindings>(ctx, &module, "gbuffer::gbuffer", 0)?;
         let camera = Buffer::parameters(ctx, "G-buffer camera", &[CameraParams::default()])?;
         Ok(Self { kernel, camera })
     }
@@ -225,9 +263,7 @@ impl GBufferPass {
         }
         // The previous submission has finished (submissions wait), so the buffer is free.
         self.camera.write(bytemuck::bytes_of(camera))?;
-        let mut resources = vec![Resource::Buffer(&self.camera)];
-        resources.extend(images.resources());
-        resources.push(Resource::Buffer(scene.previous_transforms()));
+        let bindings = images.bindings(&self.camera, scene.previous_transforms());
         let groups = [
             width.div_ceil(GBUFFER_TILE),
             height.div_ceil(GBUFFER_TILE),
@@ -235,7 +271,7 @@ impl GBufferPass {
         ];
         submit_timed(ctx, "gbuffer", |cmd| {
             self.kernel
-                .dispatch_traced(ctx, cmd, scene.sets(), &resources, &[], groups)
+                .dispatch_traced(ctx, cmd, scene.sets(), &bindings, &[], groups)
         })
     }
 }

@@ -11,8 +11,7 @@ use crate::scene::gpu_data::ShadingData;
 use crate::scene::lights::{LightParams, LightSet};
 use crate::scene::upload::GpuScene;
 use crate::vulkan::{
-    BindingKind, Buffer, Context, Kernel, KernelModule, Resource, compute_barrier, submit_timed,
-    transfer_barrier,
+    Buffer, Context, Kernel, KernelModule, compute_barrier, submit_timed, transfer_barrier,
 };
 use gi_shared::camera::CameraParams;
 use gi_shared::lights::MAX_LIGHT_CANDIDATES;
@@ -126,6 +125,14 @@ pub struct Render {
     pub gpu_ms: Option<f64>,
 }
 
+crate::bindings! {
+    /// The path tracer's set 0 (`kernels::path_tracer::path_tracer`).
+    pub(crate) struct PathTracerSet<'a> {
+        camera: &'a Buffer,
+        accumulation: &'a Buffer,
+    }
+}
+
 /// The `path_tracer::path_tracer` pipeline and its camera parameters.
 pub struct PathTracerPass {
     kernel: Kernel,
@@ -137,12 +144,10 @@ impl PathTracerPass {
     pub fn new(ctx: &Context) -> Result<Self> {
         let module = KernelModule::new(ctx)?;
         // The camera and the accumulation.
-        let bindings = [BindingKind::StorageBuffer; 2];
-        let kernel = Kernel::new(
+        let kernel = Kernel::new::<PathTracerSet>(
             ctx,
             &module,
             "path_tracer::path_tracer",
-            &bindings,
             std::mem::size_of::<PathTracerParams>() as u32,
         )?;
         let camera = Buffer::parameters(ctx, "path tracer camera", &[CameraParams::default()])?;
@@ -190,10 +195,10 @@ impl PathTracerPass {
         let mut sums = vec![[0.0f64; 4]; pixels];
         let mut total_ms: Option<f64> = Some(0.0);
         let mut done = 0;
-        let resources = [
-            Resource::Buffer(&self.camera),
-            Resource::Buffer(&accumulation),
-        ];
+        let bindings = PathTracerSet {
+            camera: &self.camera,
+            accumulation: &accumulation,
+        };
         while done < settings.samples {
             let batch = per_submit.min(settings.samples - done);
             let ms = submit_timed(ctx, "path tracer", |cmd| {
@@ -208,7 +213,7 @@ impl PathTracerPass {
                         ctx,
                         cmd,
                         scene.sets(),
-                        &resources,
+                        &bindings,
                         bytemuck::bytes_of(&params),
                         groups,
                     )?;

@@ -2,8 +2,15 @@
 //! read-back) on a device by hashing indices on the GPU and comparing with the CPU.
 
 use crate::error::{Error, Result};
-use crate::vulkan::{BindingKind, Buffer, Context, Kernel, KernelModule, Resource, submit_timed};
+use crate::vulkan::{Buffer, Context, Kernel, KernelModule, submit_timed};
 use gi_shared::abi::WORKGROUP_SIZE;
+
+crate::bindings! {
+    /// The smoke kernel's set 0 (`kernels::smoke::smoke`).
+    pub(crate) struct Smoke<'a> {
+        out: &'a Buffer,
+    }
+}
 
 /// What a smoke dispatch did.
 #[derive(Clone, Debug)]
@@ -25,19 +32,13 @@ pub fn run(ctx: &Context, invocations: u32) -> Result<SmokeReport> {
         });
     }
     let module = KernelModule::new(ctx)?;
-    let kernel = Kernel::new(
-        ctx,
-        &module,
-        "smoke::smoke",
-        &[BindingKind::StorageBuffer],
-        0,
-    )?;
+    let kernel = Kernel::new::<Smoke>(ctx, &module, "smoke::smoke", 0)?;
     let out = Buffer::device_zeroed::<u32>(ctx, "smoke output", invocations as usize)?;
     let gpu_ms = submit_timed(ctx, "smoke", |cmd| {
         kernel.dispatch(
             ctx,
             cmd,
-            &[Resource::Buffer(&out)],
+            &Smoke { out: &out },
             &[],
             [invocations.div_ceil(WORKGROUP_SIZE), 1, 1],
         )

@@ -4,9 +4,17 @@
 
 use crate::error::Result;
 use crate::scene::upload::GpuScene;
-use crate::vulkan::{BindingKind, Buffer, Context, Kernel, KernelModule, Resource, submit_timed};
+use crate::vulkan::{Buffer, Context, Kernel, KernelModule, submit_timed};
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::ray::{HitRecord, Ray};
+
+crate::bindings! {
+    /// TraceRays's set 0 (`kernels::trace_rays::trace_rays`).
+    pub(crate) struct RaysAndHits<'a> {
+        rays: &'a Buffer,
+        hits: &'a Buffer,
+    }
+}
 
 /// The `trace_rays::trace_rays` pipeline.
 pub struct TraceRays {
@@ -25,8 +33,7 @@ impl TraceRays {
     /// Creates the pipeline.
     pub fn new(ctx: &Context) -> Result<Self> {
         let module = KernelModule::new(ctx)?;
-        let bindings = [BindingKind::StorageBuffer; 2];
-        let kernel = Kernel::new(ctx, &module, "trace_rays::trace_rays", &bindings, 0)?;
+        let kernel = Kernel::new::<RaysAndHits>(ctx, &module, "trace_rays::trace_rays", 0)?;
         Ok(Self { kernel })
     }
 
@@ -35,11 +42,14 @@ impl TraceRays {
     pub fn run(&self, ctx: &Context, scene: &GpuScene, rays: &[Ray]) -> Result<TraceResult> {
         let ray_buf = Buffer::device_local(ctx, "rays", rays, Default::default())?;
         let hit_buf = Buffer::device_zeroed::<HitRecord>(ctx, "hits", rays.len())?;
-        let resources = [Resource::Buffer(&ray_buf), Resource::Buffer(&hit_buf)];
+        let bindings = RaysAndHits {
+            rays: &ray_buf,
+            hits: &hit_buf,
+        };
         let groups = (rays.len() as u32).div_ceil(WORKGROUP_SIZE);
         let gpu_ms = submit_timed(ctx, "trace_rays", |cmd| {
             self.kernel
-                .dispatch_traced(ctx, cmd, scene.sets(), &resources, &[], [groups, 1, 1])
+                .dispatch_traced(ctx, cmd, scene.sets(), &bindings, &[], [groups, 1, 1])
         })?;
         let hits = hit_buf.read_back::<HitRecord>(ctx)?;
         Ok(TraceResult { hits, gpu_ms })

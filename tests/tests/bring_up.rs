@@ -3,9 +3,9 @@
 
 use gi_host::KernelVariant;
 use gi_host::vulkan::{
-    AccelerationStructure, BindingKind, Buffer, DescriptorSet, Instance, Kernel, KernelModule,
-    Resource, SHADING_BINDINGS, SceneSet, SceneSets, SplitBuffer, TEXTURES_BINDING,
-    TRIANGLES_BINDING, TopLevel, VERTICES_BINDING,
+    AccelerationStructure, Buffer, DescriptorSet, Instance, Kernel, KernelModule, Resource,
+    SHADING_BINDINGS, SceneSet, SceneSets, SplitBuffer, TEXTURES_BINDING, TRIANGLES_BINDING,
+    TopLevel, VERTICES_BINDING,
 };
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::finite_check::FiniteCheckPush;
@@ -48,11 +48,82 @@ fn both_variants_declare_their_entry_points() {
     assert!(!tracing.iter().any(|e| e == "smoke::smoke"), "{tracing:?}");
 }
 
+gi_host::bindings! {
+    /// `trace_rays::trace_rays`'s set 0, as the kernel declares it.
+    struct TraceRays<'a> {
+        rays: &'a Buffer,
+        hits: &'a Buffer,
+    }
+}
+
+gi_host::bindings! {
+    /// `finite_check::count_non_finite`'s set 0.
+    struct CountNonFinite<'a> {
+        words: &'a Buffer,
+        counts: &'a Buffer,
+    }
+}
+
+gi_host::bindings! {
+    /// The same bindings, swapped: the kernel reads `rays` at binding 0.
+    struct Swapped<'a> {
+        hits: &'a Buffer,
+        rays: &'a Buffer,
+    }
+}
+
+gi_host::bindings! {
+    /// `hits` left out.
+    struct Missing<'a> {
+        rays: &'a Buffer,
+    }
+}
+
+gi_host::bindings! {
+    /// `hits` bound as an image.
+    struct WrongKind<'a> {
+        rays: &'a Buffer,
+        hits: &'a gi_host::vulkan::Image,
+    }
+}
+
+/// A set 0 the host declares differently from the kernel is refused when the pipeline is made,
+/// with the kernel and the binding named: a swapped pair, a missing binding, a wrong kind.
+#[test]
+fn bindings_that_are_not_the_kernels_are_refused_at_pipeline_creation() {
+    let ctx = context(KernelVariant::Software);
+    let module = KernelModule::new(&ctx).unwrap();
+    let entry = "trace_rays::trace_rays";
+    let swapped = Kernel::new::<Swapped>(&ctx, &module, entry, 0).err();
+    let missing = Kernel::new::<Missing>(&ctx, &module, entry, 0).err();
+    let wrong = Kernel::new::<WrongKind>(&ctx, &module, entry, 0).err();
+    let message = |e: Option<gi_host::Error>| e.map(|e| e.to_string()).unwrap_or_default();
+    assert_eq!(
+        message(swapped),
+        "invalid argument kernel bindings: kernel trace_rays::trace_rays: binding 0 is `rays` in \
+         the kernel, the host declares `hits` in its place (swapped?)"
+    );
+    assert_eq!(
+        message(missing),
+        "invalid argument kernel bindings: kernel trace_rays::trace_rays: binding 1 `hits` \
+         (storage buffer) is not bound by the host"
+    );
+    assert_eq!(
+        message(wrong),
+        "invalid argument kernel bindings: kernel trace_rays::trace_rays: binding 1 `hits` is a \
+         storage buffer in the kernel, the host binds a storage image"
+    );
+    // The kernel's own declaration makes a pipeline.
+    assert!(Kernel::new::<TraceRays>(&ctx, &module, entry, 0).is_ok());
+    drop(module);
+    finish_without_validation_messages(ctx);
+}
+
 #[test]
 fn missing_entry_point_is_a_clear_error() {
     let ctx = context(KernelVariant::Software);
     let module = KernelModule::new(&ctx).unwrap();
-    let err = Kernel::new(&ctx, &module, "no_such::kernel", &[], 0)
+    let err = Kernel::new::<TraceRays>(&ctx, &module, "no_such::kernel", 0)
         .err()
         .expect("there is no such kernel");
     assert!(err.to_string().contains("no_such::kernel"), "{err}");
@@ -152,14 +223,7 @@ fn ray_queries_hit_the_expected_triangles() {
     let ray_buf = Buffer::device_local(&ctx, "rays", &rays, Default::default()).unwrap();
     let hit_buf = Buffer::device_zeroed::<HitRecord>(&ctx, "hits", rays.len()).unwrap();
     let module = KernelModule::new(&ctx).unwrap();
-    let kernel = Kernel::new(
-        &ctx,
-        &module,
-        "trace_rays::trace_rays",
-        &[BindingKind::StorageBuffer, BindingKind::StorageBuffer],
-        0,
-    )
-    .unwrap();
+    let kernel = Kernel::new::<TraceRays>(&ctx, &module, "trace_rays::trace_rays", 0).unwrap();
     drop(module);
     let geometry = DescriptorSet::new(
         &ctx,
@@ -167,11 +231,14 @@ fn ray_queries_hit_the_expected_triangles() {
         &[Resource::AccelerationStructure(tlas.handle())],
     )
     .unwrap();
-    let resources = [Resource::Buffer(&ray_buf), Resource::Buffer(&hit_buf)];
+    let bindings = TraceRays {
+        rays: &ray_buf,
+        hits: &hit_buf,
+    };
     let groups = [(rays.len() as u32).div_ceil(WORKGROUP_SIZE), 1, 1];
     // A kernel that traces needs the scene, and only it takes one.
     let err = ctx
-        .submit(|cmd| kernel.dispatch(&ctx, cmd, &resources, &[], groups))
+        .submit(|cmd| kernel.dispatch(&ctx, cmd, &bindings, &[], groups))
         .unwrap()
         .unwrap_err();
     assert!(err.to_string().contains("dispatch_traced"), "{err}");
@@ -189,7 +256,7 @@ fn ray_queries_hit_the_expected_triangles() {
     };
     ctx.submit(|cmd| {
         kernel
-            .dispatch_traced(&ctx, cmd, scene, &resources, &[], groups)
+            .dispatch_traced(&ctx, cmd, scene, &bindings, &[], groups)
             .unwrap();
         gi_host::vulkan::compute_barrier(&ctx, cmd);
     })
@@ -244,11 +311,10 @@ fn ray_queries_hit_the_expected_triangles() {
 fn a_missing_barrier_is_reported() {
     let ctx = context(KernelVariant::Software);
     let module = KernelModule::new(&ctx).unwrap();
-    let kernel = Kernel::new(
+    let kernel = Kernel::new::<CountNonFinite>(
         &ctx,
         &module,
         gi_host::frame::FiniteCheck::ENTRY,
-        &[BindingKind::StorageBuffer, BindingKind::StorageBuffer],
         std::mem::size_of::<FiniteCheckPush>() as u32,
     )
     .unwrap();
@@ -266,7 +332,10 @@ fn a_missing_barrier_is_reported() {
         kernel.dispatch(
             &ctx,
             cmd,
-            &[Resource::Buffer(&words), Resource::Buffer(&counts)],
+            &CountNonFinite {
+                words: &words,
+                counts: &counts,
+            },
             bytemuck::bytes_of(&push),
             [1, 1, 1],
         )

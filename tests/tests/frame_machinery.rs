@@ -6,8 +6,7 @@
 use gi_host::KernelVariant;
 use gi_host::frame::{DispatchFromCounter, MemoryTable, Scan, indirect_args, indirect_offset};
 use gi_host::vulkan::{
-    BindingKind, Buffer, Context, Image, Kernel, KernelModule, MemoryLocation, Resource,
-    compute_barrier,
+    Bindings, Buffer, Context, Image, Kernel, KernelModule, MemoryLocation, compute_barrier,
 };
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::append_list::{append, clamped_count, overflow_count};
@@ -26,16 +25,53 @@ use gi_shared::scan::exclusive_scan;
 use gi_tests::{context, finish_without_validation_messages, variants};
 use std::collections::{BTreeMap, BTreeSet};
 
-/// A kernel of `module` with `buffers` storage buffers and push constants of `P`.
-fn kernel<P>(ctx: &Context, module: &KernelModule, entry: &str, buffers: usize) -> Kernel {
-    Kernel::new(
-        ctx,
-        module,
-        entry,
-        &vec![BindingKind::StorageBuffer; buffers],
-        std::mem::size_of::<P>() as u32,
-    )
-    .unwrap_or_else(|e| panic!("{entry}: {e}"))
+/// A kernel of `module` with set 0 bound as `B` and push constants of `P`.
+fn kernel<B: Bindings, P>(ctx: &Context, module: &KernelModule, entry: &str) -> Kernel {
+    Kernel::new::<B>(ctx, module, entry, std::mem::size_of::<P>() as u32)
+        .unwrap_or_else(|e| panic!("{entry}: {e}"))
+}
+
+gi_host::bindings! {
+    /// `atomics_contention`'s set 0 (`kernels::machinery_tests::atomics_contention`).
+    struct AtomicsContention<'a> {
+        words: &'a Buffer,
+        records: &'a Buffer,
+        groups: &'a Buffer,
+    }
+}
+
+gi_host::bindings! {
+    /// `append_items`'s set 0 (`kernels::machinery_tests::append_items`).
+    struct AppendItems<'a> {
+        counters: &'a Buffer,
+        list: &'a Buffer,
+    }
+}
+
+gi_host::bindings! {
+    /// `touch_items`'s set 0 (`kernels::machinery_tests::touch_items`).
+    struct TouchItems<'a> {
+        counters: &'a Buffer,
+        list: &'a Buffer,
+        touched: &'a Buffer,
+    }
+}
+
+gi_host::bindings! {
+    /// `point_bounds`'s set 0 (`kernels::machinery_tests::point_bounds`).
+    struct PointBounds<'a> {
+        points: &'a Buffer,
+        bounds: &'a Buffer,
+    }
+}
+
+gi_host::bindings! {
+    /// `insert_keys`'s set 0 (`kernels::machinery_tests::insert_keys`).
+    struct InsertKeys<'a> {
+        params: &'a Buffer,
+        keys: &'a Buffer,
+        outcomes: &'a Buffer,
+    }
 }
 
 fn groups(invocations: u32) -> [u32; 3] {
@@ -59,7 +95,11 @@ fn device_and_workgroup_atomics_agree_with_the_cpu_under_contention() {
     let n = 37 * WORKGROUP_SIZE + 5;
     let seed = 11;
     each_variant(|ctx, module, variant| {
-        let k = kernel::<MachineryPush>(ctx, module, "machinery_tests::atomics_contention", 3);
+        let k = kernel::<AtomicsContention, MachineryPush>(
+            ctx,
+            module,
+            "machinery_tests::atomics_contention",
+        );
         let mut initial = vec![0u32; WORD_STORE + n as usize];
         initial[WORD_MIN] = u32::MAX;
         let words =
@@ -78,11 +118,11 @@ fn device_and_workgroup_atomics_agree_with_the_cpu_under_contention() {
             k.dispatch(
                 ctx,
                 cmd,
-                &[
-                    Resource::Buffer(&words),
-                    Resource::Buffer(&records),
-                    Resource::Buffer(&workgroups),
-                ],
+                &AtomicsContention {
+                    words: &words,
+                    records: &records,
+                    groups: &workgroups,
+                },
                 bytemuck::bytes_of(&push),
                 groups(n),
             )
@@ -200,7 +240,7 @@ fn gpu_append(
     seed: u32,
     capacity: u32,
 ) -> (Vec<u32>, Vec<u32>) {
-    let k = kernel::<MachineryPush>(ctx, module, "machinery_tests::append_items", 2);
+    let k = kernel::<AppendItems, MachineryPush>(ctx, module, "machinery_tests::append_items");
     let counters = Buffer::device_zeroed::<u32>(ctx, "counters", 2).unwrap();
     let list = Buffer::device_zeroed::<u32>(ctx, "list", capacity.max(1) as usize).unwrap();
     let push = MachineryPush {
@@ -213,7 +253,10 @@ fn gpu_append(
         k.dispatch(
             ctx,
             cmd,
-            &[Resource::Buffer(&counters), Resource::Buffer(&list)],
+            &AppendItems {
+                counters: &counters,
+                list: &list,
+            },
             bytemuck::bytes_of(&push),
             groups(n),
         )
@@ -284,8 +327,10 @@ fn indirect_dispatch_processes_exactly_the_appended_items() {
         (30 * WORKGROUP_SIZE, 1000),
     ];
     each_variant(|ctx, module, variant| {
-        let append_k = kernel::<MachineryPush>(ctx, module, "machinery_tests::append_items", 2);
-        let touch = kernel::<MachineryPush>(ctx, module, "machinery_tests::touch_items", 3);
+        let append_k =
+            kernel::<AppendItems, MachineryPush>(ctx, module, "machinery_tests::append_items");
+        let touch =
+            kernel::<TouchItems, MachineryPush>(ctx, module, "machinery_tests::touch_items");
         let from_counter = DispatchFromCounter::new(ctx, module).unwrap();
         for (n, capacity) in cases {
             let (_, attempts) = cpu_append(n, seed, capacity);
@@ -307,7 +352,10 @@ fn indirect_dispatch_processes_exactly_the_appended_items() {
                     .dispatch(
                         ctx,
                         cmd,
-                        &[Resource::Buffer(&counters), Resource::Buffer(&list)],
+                        &AppendItems {
+                            counters: &counters,
+                            list: &list,
+                        },
                         bytemuck::bytes_of(&push),
                         groups(n),
                     )
@@ -328,11 +376,11 @@ fn indirect_dispatch_processes_exactly_the_appended_items() {
                     .dispatch_indirect(
                         ctx,
                         cmd,
-                        &[
-                            Resource::Buffer(&counters),
-                            Resource::Buffer(&list),
-                            Resource::Buffer(&touched),
-                        ],
+                        &TouchItems {
+                            counters: &counters,
+                            list: &list,
+                            touched: &touched,
+                        },
                         bytemuck::bytes_of(&push),
                         &args,
                         indirect_offset(1),
@@ -452,7 +500,7 @@ fn workgroup_bounds_reduction_equals_the_cpu() {
         }
     }
     each_variant(|ctx, module, variant| {
-        let k = kernel::<MachineryPush>(ctx, module, "machinery_tests::point_bounds", 2);
+        let k = kernel::<PointBounds, MachineryPush>(ctx, module, "machinery_tests::point_bounds");
         let input = Buffer::device_local(ctx, "points", &points, Default::default()).unwrap();
         let mut clear = LIGHT_GRID_BOUNDS_CLEAR.to_vec();
         clear.push(0);
@@ -465,7 +513,10 @@ fn workgroup_bounds_reduction_equals_the_cpu() {
             k.dispatch(
                 ctx,
                 cmd,
-                &[Resource::Buffer(&input), Resource::Buffer(&bounds)],
+                &PointBounds {
+                    points: &input,
+                    bounds: &bounds,
+                },
                 bytemuck::bytes_of(&push),
                 groups(n),
             )
@@ -497,7 +548,8 @@ fn hash_cell_inserts_under_contention_are_exact() {
                 .or_default() += 1;
         }
         each_variant(|ctx, module, variant| {
-            let k = kernel::<MachineryPush>(ctx, module, "machinery_tests::insert_keys", 3);
+            let k =
+                kernel::<InsertKeys, MachineryPush>(ctx, module, "machinery_tests::insert_keys");
             let p = Buffer::device_local(ctx, "params", &[params], Default::default()).unwrap();
             let table =
                 Buffer::device_zeroed::<u32>(ctx, "keys", params.tile_count() as usize).unwrap();
@@ -513,11 +565,11 @@ fn hash_cell_inserts_under_contention_are_exact() {
                 k.dispatch(
                     ctx,
                     cmd,
-                    &[
-                        Resource::Buffer(&p),
-                        Resource::Buffer(&table),
-                        Resource::Buffer(&outcomes),
-                    ],
+                    &InsertKeys {
+                        params: &p,
+                        keys: &table,
+                        outcomes: &outcomes,
+                    },
                     bytemuck::bytes_of(&push),
                     groups(invocations),
                 )

@@ -13,8 +13,7 @@ use gi_host::scene::gpu_data::{BUFFER_NAMES, ShadingData};
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::{
-    BindingKind, Buffer, Context, Kernel, KernelModule, MemoryLocation, Resource, compute_barrier,
-    transfer_barrier,
+    Buffer, Context, Kernel, KernelModule, MemoryLocation, compute_barrier, transfer_barrier,
 };
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_tests::{
@@ -159,6 +158,13 @@ fn device_local_data_round_trips_and_is_not_host_accessible() {
     finish_without_validation_messages(ctx);
 }
 
+gi_host::bindings! {
+    /// The smoke kernel's set 0.
+    struct Smoke<'a> {
+        out: &'a Buffer,
+    }
+}
+
 /// What the path tracer records: clear a device-local buffer, run a kernel on it, copy it to a
 /// read-back buffer, all in one submission.
 #[test]
@@ -170,21 +176,14 @@ fn clear_dispatch_and_copy_in_one_submission() {
     let out = Buffer::device_local(&ctx, "smoke output", &data, Default::default()).unwrap();
     let mut readback = Buffer::readback::<u32>(&ctx, "smoke readback", n as usize).unwrap();
     let module = KernelModule::new(&ctx).unwrap();
-    let kernel = Kernel::new(
-        &ctx,
-        &module,
-        "smoke::smoke",
-        &[BindingKind::StorageBuffer],
-        0,
-    )
-    .unwrap();
+    let kernel = Kernel::new::<Smoke>(&ctx, &module, "smoke::smoke", 0).unwrap();
     drop(module);
     ctx.submit(|cmd| -> gi_host::Result<()> {
         out.record_fill_zero(&ctx, cmd);
         transfer_barrier(&ctx, cmd);
         // Half the work groups: the rest of the buffer must read back as the clear left it.
         let groups = n.div_ceil(WORKGROUP_SIZE) / 2;
-        kernel.dispatch(&ctx, cmd, &[Resource::Buffer(&out)], &[], [groups, 1, 1])?;
+        kernel.dispatch(&ctx, cmd, &Smoke { out: &out }, &[], [groups, 1, 1])?;
         compute_barrier(&ctx, cmd);
         out.record_copy_to(&ctx, cmd, &readback)?;
         transfer_barrier(&ctx, cmd);

@@ -11,7 +11,7 @@
 //! test prints, per function, the worst error seen and how many cases took either way out (on
 //! lavapipe, none leaves unchecked).
 
-use gi_host::vulkan::{BindingKind, Buffer, Context, Kernel, KernelModule, Resource};
+use gi_host::vulkan::{Buffer, Context, Kernel, KernelModule};
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::difftest::{
     DiffCase, DiffOutput, DiffPush, FUNCTIONS, FunctionInfo, OUTPUT_WORDS, SNAP_SOURCE_OFFSET,
@@ -100,13 +100,20 @@ fn ulp_distance(a: f32, b: f32) -> u32 {
     (key(a) - key(b)).unsigned_abs().min(u64::from(u32::MAX)) as u32
 }
 
+gi_host::bindings! {
+    /// The difftest kernel's set 0.
+    struct Difftest<'a> {
+        cases: &'a Buffer,
+        out: &'a Buffer,
+    }
+}
+
 fn run_on_gpu(ctx: &Context, cases: &[DiffCase]) -> Vec<Vec<DiffOutput>> {
     let module = KernelModule::new(ctx).unwrap();
-    let kernel = Kernel::new(
+    let kernel = Kernel::new::<Difftest>(
         ctx,
         &module,
         "difftest::difftest",
-        &[BindingKind::StorageBuffer, BindingKind::StorageBuffer],
         std::mem::size_of::<DiffPush>() as u32,
     )
     .unwrap();
@@ -126,7 +133,10 @@ fn run_on_gpu(ctx: &Context, cases: &[DiffCase]) -> Vec<Vec<DiffOutput>> {
                 .dispatch(
                     ctx,
                     cmd,
-                    &[Resource::Buffer(&input), Resource::Buffer(&output)],
+                    &Difftest {
+                        cases: &input,
+                        out: &output,
+                    },
                     bytemuck::bytes_of(&push),
                     [(cases.len() as u32).div_ceil(WORKGROUP_SIZE), 1, 1],
                 )

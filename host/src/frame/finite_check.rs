@@ -4,8 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::vulkan::{
-    BindingKind, Buffer, Context, Image, Kernel, KernelModule, MemoryLocation, Resource,
-    compute_barrier,
+    Buffer, Context, Image, Kernel, KernelModule, MemoryLocation, compute_barrier,
 };
 use ash::vk;
 use gi_shared::finite_check::{FINITE_CHECK_GROUP, FiniteCheckPush, MAX_RECORD_WORDS};
@@ -13,6 +12,14 @@ use gi_shared::finite_check::{FINITE_CHECK_GROUP, FiniteCheckPush, MAX_RECORD_WO
 /// Most workgroups one dispatch runs (65 536 invocations, enough to fill any GPU): a larger
 /// buffer is covered by each invocation looping over several words.
 const MAX_GROUPS: u32 = 1024;
+
+crate::bindings! {
+    /// The finite check's set 0 (`kernels::finite_check::count_non_finite`).
+    pub(crate) struct CountNonFinite<'a> {
+        words: &'a Buffer,
+        counts: &'a Buffer,
+    }
+}
 
 /// Which words of a buffer are `f32`s: the buffer is a sequence of records of `record_words`
 /// words, and word `i` of each record is a float when bit `i` of `float_mask` is set.
@@ -69,11 +76,10 @@ impl FiniteCheck {
     /// Creates the pipeline.
     pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
         Ok(Self {
-            kernel: Kernel::new(
+            kernel: Kernel::new::<CountNonFinite>(
                 ctx,
                 module,
                 Self::ENTRY,
-                &[BindingKind::StorageBuffer, BindingKind::StorageBuffer],
                 std::mem::size_of::<FiniteCheckPush>() as u32,
             )?,
         })
@@ -105,7 +111,10 @@ impl FiniteCheck {
                 self.kernel.dispatch(
                     ctx,
                     cmd,
-                    &[Resource::Buffer(buffer), Resource::Buffer(&counts)],
+                    &CountNonFinite {
+                        words: buffer,
+                        counts: &counts,
+                    },
                     bytemuck::bytes_of(&push),
                     [groups, 1, 1],
                 )?;

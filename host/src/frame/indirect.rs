@@ -2,10 +2,18 @@
 //! dispatches and the barrier before they are read.
 
 use crate::error::Result;
-use crate::vulkan::{BindingKind, memory_barrier};
-use crate::vulkan::{Buffer, Context, Kernel, KernelModule, MemoryLocation, Resource};
+use crate::vulkan::memory_barrier;
+use crate::vulkan::{Buffer, Context, Kernel, KernelModule, MemoryLocation};
 use ash::vk;
 use gi_shared::indirect::{DispatchIndirect, IndirectPush};
+
+crate::bindings! {
+    /// DispatchFromCounter's set 0 (`kernels::indirect::dispatch_from_counter`).
+    pub(crate) struct CounterToArguments<'a> {
+        counters: &'a Buffer,
+        args: &'a Buffer,
+    }
+}
 
 /// Writes a `VkDispatchIndirectCommand` from a counter word on the GPU.
 pub struct DispatchFromCounter {
@@ -19,11 +27,10 @@ impl DispatchFromCounter {
     /// Creates the pipeline.
     pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
         Ok(Self {
-            kernel: Kernel::new(
+            kernel: Kernel::new::<CounterToArguments>(
                 ctx,
                 module,
                 Self::ENTRY,
-                &[BindingKind::StorageBuffer, BindingKind::StorageBuffer],
                 std::mem::size_of::<IndirectPush>() as u32,
             )?,
         })
@@ -57,7 +64,7 @@ impl DispatchFromCounter {
         self.kernel.dispatch(
             ctx,
             cmd,
-            &[Resource::Buffer(counters), Resource::Buffer(args)],
+            &CounterToArguments { counters, args },
             bytemuck::bytes_of(&push),
             [1, 1, 1],
         )?;

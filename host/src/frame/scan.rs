@@ -2,11 +2,26 @@
 //! sum of `u32` words in place on the GPU, level by level (`gi_shared::scan`).
 
 use crate::error::{Error, Result};
-use crate::vulkan::{
-    BindingKind, Buffer, Context, Kernel, KernelModule, MemoryLocation, Resource, compute_barrier,
-};
+use crate::vulkan::{Buffer, Context, Kernel, KernelModule, MemoryLocation, compute_barrier};
 use ash::vk;
 use gi_shared::scan::{NO_WORD, SCAN_BLOCK, ScanPush, level_count, level_len};
+
+crate::bindings! {
+    /// The scan (per block)'s set 0 (`kernels::scan::scan_blocks`).
+    pub(crate) struct ScanBlocks<'a> {
+        data: &'a Buffer,
+        sums: &'a Buffer,
+        total: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// The scan (adding block offsets)'s set 0 (`kernels::scan::add_block_offsets`).
+    pub(crate) struct AddBlockOffsets<'a> {
+        data: &'a Buffer,
+        sums: &'a Buffer,
+    }
+}
 
 /// An exclusive prefix sum of up to `max_count` words, with its scratch buffer of block sums.
 pub struct Scan {
@@ -40,19 +55,16 @@ impl Scan {
                 ),
             });
         }
-        let buffers = |n| vec![BindingKind::StorageBuffer; n];
-        let blocks = Kernel::new(
+        let blocks = Kernel::new::<ScanBlocks>(
             ctx,
             module,
             Self::SCAN_BLOCKS,
-            &buffers(3),
             std::mem::size_of::<ScanPush>() as u32,
         )?;
-        let add = match Kernel::new(
+        let add = match Kernel::new::<AddBlockOffsets>(
             ctx,
             module,
             Self::ADD_BLOCK_OFFSETS,
-            &buffers(2),
             std::mem::size_of::<ScanPush>() as u32,
         ) {
             Ok(k) => k,
@@ -135,11 +147,11 @@ impl Scan {
             self.blocks.dispatch(
                 ctx,
                 cmd,
-                &[
-                    Resource::Buffer(words),
-                    Resource::Buffer(&self.scratch),
-                    Resource::Buffer(total_buffer),
-                ],
+                &ScanBlocks {
+                    data: words,
+                    sums: &self.scratch,
+                    total: total_buffer,
+                },
                 bytemuck::bytes_of(&push),
                 [push.count.div_ceil(SCAN_BLOCK).max(1), 1, 1],
             )?;
@@ -156,7 +168,10 @@ impl Scan {
             self.add.dispatch(
                 ctx,
                 cmd,
-                &[Resource::Buffer(words), Resource::Buffer(&self.scratch)],
+                &AddBlockOffsets {
+                    data: words,
+                    sums: &self.scratch,
+                },
                 bytemuck::bytes_of(&push),
                 [push.count.div_ceil(SCAN_BLOCK), 1, 1],
             )?;

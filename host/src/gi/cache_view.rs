@@ -19,13 +19,13 @@ use super::resources::{CacheResources, RestirResources};
 use super::settings::GiSettings;
 use super::world_cache::{CacheFrame, PassTimer, SceneLighting, WorldCache};
 use crate::error::{Error, Result};
-use crate::gbuffer::GBufferImages;
+use crate::gbuffer::{GBufferBindings, GBufferImages};
 use crate::image_io::HdrImage;
 use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
 use crate::vulkan::{
-    BindingKind, Buffer, Context, FrameTimings, GpuTimer, Kernel, KernelModule, Resource,
-    compute_barrier, transfer_barrier,
+    Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule, compute_barrier,
+    transfer_barrier,
 };
 use ash::vk;
 use gi_shared::cache_view::{
@@ -145,6 +145,36 @@ pub struct CacheState {
     pub counters: Vec<u32>,
 }
 
+crate::bindings! {
+    /// TraceCacheRays's set 0 (`kernels::cache_view::trace_cache_rays`).
+    pub(crate) struct TraceCacheRays<'a> {
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        shading_normal: &'a Image,
+        albedo: &'a Image,
+        emissive: &'a Image,
+        ids: &'a Image,
+        pixels: &'a Buffer,
+        queries: &'a Buffer,
+        counters: &'a Buffer,
+        bounds: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// The cache view composite's set 0 (`kernels::cache_view::composite`).
+    pub(crate) struct CacheViewComposite<'a> {
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        albedo: &'a Image,
+        pixels: &'a Buffer,
+        accumulation: &'a Buffer,
+        history: &'a Buffer,
+    }
+}
+
 /// The cache view: resources, pipelines and the frame loop.
 pub struct CacheView {
     settings: GiSettings,
@@ -211,32 +241,17 @@ impl CacheView {
         settings.validate(width, height)?;
         options.validate()?;
         let module = KernelModule::new(ctx)?;
-        let image = BindingKind::StorageImage;
-        let buffer = BindingKind::StorageBuffer;
-        let mut gbuffer_bindings = vec![buffer];
-        gbuffer_bindings.extend(GBufferImages::binding_kinds());
-        gbuffer_bindings.push(buffer);
         let restir = RestirResources::new(ctx, settings.restir, width * height)?;
         let made = (|| -> Result<_> {
             Ok((
-                Kernel::new(ctx, &module, "gbuffer::gbuffer", &gbuffer_bindings, 0)?,
-                Kernel::new(
+                Kernel::new::<GBufferBindings>(ctx, &module, "gbuffer::gbuffer", 0)?,
+                Kernel::new::<TraceCacheRays>(
                     ctx,
                     &module,
                     "cache_view::trace_cache_rays",
-                    &[
-                        buffer, image, image, image, image, image, image, buffer, buffer, buffer,
-                        buffer,
-                    ],
                     PUSH_BYTES,
                 )?,
-                Kernel::new(
-                    ctx,
-                    &module,
-                    "cache_view::composite",
-                    &[buffer, image, image, image, buffer, buffer, buffer],
-                    0,
-                )?,
+                Kernel::new::<CacheViewComposite>(ctx, &module, "cache_view::composite", 0)?,
                 WorldCache::new(ctx, &module, restir.slots)?,
             ))
         })();
@@ -394,14 +409,14 @@ impl CacheView {
             self.cache.hash_cells.record_purge(ctx, cmd, res, params)
         })?;
         timer.pass(ctx, cmd, "GBuffer", || {
-            let mut resources = vec![Resource::Buffer(&res.camera)];
-            resources.extend(self.gbuffer.resources());
-            resources.push(Resource::Buffer(scene.previous_transforms()));
+            let bindings = self
+                .gbuffer
+                .bindings(&res.camera, scene.previous_transforms());
             self.gbuffer_kernel.dispatch_traced(
                 ctx,
                 cmd,
                 scene.sets(),
-                &resources,
+                &bindings,
                 &[],
                 pixel_groups,
             )?;
@@ -413,19 +428,19 @@ impl CacheView {
                 ctx,
                 cmd,
                 scene.sets(),
-                &[
-                    Resource::Buffer(&res.camera),
-                    Resource::Image(&images[0]),
-                    Resource::Image(&images[1]),
-                    Resource::Image(&images[2]),
-                    Resource::Image(&images[3]),
-                    Resource::Image(&images[4]),
-                    Resource::Image(&images[6]),
-                    Resource::Buffer(&res.ray_records),
-                    Resource::Buffer(&res.queries),
-                    Resource::Buffer(&res.counters),
-                    Resource::Buffer(&res.bounds),
-                ],
+                &TraceCacheRays {
+                    camera: &res.camera,
+                    depth: &images[0],
+                    geometric_normal: &images[1],
+                    shading_normal: &images[2],
+                    albedo: &images[3],
+                    emissive: &images[4],
+                    ids: &images[6],
+                    pixels: &res.ray_records,
+                    queries: &res.queries,
+                    counters: &res.counters,
+                    bounds: &res.bounds,
+                },
                 push,
                 pixel_groups,
             )?;
@@ -446,15 +461,15 @@ impl CacheView {
             self.composite.dispatch(
                 ctx,
                 cmd,
-                &[
-                    Resource::Buffer(&res.camera),
-                    Resource::Image(&images[0]),
-                    Resource::Image(&images[1]),
-                    Resource::Image(&images[3]),
-                    Resource::Buffer(&res.ray_records),
-                    Resource::Buffer(&res.accumulation),
-                    Resource::Buffer(&res.history),
-                ],
+                &CacheViewComposite {
+                    camera: &res.camera,
+                    depth: &images[0],
+                    geometric_normal: &images[1],
+                    albedo: &images[3],
+                    pixels: &res.ray_records,
+                    accumulation: &res.accumulation,
+                    history: &res.history,
+                },
                 &[],
                 pixel_groups,
             )?;

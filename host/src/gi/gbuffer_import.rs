@@ -25,7 +25,7 @@
 use crate::error::{Error, Result};
 use crate::gbuffer::GBufferImages;
 use crate::vulkan::{
-    BindingKind, Buffer, Context, Kernel, KernelModule, Resource, SampledImage, compute_barrier,
+    Buffer, Context, Image, Kernel, KernelModule, Sampled, SampledImage, compute_barrier,
     memory_barrier,
 };
 use ash::vk;
@@ -243,10 +243,29 @@ impl ExternalGBuffer {
 }
 
 /// The binding of one engine image.
-fn sampled(image: &ExternalImage) -> Resource<'_> {
-    Resource::SampledImage {
+fn sampled(image: &ExternalImage) -> Sampled {
+    Sampled {
         view: image.view,
         layout: image.layout,
+    }
+}
+
+crate::bindings! {
+    /// The G-buffer import's set 0 (`kernels::gbuffer_import::import_gbuffer`).
+    pub(crate) struct ImportGbuffer<'a> {
+        camera: &'a Buffer,
+        engine_depth: Sampled,
+        engine_normal: Sampled,
+        engine_albedo: Sampled,
+        engine_motion: Sampled,
+        engine_emissive: Sampled,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        shading_normal: &'a Image,
+        albedo: &'a Image,
+        emissive: &'a Image,
+        motion: &'a Image,
+        ids: &'a Image,
     }
 }
 
@@ -260,14 +279,10 @@ impl GBufferImport {
     /// Creates the pipeline and a device-local camera buffer.
     pub fn new(ctx: &Context) -> Result<Self> {
         let module = KernelModule::new(ctx)?;
-        let mut bindings = vec![BindingKind::StorageBuffer];
-        bindings.extend([BindingKind::SampledImage; 5]);
-        bindings.extend(GBufferImages::binding_kinds());
-        let kernel = Kernel::new(
+        let kernel = Kernel::new::<ImportGbuffer>(
             ctx,
             &module,
             "gbuffer_import::import_gbuffer",
-            &bindings,
             std::mem::size_of::<GBufferImportParams>() as u32,
         )?;
         let camera = Buffer::device_zeroed::<CameraParams>(ctx, "G-buffer import camera", 1)?;
@@ -334,18 +349,33 @@ impl GBufferImport {
         // An absent image's binding gets a present one: the flags say it is not read.
         let motion = engine.motion.as_ref().unwrap_or(&engine.depth);
         let emissive = engine.emissive.as_ref().unwrap_or(&engine.albedo);
-        let mut resources = vec![
-            Resource::Buffer(&self.camera),
-            sampled(&engine.depth),
-            sampled(&engine.normal),
-            sampled(&engine.albedo),
-            sampled(motion),
-            sampled(emissive),
-        ];
-        resources.extend(out.resources());
+        let [
+            depth,
+            geometric_normal,
+            shading_normal,
+            albedo,
+            emissive_out,
+            motion_out,
+            ids,
+        ] = &out.images;
+        let bindings = ImportGbuffer {
+            camera: &self.camera,
+            engine_depth: sampled(&engine.depth),
+            engine_normal: sampled(&engine.normal),
+            engine_albedo: sampled(&engine.albedo),
+            engine_motion: sampled(motion),
+            engine_emissive: sampled(emissive),
+            depth,
+            geometric_normal,
+            shading_normal,
+            albedo,
+            emissive: emissive_out,
+            motion: motion_out,
+            ids,
+        };
         let groups = [width.div_ceil(IMPORT_TILE), height.div_ceil(IMPORT_TILE), 1];
         self.kernel
-            .dispatch(ctx, cmd, &resources, bytemuck::bytes_of(&params), groups)?;
+            .dispatch(ctx, cmd, &bindings, bytemuck::bytes_of(&params), groups)?;
         compute_barrier(ctx, cmd);
         Ok(())
     }

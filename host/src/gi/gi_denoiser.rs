@@ -4,10 +4,10 @@
 //! ReprojectGI, FilterBlurMask and FilterGI (horizontal, then vertical), with their per-pixel
 //! buffers.
 
-use super::screen_probes::{ScreenProbeResources, kernel};
+use super::screen_probes::ScreenProbeResources;
 use crate::error::Result;
 use crate::gbuffer::GBufferImages;
-use crate::vulkan::{Buffer, Context, Kernel, KernelModule, PingPong, Resource, compute_barrier};
+use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong, compute_barrier};
 use ash::vk;
 
 /// The per-pixel buffers of interpolation and the denoiser.
@@ -66,6 +66,64 @@ impl DenoiserResources {
     }
 }
 
+crate::bindings! {
+    /// InterpolateScreenProbes's set 0 (`kernels::screen_probes::interpolate::interpolate_screen_probes`).
+    pub(crate) struct InterpolateScreenProbes<'a> {
+        frame: &'a Buffer,
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        shading_normal: &'a Image,
+        records: &'a Buffer,
+        mask: &'a Buffer,
+        sh: &'a Buffer,
+        irradiance: &'a Buffer,
+        counters: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// ReprojectGI's set 0 (`kernels::gi_denoiser::reproject_gi::reproject_gi`).
+    pub(crate) struct ReprojectGi<'a> {
+        frame: &'a Buffer,
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        irradiance: &'a Buffer,
+        previous_history: &'a Buffer,
+        history: &'a Buffer,
+        previous_surface: &'a Buffer,
+        surface: &'a Buffer,
+        previous_luma_delta: &'a Buffer,
+        luma_delta: &'a Buffer,
+        blur_mask: &'a Buffer,
+        motion: &'a Image,
+    }
+}
+
+crate::bindings! {
+    /// FilterBlurMask's set 0 (`kernels::gi_denoiser::blur_mask::filter_blur_mask`).
+    pub(crate) struct FilterBlurMask<'a> {
+        frame: &'a Buffer,
+        mask: &'a Buffer,
+        radius: &'a Buffer,
+        counters: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// FilterGI's set 0 (`kernels::gi_denoiser::filter_gi::filter_gi`).
+    pub(crate) struct FilterGi<'a> {
+        frame: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        radius: &'a Buffer,
+        input: &'a Buffer,
+        output: &'a Buffer,
+        history: &'a Buffer,
+    }
+}
+
 /// The pipelines of interpolation and the denoiser.
 pub struct DenoiserPasses {
     interpolate: Kernel,
@@ -78,34 +136,25 @@ impl DenoiserPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
         Ok(Self {
-            interpolate: kernel(
+            interpolate: Kernel::new::<InterpolateScreenProbes>(
                 ctx,
                 module,
                 "screen_probes::interpolate::interpolate_screen_probes",
-                "bbiiibbbbb",
                 0,
             )?,
-            reproject: kernel(
+            reproject: Kernel::new::<ReprojectGi>(
                 ctx,
                 module,
                 "gi_denoiser::reproject_gi::reproject_gi",
-                "bbiibbbbbbbbi",
                 0,
             )?,
-            blur_mask: kernel(
+            blur_mask: Kernel::new::<FilterBlurMask>(
                 ctx,
                 module,
                 "gi_denoiser::blur_mask::filter_blur_mask",
-                "bbbb",
                 0,
             )?,
-            filter: kernel(
-                ctx,
-                module,
-                "gi_denoiser::filter_gi::filter_gi",
-                "bbiibbbb",
-                4,
-            )?,
+            filter: Kernel::new::<FilterGi>(ctx, module, "gi_denoiser::filter_gi::filter_gi", 4)?,
         })
     }
 
@@ -123,18 +172,18 @@ impl DenoiserPasses {
         self.interpolate.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&probes.frame),
-                Resource::Buffer(camera),
-                Resource::Image(&i[0]),
-                Resource::Image(&i[1]),
-                Resource::Image(&i[2]),
-                Resource::Buffer(probes.records.current()),
-                Resource::Buffer(probes.mask.current()),
-                Resource::Buffer(&probes.sh),
-                Resource::Buffer(&res.irradiance),
-                Resource::Buffer(&probes.counters),
-            ],
+            &InterpolateScreenProbes {
+                frame: &probes.frame,
+                camera,
+                depth: &i[0],
+                geometric_normal: &i[1],
+                shading_normal: &i[2],
+                records: probes.records.current(),
+                mask: probes.mask.current(),
+                sh: &probes.sh,
+                irradiance: &res.irradiance,
+                counters: &probes.counters,
+            },
             &[],
             pixel_groups(gbuffer),
         )?;
@@ -156,21 +205,21 @@ impl DenoiserPasses {
         self.reproject.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&probes.frame),
-                Resource::Buffer(camera),
-                Resource::Image(&i[0]),
-                Resource::Image(&i[1]),
-                Resource::Buffer(&res.irradiance),
-                Resource::Buffer(res.history.previous()),
-                Resource::Buffer(res.history.current()),
-                Resource::Buffer(res.surface.previous()),
-                Resource::Buffer(res.surface.current()),
-                Resource::Buffer(res.luma_delta.previous()),
-                Resource::Buffer(res.luma_delta.current()),
-                Resource::Buffer(&res.blur_mask),
-                Resource::Image(&i[5]),
-            ],
+            &ReprojectGi {
+                frame: &probes.frame,
+                camera,
+                depth: &i[0],
+                geometric_normal: &i[1],
+                irradiance: &res.irradiance,
+                previous_history: res.history.previous(),
+                history: res.history.current(),
+                previous_surface: res.surface.previous(),
+                surface: res.surface.current(),
+                previous_luma_delta: res.luma_delta.previous(),
+                luma_delta: res.luma_delta.current(),
+                blur_mask: &res.blur_mask,
+                motion: &i[5],
+            },
             &[],
             pixel_groups(gbuffer),
         )?;
@@ -180,26 +229,24 @@ impl DenoiserPasses {
 
     /// FilterBlurMask, then FilterGI horizontal and vertical; `input` is the irradiance the
     /// blur starts from (the temporal history, or the interpolated irradiance without it).
-    #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_filter(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         probes: &ScreenProbeResources,
         res: &DenoiserResources,
-        camera: &Buffer,
         gbuffer: &GBufferImages,
         input: &Buffer,
     ) -> Result<()> {
         self.blur_mask.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&probes.frame),
-                Resource::Buffer(&res.blur_mask),
-                Resource::Buffer(&res.blur_radius),
-                Resource::Buffer(&probes.counters),
-            ],
+            &FilterBlurMask {
+                frame: &probes.frame,
+                mask: &res.blur_mask,
+                radius: &res.blur_radius,
+                counters: &probes.counters,
+            },
             &[],
             pixel_groups(gbuffer),
         )?;
@@ -213,16 +260,15 @@ impl DenoiserPasses {
             self.filter.dispatch(
                 ctx,
                 cmd,
-                &[
-                    Resource::Buffer(&probes.frame),
-                    Resource::Buffer(camera),
-                    Resource::Image(&i[0]),
-                    Resource::Image(&i[1]),
-                    Resource::Buffer(&res.blur_radius),
-                    Resource::Buffer(from),
-                    Resource::Buffer(to),
-                    Resource::Buffer(res.history.current()),
-                ],
+                &FilterGi {
+                    frame: &probes.frame,
+                    depth: &i[0],
+                    geometric_normal: &i[1],
+                    radius: &res.blur_radius,
+                    input: from,
+                    output: to,
+                    history: res.history.current(),
+                },
                 &(direction as u32).to_le_bytes(),
                 pixel_groups(gbuffer),
             )?;

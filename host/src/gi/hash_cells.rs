@@ -8,8 +8,7 @@ use crate::error::Result;
 use crate::frame::{DispatchFromCounter, indirect_offset};
 use crate::scene::lights::GpuLights;
 use crate::vulkan::{
-    BindingKind, Buffer, Context, Kernel, KernelModule, Resource, SceneSets, compute_barrier,
-    transfer_barrier,
+    Buffer, Context, Kernel, KernelModule, SceneSets, compute_barrier, transfer_barrier,
 };
 use ash::vk;
 use gi_shared::cache_view::{
@@ -22,20 +21,93 @@ use gi_shared::hash_cells::lists::{UPDATE_TILES, previous_live_list};
 /// Bytes of the push constants every cache pass takes.
 pub const PUSH_BYTES: u32 = std::mem::size_of::<CachePassParams>() as u32;
 
-/// Creates `entry` with `n` storage buffers in set 0 and the cache passes' push constants.
-pub(crate) fn buffers_kernel(
-    ctx: &Context,
-    module: &KernelModule,
-    entry: &str,
-    n: usize,
-) -> Result<Kernel> {
-    Kernel::new(
-        ctx,
-        module,
-        entry,
-        &vec![BindingKind::StorageBuffer; n],
-        PUSH_BYTES,
-    )
+crate::bindings! {
+    /// PurgeRadianceCache (opening the frame)'s set 0 (`kernels::hash_cells::purge::begin_frame`).
+    pub(crate) struct BeginFrame<'a> {
+        lists: &'a Buffer,
+        counters: &'a Buffer,
+        bounds: &'a Buffer,
+        carried: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// PurgeRadianceCache (carrying multi-bounce queries)'s set 0 (`kernels::hash_cells::purge::carry_queries`).
+    pub(crate) struct CarryQueries<'a> {
+        counters: &'a Buffer,
+        carried: &'a Buffer,
+        queries: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// PurgeRadianceCache's set 0 (`kernels::hash_cells::purge::purge_tiles`).
+    pub(crate) struct PurgeTiles<'a> {
+        keys: &'a Buffer,
+        last_touch: &'a Buffer,
+        lists: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// PopulateRadianceCache's set 0 (`kernels::hash_cells::populate::populate_radiance_cache`).
+    pub(crate) struct PopulateRadianceCache<'a> {
+        counters: &'a Buffer,
+        shadow_rays: &'a Buffer,
+        queries: &'a Buffer,
+        accumulators: &'a Buffer,
+        pixels: &'a Buffer,
+        lists: &'a Buffer,
+        reservoirs: &'a Buffer,
+        keys: &'a Buffer,
+        values: &'a Buffer,
+        environment: &'a Buffer,
+        last_touch: &'a Buffer,
+        carried: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// UpdateRadianceCache's set 0 (`kernels::hash_cells::update_tiles::update_radiance_cache`).
+    pub(crate) struct UpdateRadianceCache<'a> {
+        values: &'a Buffer,
+        accumulators: &'a Buffer,
+        lists: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// ResolveRadianceCache's set 0 (`kernels::hash_cells::resolve::resolve_radiance_cache`).
+    pub(crate) struct ResolveRadianceCache<'a> {
+        counters: &'a Buffer,
+        queries: &'a Buffer,
+        values: &'a Buffer,
+        pixels: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// InsertRadianceCache (and admitting keys to full buckets)'s set 0 (`kernels::hash_cells::insert::insert_radiance_cache`).
+    pub(crate) struct InsertRadianceCache<'a> {
+        keys: &'a Buffer,
+        last_touch: &'a Buffer,
+        values: &'a Buffer,
+        lists: &'a Buffer,
+        counters: &'a Buffer,
+        queries: &'a Buffer,
+        marks: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// InsertRadianceCache (settling full buckets)'s set 0 (`kernels::hash_cells::insert::settle_full_buckets`).
+    pub(crate) struct SettleFullBuckets<'a> {
+        keys: &'a Buffer,
+        lists: &'a Buffer,
+        counters: &'a Buffer,
+        queries: &'a Buffer,
+        marks: &'a Buffer,
+    }
 }
 
 /// The pipelines of the hash-grid passes.
@@ -57,29 +129,59 @@ impl HashCellPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
         Ok(Self {
-            begin_frame: buffers_kernel(ctx, module, "hash_cells::purge::begin_frame", 4)?,
-            carry: buffers_kernel(ctx, module, "hash_cells::purge::carry_queries", 3)?,
-            purge: buffers_kernel(ctx, module, "hash_cells::purge::purge_tiles", 3)?,
-            insert: buffers_kernel(ctx, module, "hash_cells::insert::insert_radiance_cache", 7)?,
-            settle: buffers_kernel(ctx, module, "hash_cells::insert::settle_full_buckets", 7)?,
-            admit: buffers_kernel(ctx, module, "hash_cells::insert::admit_to_full_buckets", 7)?,
-            populate: buffers_kernel(
+            begin_frame: Kernel::new::<BeginFrame>(
+                ctx,
+                module,
+                "hash_cells::purge::begin_frame",
+                PUSH_BYTES,
+            )?,
+            carry: Kernel::new::<CarryQueries>(
+                ctx,
+                module,
+                "hash_cells::purge::carry_queries",
+                PUSH_BYTES,
+            )?,
+            purge: Kernel::new::<PurgeTiles>(
+                ctx,
+                module,
+                "hash_cells::purge::purge_tiles",
+                PUSH_BYTES,
+            )?,
+            insert: Kernel::new::<InsertRadianceCache>(
+                ctx,
+                module,
+                "hash_cells::insert::insert_radiance_cache",
+                PUSH_BYTES,
+            )?,
+            settle: Kernel::new::<SettleFullBuckets>(
+                ctx,
+                module,
+                "hash_cells::insert::settle_full_buckets",
+                PUSH_BYTES,
+            )?,
+            admit: Kernel::new::<InsertRadianceCache>(
+                ctx,
+                module,
+                "hash_cells::insert::admit_to_full_buckets",
+                PUSH_BYTES,
+            )?,
+            populate: Kernel::new::<PopulateRadianceCache>(
                 ctx,
                 module,
                 "hash_cells::populate::populate_radiance_cache",
-                12,
+                PUSH_BYTES,
             )?,
-            update: buffers_kernel(
+            update: Kernel::new::<UpdateRadianceCache>(
                 ctx,
                 module,
                 "hash_cells::update_tiles::update_radiance_cache",
-                3,
+                PUSH_BYTES,
             )?,
-            resolve: buffers_kernel(
+            resolve: Kernel::new::<ResolveRadianceCache>(
                 ctx,
                 module,
                 "hash_cells::resolve::resolve_radiance_cache",
-                4,
+                PUSH_BYTES,
             )?,
             dispatch: DispatchFromCounter::new(ctx, module)?,
         })
@@ -99,12 +201,12 @@ impl HashCellPasses {
         self.begin_frame.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.lists),
-                Resource::Buffer(&res.counters),
-                Resource::Buffer(&res.bounds),
-                Resource::Buffer(&res.carried),
-            ],
+            &BeginFrame {
+                lists: &res.lists,
+                counters: &res.counters,
+                bounds: &res.bounds,
+                carried: &res.carried,
+            },
             push,
             [1, 1, 1],
         )?;
@@ -113,11 +215,11 @@ impl HashCellPasses {
             self.carry.dispatch(
                 ctx,
                 cmd,
-                &[
-                    Resource::Buffer(&res.counters),
-                    Resource::Buffer(&res.carried),
-                    Resource::Buffer(&res.queries),
-                ],
+                &CarryQueries {
+                    counters: &res.counters,
+                    carried: &res.carried,
+                    queries: &res.queries,
+                },
                 push,
                 [res.carried_capacity().div_ceil(64), 1, 1],
             )?;
@@ -134,11 +236,11 @@ impl HashCellPasses {
         self.purge.dispatch_indirect(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.keys),
-                Resource::Buffer(&res.last_touch),
-                Resource::Buffer(&res.lists),
-            ],
+            &PurgeTiles {
+                keys: &res.keys,
+                last_touch: &res.last_touch,
+                lists: &res.lists,
+            },
             push,
             &res.args,
             indirect_offset(ARGS_PURGE),
@@ -168,26 +270,33 @@ impl HashCellPasses {
             &res.args,
             ARGS_QUERIES,
         )?;
-        let buffers = [
-            Resource::Buffer(&res.keys),
-            Resource::Buffer(&res.last_touch),
-            Resource::Buffer(&res.values),
-            Resource::Buffer(&res.lists),
-            Resource::Buffer(&res.counters),
-            Resource::Buffer(&res.queries),
-            Resource::Buffer(&res.insert_marks),
-        ];
-        for kernel in [&self.insert, &self.settle, &self.admit] {
-            kernel.dispatch_indirect(
-                ctx,
-                cmd,
-                &buffers,
-                bytemuck::bytes_of(params),
-                &res.args,
-                indirect_offset(ARGS_QUERIES),
-            )?;
-            compute_barrier(ctx, cmd);
-        }
+        let insert = InsertRadianceCache {
+            keys: &res.keys,
+            last_touch: &res.last_touch,
+            values: &res.values,
+            lists: &res.lists,
+            counters: &res.counters,
+            queries: &res.queries,
+            marks: &res.insert_marks,
+        };
+        let settle = SettleFullBuckets {
+            keys: &res.keys,
+            lists: &res.lists,
+            counters: &res.counters,
+            queries: &res.queries,
+            marks: &res.insert_marks,
+        };
+        let (push, offset) = (bytemuck::bytes_of(params), indirect_offset(ARGS_QUERIES));
+        self.insert
+            .dispatch_indirect(ctx, cmd, &insert, push, &res.args, offset)?;
+        compute_barrier(ctx, cmd);
+        self.settle
+            .dispatch_indirect(ctx, cmd, &settle, push, &res.args, offset)?;
+        compute_barrier(ctx, cmd);
+        // Admitted keys are inserted as the first inserts were.
+        self.admit
+            .dispatch_indirect(ctx, cmd, &insert, push, &res.args, offset)?;
+        compute_barrier(ctx, cmd);
         Ok(())
     }
 
@@ -225,25 +334,25 @@ impl HashCellPasses {
         lights: &GpuLights,
         params: &CachePassParams,
     ) -> Result<()> {
-        let [_, _, environment, _] = lights.resources();
+        let [_, _, environment, _] = lights.buffers();
         self.populate.dispatch_indirect_traced(
             ctx,
             cmd,
             scene,
-            &[
-                Resource::Buffer(&res.counters),
-                Resource::Buffer(&res.shadow_rays),
-                Resource::Buffer(&res.queries),
-                Resource::Buffer(&res.accumulators),
-                Resource::Buffer(&res.ray_records),
-                Resource::Buffer(&res.lists),
-                Resource::Buffer(reservoirs),
-                Resource::Buffer(&res.keys),
-                Resource::Buffer(&res.values),
+            &PopulateRadianceCache {
+                counters: &res.counters,
+                shadow_rays: &res.shadow_rays,
+                queries: &res.queries,
+                accumulators: &res.accumulators,
+                pixels: &res.ray_records,
+                lists: &res.lists,
+                reservoirs,
+                keys: &res.keys,
+                values: &res.values,
                 environment,
-                Resource::Buffer(&res.last_touch),
-                Resource::Buffer(&res.carried),
-            ],
+                last_touch: &res.last_touch,
+                carried: &res.carried,
+            },
             bytemuck::bytes_of(params),
             &res.args,
             indirect_offset(ARGS_SHADOW_RAYS),
@@ -272,11 +381,11 @@ impl HashCellPasses {
         self.update.dispatch_indirect(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.values),
-                Resource::Buffer(&res.accumulators),
-                Resource::Buffer(&res.lists),
-            ],
+            &UpdateRadianceCache {
+                values: &res.values,
+                accumulators: &res.accumulators,
+                lists: &res.lists,
+            },
             bytemuck::bytes_of(params),
             &res.args,
             indirect_offset(ARGS_UPDATE),
@@ -296,12 +405,12 @@ impl HashCellPasses {
         self.resolve.dispatch_indirect(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.counters),
-                Resource::Buffer(&res.queries),
-                Resource::Buffer(&res.values),
-                Resource::Buffer(&res.ray_records),
-            ],
+            &ResolveRadianceCache {
+                counters: &res.counters,
+                queries: &res.queries,
+                values: &res.values,
+                pixels: &res.ray_records,
+            },
             bytemuck::bytes_of(params),
             &res.args,
             indirect_offset(ARGS_QUERIES),

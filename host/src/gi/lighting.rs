@@ -3,15 +3,86 @@
 //! GenerateReservoirs (temporal feedback or one RIS light sample and shadow ray per query) and
 //! world-space ReSTIR's ClearReservoirs, CompactReservoirs and ResampleReservoirs.
 
-use super::hash_cells::buffers_kernel;
+use super::hash_cells::PUSH_BYTES;
 use super::resources::{CacheResources, RestirResources};
 use crate::error::Result;
 use crate::frame::indirect_offset;
 use crate::frame::{Scan, indirect_barrier};
 use crate::scene::lights::GpuLights;
-use crate::vulkan::{Context, Kernel, KernelModule, Resource, compute_barrier, transfer_barrier};
+use crate::vulkan::{Buffer, Context, Kernel, KernelModule, compute_barrier, transfer_barrier};
 use ash::vk;
 use gi_shared::cache_view::{ARGS_LIGHT_GRID, ARGS_QUERIES, ARGS_SHADOW_RAYS, CachePassParams};
+
+crate::bindings! {
+    /// UpdateLightGrid (sizing the grid)'s set 0 (`kernels::lighting::light_grid::update_light_grid`).
+    pub(crate) struct UpdateLightGrid<'a> {
+        bounds: &'a Buffer,
+        grid: &'a Buffer,
+        args: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// UpdateLightGrid (filling its entries)'s set 0 (`kernels::lighting::light_grid::build_light_grid`).
+    pub(crate) struct BuildLightGrid<'a> {
+        grid: &'a Buffer,
+        entries: &'a Buffer,
+        lights: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// GenerateReservoirs's set 0 (`kernels::lighting::reservoirs::generate_reservoirs`).
+    pub(crate) struct GenerateReservoirs<'a> {
+        camera: &'a Buffer,
+        queries: &'a Buffer,
+        counters: &'a Buffer,
+        pixels: &'a Buffer,
+        history: &'a Buffer,
+        accumulators: &'a Buffer,
+        grid: &'a Buffer,
+        entries: &'a Buffer,
+        shadow_rays: &'a Buffer,
+        lists: &'a Buffer,
+        lights: &'a Buffer,
+        environment: &'a Buffer,
+        environment_cdf: &'a Buffer,
+        reservoir_keys: &'a Buffer,
+        reservoir_counts: &'a Buffer,
+        places: &'a Buffer,
+        reservoirs: &'a Buffer,
+        hits: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// CompactReservoirs's set 0 (`kernels::lighting::restir::compact_reservoirs`).
+    pub(crate) struct CompactReservoirs<'a> {
+        counters: &'a Buffer,
+        places: &'a Buffer,
+        offsets: &'a Buffer,
+        entries: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// ResampleReservoirs's set 0 (`kernels::lighting::restir::resample_reservoirs`).
+    pub(crate) struct ResampleReservoirs<'a> {
+        counters: &'a Buffer,
+        queries: &'a Buffer,
+        shadow_rays: &'a Buffer,
+        reservoirs: &'a Buffer,
+        previous_keys: &'a Buffer,
+        previous_offsets: &'a Buffer,
+        previous_entries: &'a Buffer,
+        previous_reservoirs: &'a Buffer,
+        previous_hits: &'a Buffer,
+        grid: &'a Buffer,
+        lights: &'a Buffer,
+        environment: &'a Buffer,
+        environment_cdf: &'a Buffer,
+    }
+}
 
 /// The pipelines of the lighting passes.
 pub struct LightingPasses {
@@ -27,11 +98,36 @@ impl LightingPasses {
     /// Creates the pipelines, with a prefix scan for reservoir grids of up to `slots` slots.
     pub fn new(ctx: &Context, module: &KernelModule, slots: u32) -> Result<Self> {
         Ok(Self {
-            update_grid: buffers_kernel(ctx, module, "lighting::light_grid::update_light_grid", 3)?,
-            build_grid: buffers_kernel(ctx, module, "lighting::light_grid::build_light_grid", 3)?,
-            generate: buffers_kernel(ctx, module, "lighting::reservoirs::generate_reservoirs", 18)?,
-            compact: buffers_kernel(ctx, module, "lighting::restir::compact_reservoirs", 4)?,
-            resample: buffers_kernel(ctx, module, "lighting::restir::resample_reservoirs", 13)?,
+            update_grid: Kernel::new::<UpdateLightGrid>(
+                ctx,
+                module,
+                "lighting::light_grid::update_light_grid",
+                PUSH_BYTES,
+            )?,
+            build_grid: Kernel::new::<BuildLightGrid>(
+                ctx,
+                module,
+                "lighting::light_grid::build_light_grid",
+                PUSH_BYTES,
+            )?,
+            generate: Kernel::new::<GenerateReservoirs>(
+                ctx,
+                module,
+                "lighting::reservoirs::generate_reservoirs",
+                PUSH_BYTES,
+            )?,
+            compact: Kernel::new::<CompactReservoirs>(
+                ctx,
+                module,
+                "lighting::restir::compact_reservoirs",
+                PUSH_BYTES,
+            )?,
+            resample: Kernel::new::<ResampleReservoirs>(
+                ctx,
+                module,
+                "lighting::restir::resample_reservoirs",
+                PUSH_BYTES,
+            )?,
             scan: Scan::new(ctx, module, slots)?,
         })
     }
@@ -50,24 +146,24 @@ impl LightingPasses {
         self.update_grid.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.bounds),
-                Resource::Buffer(&res.light_grid),
-                Resource::Buffer(&res.args),
-            ],
+            &UpdateLightGrid {
+                bounds: &res.bounds,
+                grid: &res.light_grid,
+                args: &res.args,
+            },
             push,
             [1, 1, 1],
         )?;
         indirect_barrier(ctx, cmd);
-        let [light_buffer, ..] = lights.resources();
+        let [light_buffer, ..] = lights.buffers();
         self.build_grid.dispatch_indirect(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.light_grid),
-                Resource::Buffer(&res.light_grid_entries),
-                light_buffer,
-            ],
+            &BuildLightGrid {
+                grid: &res.light_grid,
+                entries: &res.light_grid_entries,
+                lights: light_buffer,
+            },
             push,
             &res.args,
             indirect_offset(ARGS_LIGHT_GRID),
@@ -100,31 +196,31 @@ impl LightingPasses {
         lights: &GpuLights,
         params: &CachePassParams,
     ) -> Result<()> {
-        let [light_buffer, _, environment, distribution] = lights.resources();
+        let [light_buffer, _, environment, distribution] = lights.buffers();
         let grid = restir.grids.current();
         self.generate.dispatch_indirect(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.camera),
-                Resource::Buffer(&res.queries),
-                Resource::Buffer(&res.counters),
-                Resource::Buffer(&res.ray_records),
-                Resource::Buffer(&res.history),
-                Resource::Buffer(&res.accumulators),
-                Resource::Buffer(&res.light_grid),
-                Resource::Buffer(&res.light_grid_entries),
-                Resource::Buffer(&res.shadow_rays),
-                Resource::Buffer(&res.lists),
-                light_buffer,
+            &GenerateReservoirs {
+                camera: &res.camera,
+                queries: &res.queries,
+                counters: &res.counters,
+                pixels: &res.ray_records,
+                history: &res.history,
+                accumulators: &res.accumulators,
+                grid: &res.light_grid,
+                entries: &res.light_grid_entries,
+                shadow_rays: &res.shadow_rays,
+                lists: &res.lists,
+                lights: light_buffer,
                 environment,
-                distribution,
-                Resource::Buffer(&grid.keys),
-                Resource::Buffer(&grid.offsets),
-                Resource::Buffer(&restir.places),
-                Resource::Buffer(&grid.reservoirs),
-                Resource::Buffer(&grid.hits),
-            ],
+                environment_cdf: distribution,
+                reservoir_keys: &grid.keys,
+                reservoir_counts: &grid.offsets,
+                places: &restir.places,
+                reservoirs: &grid.reservoirs,
+                hits: &grid.hits,
+            },
             bytemuck::bytes_of(params),
             &res.args,
             indirect_offset(ARGS_QUERIES),
@@ -155,12 +251,12 @@ impl LightingPasses {
         self.compact.dispatch_indirect(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.counters),
-                Resource::Buffer(&restir.places),
-                Resource::Buffer(&grid.offsets),
-                Resource::Buffer(&grid.entries),
-            ],
+            &CompactReservoirs {
+                counters: &res.counters,
+                places: &restir.places,
+                offsets: &grid.offsets,
+                entries: &grid.entries,
+            },
             bytemuck::bytes_of(params),
             &res.args,
             indirect_offset(ARGS_SHADOW_RAYS),
@@ -180,26 +276,26 @@ impl LightingPasses {
         lights: &GpuLights,
         params: &CachePassParams,
     ) -> Result<()> {
-        let [light_buffer, _, environment, distribution] = lights.resources();
+        let [light_buffer, _, environment, distribution] = lights.buffers();
         let (current, previous) = restir.grids.pair();
         self.resample.dispatch_indirect(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.counters),
-                Resource::Buffer(&res.queries),
-                Resource::Buffer(&res.shadow_rays),
-                Resource::Buffer(&current.reservoirs),
-                Resource::Buffer(&previous.keys),
-                Resource::Buffer(&previous.offsets),
-                Resource::Buffer(&previous.entries),
-                Resource::Buffer(&previous.reservoirs),
-                Resource::Buffer(&previous.hits),
-                Resource::Buffer(&res.light_grid),
-                light_buffer,
+            &ResampleReservoirs {
+                counters: &res.counters,
+                queries: &res.queries,
+                shadow_rays: &res.shadow_rays,
+                reservoirs: &current.reservoirs,
+                previous_keys: &previous.keys,
+                previous_offsets: &previous.offsets,
+                previous_entries: &previous.entries,
+                previous_reservoirs: &previous.reservoirs,
+                previous_hits: &previous.hits,
+                grid: &res.light_grid,
+                lights: light_buffer,
                 environment,
-                distribution,
-            ],
+                environment_cdf: distribution,
+            },
             bytemuck::bytes_of(params),
             &res.args,
             indirect_offset(ARGS_SHADOW_RAYS),

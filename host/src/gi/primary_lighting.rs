@@ -5,11 +5,11 @@
 //! and the feedback image of the next frame).
 
 use super::gi_denoiser::pixel_groups;
-use super::screen_probes::{ScreenProbeResources, kernel};
+use super::screen_probes::ScreenProbeResources;
 use crate::error::Result;
 use crate::gbuffer::GBufferImages;
 use crate::scene::upload::GpuScene;
-use crate::vulkan::{Buffer, Context, Kernel, KernelModule, Resource, compute_barrier};
+use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, compute_barrier};
 use ash::vk;
 use gi_shared::primary_lighting::PrimaryLighting;
 
@@ -31,6 +31,35 @@ impl PrimaryResources {
     }
 }
 
+crate::bindings! {
+    /// DirectLight's set 0 (`kernels::primary_lighting::direct_light`).
+    pub(crate) struct DirectLight<'a> {
+        frame: &'a Buffer,
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        shading_normal: &'a Image,
+        emissive: &'a Image,
+        ids: &'a Image,
+        lighting: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// ResolveGI's set 0 (`kernels::primary_lighting::resolve_gi`).
+    pub(crate) struct ResolveGi<'a> {
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        albedo: &'a Image,
+        lighting: &'a Buffer,
+        irradiance: &'a Buffer,
+        color: &'a Buffer,
+        history: &'a Buffer,
+        undenoised: &'a Buffer,
+    }
+}
+
 /// The pipelines of DirectLight and ResolveGI.
 pub struct PrimaryPasses {
     direct: Kernel,
@@ -41,8 +70,8 @@ impl PrimaryPasses {
     /// Creates the pipelines.
     pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
         Ok(Self {
-            direct: kernel(ctx, module, "primary_lighting::direct_light", "bbiiiiib", 0)?,
-            resolve: kernel(ctx, module, "primary_lighting::resolve_gi", "biiibbbbb", 0)?,
+            direct: Kernel::new::<DirectLight>(ctx, module, "primary_lighting::direct_light", 0)?,
+            resolve: Kernel::new::<ResolveGi>(ctx, module, "primary_lighting::resolve_gi", 0)?,
         })
     }
 
@@ -63,16 +92,16 @@ impl PrimaryPasses {
             ctx,
             cmd,
             scene.sets(),
-            &[
-                Resource::Buffer(&probes.frame),
-                Resource::Buffer(camera),
-                Resource::Image(&i[0]),
-                Resource::Image(&i[1]),
-                Resource::Image(&i[2]),
-                Resource::Image(&i[4]),
-                Resource::Image(&i[6]),
-                Resource::Buffer(&res.primary),
-            ],
+            &DirectLight {
+                frame: &probes.frame,
+                camera,
+                depth: &i[0],
+                geometric_normal: &i[1],
+                shading_normal: &i[2],
+                emissive: &i[4],
+                ids: &i[6],
+                lighting: &res.primary,
+            },
             &[],
             pixel_groups(gbuffer),
         )?;
@@ -99,17 +128,17 @@ impl PrimaryPasses {
         self.resolve.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(camera),
-                Resource::Image(&i[0]),
-                Resource::Image(&i[1]),
-                Resource::Image(&i[3]),
-                Resource::Buffer(&res.primary),
-                Resource::Buffer(irradiance),
-                Resource::Buffer(&res.color),
-                Resource::Buffer(feedback),
-                Resource::Buffer(undenoised),
-            ],
+            &ResolveGi {
+                camera,
+                depth: &i[0],
+                geometric_normal: &i[1],
+                albedo: &i[3],
+                lighting: &res.primary,
+                irradiance,
+                color: &res.color,
+                history: feedback,
+                undenoised,
+            },
             &[],
             pixel_groups(gbuffer),
         )?;

@@ -20,13 +20,13 @@ use super::world_cache::{CacheFrame, PassTimer, SceneLighting, WorldCache};
 use crate::engine::{FrameInputs, FrameOutputs, GBufferSource, OutputImage};
 use crate::error::Result;
 use crate::frame::FloatWords;
-use crate::gbuffer::GBufferImages;
+use crate::gbuffer::{GBufferBindings, GBufferImages};
 use crate::image_io::HdrImage;
 use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
 use crate::vulkan::{
-    BindingKind, Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule, Resource,
-    compute_barrier, memory_barrier, transfer_barrier,
+    Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule, compute_barrier,
+    memory_barrier, transfer_barrier,
 };
 use ash::vk;
 use gi_shared::cache_view::{
@@ -118,12 +118,9 @@ impl GiRenderer {
         let pixels = width as usize * height as usize;
         let module = KernelModule::new(ctx)?;
         let restir = RestirResources::new(ctx, settings.restir, rays)?;
-        let mut gbuffer_bindings = vec![BindingKind::StorageBuffer];
-        gbuffer_bindings.extend(GBufferImages::binding_kinds());
-        gbuffer_bindings.push(BindingKind::StorageBuffer);
         let made = (|| -> Result<_> {
             Ok((
-                Kernel::new(ctx, &module, "gbuffer::gbuffer", &gbuffer_bindings, 0)?,
+                Kernel::new::<GBufferBindings>(ctx, &module, "gbuffer::gbuffer", 0)?,
                 WorldCache::new(ctx, &module, restir.slots)?,
                 ScreenProbePasses::new(ctx, &module)?,
                 DenoiserPasses::new(ctx, &module)?,
@@ -533,14 +530,12 @@ impl GiRenderer {
         })?;
         if gbuffer_source == GBufferSource::Traced {
             timer.pass(ctx, cmd, "GBuffer", || {
-                let mut resources = vec![Resource::Buffer(camera)];
-                resources.extend(gbuffer.resources());
-                resources.push(Resource::Buffer(scene.previous_transforms()));
+                let bindings = gbuffer.bindings(camera, scene.previous_transforms());
                 self.gbuffer_kernel.dispatch_traced(
                     ctx,
                     cmd,
                     scene.sets(),
-                    &resources,
+                    &bindings,
                     &[],
                     super::gi_denoiser::pixel_groups(gbuffer),
                 )?;
@@ -611,7 +606,7 @@ impl GiRenderer {
         let temporal_out = denoiser.output(true, false);
         if s.denoiser_spatial {
             timer.pass(ctx, cmd, "FilterGI", || {
-                dp.record_filter(ctx, cmd, probes, denoiser, camera, gbuffer, temporal_out)
+                dp.record_filter(ctx, cmd, probes, denoiser, gbuffer, temporal_out)
             })?;
         }
         let irradiance = denoiser.output(true, s.denoiser_spatial);

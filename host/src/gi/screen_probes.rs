@@ -11,8 +11,7 @@ use super::settings::GiSettings;
 use crate::error::Result;
 use crate::gbuffer::GBufferImages;
 use crate::vulkan::{
-    BindingKind, Buffer, Context, Kernel, KernelModule, PingPong, Resource, SceneSets,
-    compute_barrier,
+    Buffer, Context, Image, Kernel, KernelModule, PingPong, SceneSets, compute_barrier,
 };
 use ash::vk;
 use gi_shared::cache_view::CachePassParams;
@@ -22,23 +21,141 @@ use gi_shared::screen_probes::{
 };
 use gi_shared::sh::SH_COEFFICIENT_COUNT;
 
-/// Creates `entry` with set 0 laid out by `kinds` (`b` a storage buffer, `i` a storage image)
-/// and `push` bytes of push constants.
-pub(crate) fn kernel(
-    ctx: &Context,
-    module: &KernelModule,
-    entry: &str,
-    kinds: &str,
-    push: u32,
-) -> Result<Kernel> {
-    let bindings: Vec<BindingKind> = kinds
-        .chars()
-        .map(|c| match c {
-            'i' => BindingKind::StorageImage,
-            _ => BindingKind::StorageBuffer,
-        })
-        .collect();
-    Kernel::new(ctx, module, entry, &bindings, push)
+crate::bindings! {
+    /// ReprojectScreenProbes's set 0 (`kernels::screen_probes::reproject::reproject_screen_probes`).
+    pub(crate) struct ReprojectScreenProbes<'a> {
+        frame: &'a Buffer,
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        previous_records: &'a Buffer,
+        previous_mask: &'a Buffer,
+        previous_atlas: &'a Buffer,
+        records: &'a Buffer,
+        mask: &'a Buffer,
+        atlas: &'a Buffer,
+        empty_tiles: &'a Buffer,
+        counters: &'a Buffer,
+        motion: &'a Image,
+    }
+}
+
+crate::bindings! {
+    /// SpawnScreenProbes's set 0 (`kernels::screen_probes::spawn::spawn_screen_probes`).
+    pub(crate) struct SpawnScreenProbes<'a> {
+        frame: &'a Buffer,
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        records: &'a Buffer,
+        spawns: &'a Buffer,
+        overrides: &'a Buffer,
+        counters: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// PatchScreenProbes (claiming override slots)'s set 0 (`kernels::screen_probes::patch::claim_override_slots`).
+    pub(crate) struct ClaimOverrideSlots<'a> {
+        frame: &'a Buffer,
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        empty_tiles: &'a Buffer,
+        overrides: &'a Buffer,
+        counters: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// PatchScreenProbes's set 0 (`kernels::screen_probes::patch::patch_screen_probes`).
+    pub(crate) struct PatchScreenProbes<'a> {
+        frame: &'a Buffer,
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        empty_tiles: &'a Buffer,
+        overrides: &'a Buffer,
+        spawns: &'a Buffer,
+        counters: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// SampleScreenProbes's set 0 (`kernels::screen_probes::sample::sample_screen_probes`).
+    pub(crate) struct SampleScreenProbes<'a> {
+        frame: &'a Buffer,
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        spawns: &'a Buffer,
+        records: &'a Buffer,
+        atlas: &'a Buffer,
+        probe_history: &'a Buffer,
+        probe_rays: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// PopulateScreenProbes's set 0 (`kernels::screen_probes::populate::populate_screen_probes`).
+    pub(crate) struct PopulateScreenProbes<'a> {
+        frame: &'a Buffer,
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        spawns: &'a Buffer,
+        probe_rays: &'a Buffer,
+        ray_records: &'a Buffer,
+        queries: &'a Buffer,
+        counters: &'a Buffer,
+        bounds: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// BlendScreenProbes's set 0 (`kernels::screen_probes::blend::blend_screen_probes`).
+    pub(crate) struct BlendScreenProbes<'a> {
+        frame: &'a Buffer,
+        camera: &'a Buffer,
+        depth: &'a Image,
+        geometric_normal: &'a Image,
+        spawns: &'a Buffer,
+        probe_rays: &'a Buffer,
+        ray_records: &'a Buffer,
+        probe_history: &'a Buffer,
+        records: &'a Buffer,
+        mask: &'a Buffer,
+        atlas: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// FilterProbeMask's set 0 (`kernels::screen_probes::probe_mask::filter_probe_mask`).
+    pub(crate) struct FilterProbeMask<'a> {
+        frame: &'a Buffer,
+        mask: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// FilterScreenProbes's set 0 (`kernels::screen_probes::filter::filter_screen_probes`).
+    pub(crate) struct FilterScreenProbes<'a> {
+        frame: &'a Buffer,
+        records: &'a Buffer,
+        mask: &'a Buffer,
+        input: &'a Buffer,
+        output: &'a Buffer,
+    }
+}
+
+crate::bindings! {
+    /// ProjectScreenProbes's set 0 (`kernels::screen_probes::project::project_screen_probes`).
+    pub(crate) struct ProjectScreenProbes<'a> {
+        frame: &'a Buffer,
+        records: &'a Buffer,
+        cells: &'a Buffer,
+        sh: &'a Buffer,
+    }
 }
 
 /// How many probes a frame holds and spawns.
@@ -203,74 +320,64 @@ impl ScreenProbePasses {
     pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
         let sp = "screen_probes::";
         Ok(Self {
-            reproject: kernel(
+            reproject: Kernel::new::<ReprojectScreenProbes>(
                 ctx,
                 module,
                 &format!("{sp}reproject::reproject_screen_probes"),
-                "bbiibbbbbbbbi",
                 0,
             )?,
-            spawn: kernel(
+            spawn: Kernel::new::<SpawnScreenProbes>(
                 ctx,
                 module,
                 &format!("{sp}spawn::spawn_screen_probes"),
-                "bbiibbbb",
                 0,
             )?,
-            claim: kernel(
+            claim: Kernel::new::<ClaimOverrideSlots>(
                 ctx,
                 module,
                 &format!("{sp}patch::claim_override_slots"),
-                "bbiibbbb",
                 0,
             )?,
-            patch: kernel(
+            patch: Kernel::new::<PatchScreenProbes>(
                 ctx,
                 module,
                 &format!("{sp}patch::patch_screen_probes"),
-                "bbiibbbb",
                 0,
             )?,
-            sample: kernel(
+            sample: Kernel::new::<SampleScreenProbes>(
                 ctx,
                 module,
                 &format!("{sp}sample::sample_screen_probes"),
-                "bbiibbbbb",
                 0,
             )?,
-            populate: kernel(
+            populate: Kernel::new::<PopulateScreenProbes>(
                 ctx,
                 module,
                 &format!("{sp}populate::populate_screen_probes"),
-                "bbiibbbbbb",
                 PUSH_BYTES,
             )?,
-            blend: kernel(
+            blend: Kernel::new::<BlendScreenProbes>(
                 ctx,
                 module,
                 &format!("{sp}blend::blend_screen_probes"),
-                "bbiibbbbbbb",
                 0,
             )?,
-            probe_mask: kernel(
+            probe_mask: Kernel::new::<FilterProbeMask>(
                 ctx,
                 module,
                 &format!("{sp}probe_mask::filter_probe_mask"),
-                "bb",
                 U32_PUSH,
             )?,
-            filter: kernel(
+            filter: Kernel::new::<FilterScreenProbes>(
                 ctx,
                 module,
                 &format!("{sp}filter::filter_screen_probes"),
-                "bbbbb",
                 U32_PUSH,
             )?,
-            project: kernel(
+            project: Kernel::new::<ProjectScreenProbes>(
                 ctx,
                 module,
                 &format!("{sp}project::project_screen_probes"),
-                "bbbb",
                 0,
             )?,
         })
@@ -290,21 +397,21 @@ impl ScreenProbePasses {
         self.reproject.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.frame),
-                Resource::Buffer(camera),
-                Resource::Image(depth),
-                Resource::Image(normal),
-                Resource::Buffer(res.records.previous()),
-                Resource::Buffer(res.mask.previous()),
-                Resource::Buffer(res.atlas.previous()),
-                Resource::Buffer(res.records.current()),
-                Resource::Buffer(res.mask.current()),
-                Resource::Buffer(res.atlas.current()),
-                Resource::Buffer(&res.empty_tiles),
-                Resource::Buffer(&res.counters),
-                Resource::Image(&gbuffer.images[5]),
-            ],
+            &ReprojectScreenProbes {
+                frame: &res.frame,
+                camera,
+                depth,
+                geometric_normal: normal,
+                previous_records: res.records.previous(),
+                previous_mask: res.mask.previous(),
+                previous_atlas: res.atlas.previous(),
+                records: res.records.current(),
+                mask: res.mask.current(),
+                atlas: res.atlas.current(),
+                empty_tiles: &res.empty_tiles,
+                counters: &res.counters,
+                motion: &gbuffer.images[5],
+            },
             &[],
             [g[0], g[1], 1],
         )?;
@@ -325,16 +432,16 @@ impl ScreenProbePasses {
         self.spawn.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.frame),
-                Resource::Buffer(camera),
-                Resource::Image(depth),
-                Resource::Image(normal),
-                Resource::Buffer(res.records.current()),
-                Resource::Buffer(&res.spawns),
-                Resource::Buffer(&res.overrides),
-                Resource::Buffer(&res.counters),
-            ],
+            &SpawnScreenProbes {
+                frame: &res.frame,
+                camera,
+                depth,
+                geometric_normal: normal,
+                records: res.records.current(),
+                spawns: &res.spawns,
+                overrides: &res.overrides,
+                counters: &res.counters,
+            },
             &[],
             [res.layout.spawn_capacity().div_ceil(64), 1, 1],
         )?;
@@ -353,20 +460,29 @@ impl ScreenProbePasses {
         gbuffer: &GBufferImages,
     ) -> Result<()> {
         let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
-        let resources = [
-            Resource::Buffer(&res.frame),
-            Resource::Buffer(camera),
-            Resource::Image(depth),
-            Resource::Image(normal),
-            Resource::Buffer(&res.empty_tiles),
-            Resource::Buffer(&res.overrides),
-            Resource::Buffer(&res.spawns),
-            Resource::Buffer(&res.counters),
-        ];
+        let patch = PatchScreenProbes {
+            frame: &res.frame,
+            camera,
+            depth,
+            geometric_normal: normal,
+            empty_tiles: &res.empty_tiles,
+            overrides: &res.overrides,
+            spawns: &res.spawns,
+            counters: &res.counters,
+        };
+        let claim = ClaimOverrideSlots {
+            frame: patch.frame,
+            camera,
+            depth,
+            geometric_normal: normal,
+            empty_tiles: patch.empty_tiles,
+            overrides: patch.overrides,
+            counters: patch.counters,
+        };
         let groups = [res.layout.probe_count().div_ceil(64), 1, 1];
-        self.claim.dispatch(ctx, cmd, &resources, &[], groups)?;
+        self.claim.dispatch(ctx, cmd, &claim, &[], groups)?;
         compute_barrier(ctx, cmd);
-        self.patch.dispatch(ctx, cmd, &resources, &[], groups)?;
+        self.patch.dispatch(ctx, cmd, &patch, &[], groups)?;
         compute_barrier(ctx, cmd);
         Ok(())
     }
@@ -385,17 +501,17 @@ impl ScreenProbePasses {
         self.sample.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.frame),
-                Resource::Buffer(camera),
-                Resource::Image(depth),
-                Resource::Image(normal),
-                Resource::Buffer(&res.spawns),
-                Resource::Buffer(res.records.current()),
-                Resource::Buffer(res.atlas.current()),
-                Resource::Buffer(&res.history),
-                Resource::Buffer(&res.rays),
-            ],
+            &SampleScreenProbes {
+                frame: &res.frame,
+                camera,
+                depth,
+                geometric_normal: normal,
+                spawns: &res.spawns,
+                records: res.records.current(),
+                atlas: res.atlas.current(),
+                probe_history: &res.history,
+                probe_rays: &res.rays,
+            },
             &[],
             [s[0], s[1], 1],
         )?;
@@ -422,18 +538,18 @@ impl ScreenProbePasses {
             ctx,
             cmd,
             scene,
-            &[
-                Resource::Buffer(&res.frame),
-                Resource::Buffer(camera),
-                Resource::Image(depth),
-                Resource::Image(normal),
-                Resource::Buffer(&res.spawns),
-                Resource::Buffer(&res.rays),
-                Resource::Buffer(&cache.ray_records),
-                Resource::Buffer(&cache.queries),
-                Resource::Buffer(&cache.counters),
-                Resource::Buffer(&cache.bounds),
-            ],
+            &PopulateScreenProbes {
+                frame: &res.frame,
+                camera,
+                depth,
+                geometric_normal: normal,
+                spawns: &res.spawns,
+                probe_rays: &res.rays,
+                ray_records: &cache.ray_records,
+                queries: &cache.queries,
+                counters: &cache.counters,
+                bounds: &cache.bounds,
+            },
             bytemuck::bytes_of(params),
             [s[0], s[1], 1],
         )?;
@@ -456,19 +572,19 @@ impl ScreenProbePasses {
         self.blend.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.frame),
-                Resource::Buffer(camera),
-                Resource::Image(depth),
-                Resource::Image(normal),
-                Resource::Buffer(&res.spawns),
-                Resource::Buffer(&res.rays),
-                Resource::Buffer(&cache.ray_records),
-                Resource::Buffer(&res.history),
-                Resource::Buffer(res.records.current()),
-                Resource::Buffer(res.mask.current()),
-                Resource::Buffer(res.atlas.current()),
-            ],
+            &BlendScreenProbes {
+                frame: &res.frame,
+                camera,
+                depth,
+                geometric_normal: normal,
+                spawns: &res.spawns,
+                probe_rays: &res.rays,
+                ray_records: &cache.ray_records,
+                probe_history: &res.history,
+                records: res.records.current(),
+                mask: res.mask.current(),
+                atlas: res.atlas.current(),
+            },
             &[],
             [s[0], s[1], 1],
         )?;
@@ -488,10 +604,10 @@ impl ScreenProbePasses {
             self.probe_mask.dispatch(
                 ctx,
                 cmd,
-                &[
-                    Resource::Buffer(&res.frame),
-                    Resource::Buffer(res.mask.current()),
-                ],
+                &FilterProbeMask {
+                    frame: &res.frame,
+                    mask: res.mask.current(),
+                },
                 &mip.to_le_bytes(),
                 [size[0].div_ceil(8), size[1].div_ceil(8), 1],
             )?;
@@ -513,13 +629,13 @@ impl ScreenProbePasses {
             self.filter.dispatch(
                 ctx,
                 cmd,
-                &[
-                    Resource::Buffer(&res.frame),
-                    Resource::Buffer(res.records.current()),
-                    Resource::Buffer(res.mask.current()),
-                    Resource::Buffer(input),
-                    Resource::Buffer(output),
-                ],
+                &FilterScreenProbes {
+                    frame: &res.frame,
+                    records: res.records.current(),
+                    mask: res.mask.current(),
+                    input,
+                    output,
+                },
                 &(direction as u32).to_le_bytes(),
                 [g[0], g[1], 1],
             )?;
@@ -540,12 +656,12 @@ impl ScreenProbePasses {
         self.project.dispatch(
             ctx,
             cmd,
-            &[
-                Resource::Buffer(&res.frame),
-                Resource::Buffer(res.records.current()),
-                Resource::Buffer(cells),
-                Resource::Buffer(&res.sh),
-            ],
+            &ProjectScreenProbes {
+                frame: &res.frame,
+                records: res.records.current(),
+                cells,
+                sh: &res.sh,
+            },
             &[],
             [g[0], g[1], 1],
         )?;

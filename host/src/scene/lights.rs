@@ -462,11 +462,16 @@ impl GpuLights {
     /// The four buffers, the last bindings of the scene's set 2 (`vulkan::SceneSet::Shading`):
     /// lights, triangle→light table, environment texels, environment distribution.
     pub fn resources(&self) -> [Resource<'_>; 4] {
+        self.buffers().map(Resource::Buffer)
+    }
+
+    /// The four buffers of [`Self::resources`], in its order.
+    pub fn buffers(&self) -> [&Buffer; 4] {
         [
-            Resource::Buffer(&self.lights),
-            Resource::Buffer(&self.triangle_table),
-            Resource::Buffer(&self.environment),
-            Resource::Buffer(&self.distribution),
+            &self.lights,
+            &self.triangle_table,
+            &self.environment,
+            &self.distribution,
         ]
     }
 }

@@ -382,7 +382,7 @@ impl Context {
             .iter_mut()
             .zip([SceneSet::Geometry, SceneSet::Shading])
         {
-            let kinds = set.binding_kinds(variant, ctx.capabilities.scene_texture_slots());
+            let kinds = set.binding_slots(variant, ctx.capabilities.scene_texture_slots());
             *slot = create_set_layout(&ctx.device, &kinds, false)?;
         }
         Ok(ctx)

@@ -2,12 +2,14 @@
 //! current/previous pairs of per-frame resources.
 
 mod accel;
+mod bindings;
 mod capabilities;
 mod context;
 mod image;
 mod memory;
 mod ping_pong;
 mod pipeline;
+pub mod reflect;
 mod sampled_image;
 mod split_buffer;
 mod texture_image;
@@ -15,6 +17,7 @@ mod timing;
 mod validation;
 
 pub use accel::{AccelerationStructure, Instance, TopLevel};
+pub use bindings::{BindingField, Bindings, DeclaredBinding, Sampled};
 pub use capabilities::{Capabilities, FeatureChain};
 pub use context::{
     Context, ContextOptions, DEVICE_ENV, DeviceRequirements, ExternalDevice, LOADER_ENV,

@@ -20,14 +20,17 @@
 //! host code shifts binding numbers by variant; and the scene's many shading buffers stay out of
 //! the 32 push-descriptor bindings a pass may use.
 
+use super::bindings::{Bindings, DeclaredBinding};
 use super::context::{Context, SharedDevice};
 use super::image::Image;
 use super::memory::{Buffer, memory_barrier};
+use super::reflect::{KernelBinding, check_declared, set0_bindings};
 use super::split_buffer::SplitBuffer;
 use crate::error::{Error, Result, VkContext};
 use crate::kernels::KernelVariant;
 use ash::vk;
 use gi_shared::layout::SCENE_BUFFER_CHUNKS;
+use std::collections::HashMap;
 use std::ffi::CString;
 use std::sync::Arc;
 
@@ -87,9 +90,9 @@ pub enum Resource<'a> {
 /// dropped (pipelines made from it stay valid).
 pub struct KernelModule {
     common: vk::ShaderModule,
-    common_entries: Vec<String>,
+    common_kernels: HashMap<String, Vec<KernelBinding>>,
     /// The ray-query module; `None` in software, where the common module traces.
-    ray_query: Option<(vk::ShaderModule, Vec<String>)>,
+    ray_query: Option<(vk::ShaderModule, HashMap<String, Vec<KernelBinding>>)>,
     shared: Arc<SharedDevice>,
 }
 
@@ -103,25 +106,32 @@ impl KernelModule {
         let words = crate::kernels::common_spirv_words();
         let mut module = Self {
             common: load(&words)?,
-            common_entries: crate::kernels::entry_points(&words),
+            common_kernels: set0_bindings(&words),
             ray_query: None,
             shared: ctx.shared.clone(),
         };
         if ctx.variant() == KernelVariant::RayQuery {
             let words = KernelVariant::RayQuery.tracing_spirv_words();
-            module.ray_query = Some((load(&words)?, crate::kernels::entry_points(&words)));
+            module.ray_query = Some((load(&words)?, set0_bindings(&words)));
         }
         Ok(module)
     }
 
-    /// The module and module name `entry` comes from, if it has it: the ray-query module for a
-    /// kernel that traces in the ray-query variant, the common module otherwise.
-    fn find(&self, entry: &str) -> (Option<vk::ShaderModule>, &'static str) {
-        let (module, entries, name) = match &self.ray_query {
-            Some((m, entries)) if crate::kernels::traces(entry) => (*m, entries, "ray-query"),
-            _ => (self.common, &self.common_entries, "common"),
+    /// The module `entry` comes from and its set-0 bindings, if the module has it (else the
+    /// module's name): the ray-query module for a kernel that traces in the ray-query variant,
+    /// the common module otherwise.
+    fn find(
+        &self,
+        entry: &str,
+    ) -> std::result::Result<(vk::ShaderModule, &[KernelBinding]), &'static str> {
+        let (module, kernels, name) = match &self.ray_query {
+            Some((m, kernels)) if crate::kernels::traces(entry) => (*m, kernels, "ray-query"),
+            _ => (self.common, &self.common_kernels, "common"),
         };
-        (entries.iter().any(|e| e == entry).then_some(module), name)
+        kernels
+            .get(entry)
+            .map(|b| (module, b.as_slice()))
+            .ok_or(name)
     }
 }
 
@@ -142,7 +152,9 @@ pub struct Kernel {
     pipeline: vk::Pipeline,
     layout: vk::PipelineLayout,
     set_layout: vk::DescriptorSetLayout,
-    bindings: Vec<BindingKind>,
+    /// Set 0: each binding's number and kind, in the order of `declared`.
+    slots: Vec<(u32, BindingKind)>,
+    declared: &'static [DeclaredBinding],
     push_constant_bytes: u32,
     traces: bool,
     /// The entry point's name.
@@ -151,20 +163,29 @@ pub struct Kernel {
 }
 
 impl Kernel {
-    /// Creates the pipeline of `entry`, with set 0 laid out as `bindings` (at most
-    /// [`MAX_PUSH_BINDINGS`]) and `push_constant_bytes` of push constants (0 for none). A kernel
-    /// that traces also gets the scene's sets 1 and 2.
-    pub fn new(
+    /// Creates the pipeline of `entry`, whose set 0 the host binds as `B` (a [`crate::bindings!`]
+    /// struct: the kernel's parameters by name, in order, at most [`MAX_PUSH_BINDINGS`]), with
+    /// `push_constant_bytes` of push constants (0 for none). A kernel that traces also gets the
+    /// scene's sets 1 and 2. A declaration that is not the kernel's (a binding swapped, missing,
+    /// extra or of another kind) is an error naming the kernel and the binding.
+    pub fn new<B: Bindings>(
         ctx: &Context,
         module: &KernelModule,
         entry: &str,
-        bindings: &[BindingKind],
         push_constant_bytes: u32,
     ) -> Result<Self> {
-        let module = match module.find(entry) {
-            (Some(m), _) => m,
-            (None, name) => return Err(Error::NoSuchKernel(entry.to_string(), name)),
-        };
+        let (module, kernel_bindings) = module
+            .find(entry)
+            .map_err(|name| Error::NoSuchKernel(entry.to_string(), name))?;
+        let bindings = B::DECLARED;
+        check_declared(kernel_bindings, bindings).map_err(|why| Error::InvalidArgument {
+            name: "kernel bindings",
+            why: format!("kernel {entry}: {why}"),
+        })?;
+        let slots: Vec<(u32, BindingKind)> = kernel_bindings
+            .iter()
+            .map(|b| (b.binding, b.kind))
+            .collect();
         if bindings.len() > MAX_PUSH_BINDINGS {
             return Err(Error::InvalidArgument {
                 name: "kernel bindings",
@@ -181,8 +202,9 @@ impl Kernel {
         let mut kernel = Self {
             pipeline: vk::Pipeline::null(),
             layout: vk::PipelineLayout::null(),
-            set_layout: create_set_layout(&ctx.device, bindings, true)?,
-            bindings: bindings.to_vec(),
+            set_layout: create_set_layout(&ctx.device, &slots, true)?,
+            slots,
+            declared: bindings,
             push_constant_bytes,
             traces,
             entry: entry.to_string(),
@@ -222,39 +244,39 @@ impl Kernel {
         Ok(kernel)
     }
 
-    /// Records a dispatch of `groups` workgroups with `resources` bound in order as set 0 and
+    /// Records a dispatch of `groups` workgroups with `bindings` as set 0 and
     /// `push` as push constants. A kernel that traces needs the scene: [`Kernel::dispatch_traced`].
-    pub fn dispatch(
+    pub fn dispatch<B: Bindings>(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
-        resources: &[Resource<'_>],
+        bindings: &B,
         push: &[u8],
         groups: [u32; 3],
     ) -> Result<()> {
-        self.dispatch_in(ctx, cmd, None, resources, push, groups)
+        self.dispatch_in(ctx, cmd, None, bindings, push, groups)
     }
 
     /// Records a dispatch of a kernel that traces, in `scene` (bound as sets 1 and up), with
-    /// `resources` as set 0 and `push` as push constants.
-    pub fn dispatch_traced(
+    /// `bindings` as set 0 and `push` as push constants.
+    pub fn dispatch_traced<B: Bindings>(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         scene: SceneSets<'_>,
-        resources: &[Resource<'_>],
+        bindings: &B,
         push: &[u8],
         groups: [u32; 3],
     ) -> Result<()> {
-        self.dispatch_in(ctx, cmd, Some(scene), resources, push, groups)
+        self.dispatch_in(ctx, cmd, Some(scene), bindings, push, groups)
     }
 
-    fn dispatch_in(
+    fn dispatch_in<B: Bindings>(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         scene: Option<SceneSets<'_>>,
-        resources: &[Resource<'_>],
+        bindings: &B,
         push: &[u8],
         groups: [u32; 3],
     ) -> Result<()> {
@@ -264,7 +286,7 @@ impl Kernel {
                 self.bad_dispatch(format!("workgroup count {groups:?} outside 1..={max:?}"))
             );
         }
-        self.bind(ctx, cmd, scene, resources, push)?;
+        self.bind(ctx, cmd, scene, bindings, push)?;
         unsafe {
             ctx.device
                 .cmd_dispatch(cmd, groups[0], groups[1], groups[2])
@@ -277,16 +299,16 @@ impl Kernel {
     /// of `args` (a buffer with `INDIRECT_BUFFER` usage: `frame::indirect_args`). A count of
     /// zero dispatches nothing. Whatever wrote the arguments must be followed by
     /// `frame::indirect_barrier` first.
-    pub fn dispatch_indirect(
+    pub fn dispatch_indirect<B: Bindings>(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
-        resources: &[Resource<'_>],
+        bindings: &B,
         push: &[u8],
         args: &Buffer,
         offset: u64,
     ) -> Result<()> {
-        self.dispatch_indirect_in(ctx, cmd, None, resources, push, args, offset)
+        self.dispatch_indirect_in(ctx, cmd, None, bindings, push, args, offset)
     }
 
     /// [`Kernel::dispatch_indirect`] for a kernel that traces, in `scene` (bound as sets 1 and
@@ -295,29 +317,29 @@ impl Kernel {
         clippy::too_many_arguments,
         reason = "dispatch_indirect's arguments and the scene"
     )]
-    pub fn dispatch_indirect_traced(
+    pub fn dispatch_indirect_traced<B: Bindings>(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         scene: SceneSets<'_>,
-        resources: &[Resource<'_>],
+        bindings: &B,
         push: &[u8],
         args: &Buffer,
         offset: u64,
     ) -> Result<()> {
-        self.dispatch_indirect_in(ctx, cmd, Some(scene), resources, push, args, offset)
+        self.dispatch_indirect_in(ctx, cmd, Some(scene), bindings, push, args, offset)
     }
 
     #[allow(
         clippy::too_many_arguments,
         reason = "dispatch_indirect's arguments and the scene"
     )]
-    fn dispatch_indirect_in(
+    fn dispatch_indirect_in<B: Bindings>(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         scene: Option<SceneSets<'_>>,
-        resources: &[Resource<'_>],
+        bindings: &B,
         push: &[u8],
         args: &Buffer,
         offset: u64,
@@ -330,7 +352,7 @@ impl Kernel {
                 args.size
             )));
         }
-        self.bind(ctx, cmd, scene, resources, push)?;
+        self.bind(ctx, cmd, scene, bindings, push)?;
         unsafe { ctx.device.cmd_dispatch_indirect(cmd, args.handle, offset) };
         Ok(())
     }
@@ -343,13 +365,13 @@ impl Kernel {
     }
 
     /// Binds the pipeline and `scene` (which a kernel that traces needs, and no other takes),
-    /// pushes `resources` as set 0 and `push` as push constants.
-    fn bind(
+    /// pushes `bindings` as set 0 and `push` as push constants.
+    fn bind<B: Bindings>(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         scene: Option<SceneSets<'_>>,
-        resources: &[Resource<'_>],
+        bindings: &B,
         push: &[u8],
     ) -> Result<()> {
         let bad = |why: String| self.bad_dispatch(why);
@@ -367,8 +389,15 @@ impl Kernel {
                 self.push_constant_bytes
             )));
         }
+        if B::DECLARED != self.declared {
+            return Err(bad(format!(
+                "dispatched with bindings {:?}, declared for another kernel",
+                B::DECLARED.iter().map(|d| d.name).collect::<Vec<_>>()
+            )));
+        }
         let sets: Vec<vk::DescriptorSet> = scene.iter().flat_map(SceneSets::handles).collect();
-        with_writes(&self.bindings, resources, |writes| unsafe {
+        let resources = bindings.resources();
+        with_writes(&self.slots, &resources, |writes| unsafe {
             ctx.device
                 .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
             if !sets.is_empty() {
@@ -466,7 +495,18 @@ pub const VERTICES_BINDING: usize = 2;
 pub const TRIANGLES_BINDING: usize = 3;
 
 impl SceneSet {
-    /// The set's bindings in `variant`.
+    /// [`SceneSet::binding_kinds`] with their binding numbers.
+    pub(crate) fn binding_slots(
+        self,
+        variant: KernelVariant,
+        texture_slots: u32,
+    ) -> Vec<(u32, BindingKind)> {
+        (0..)
+            .zip(self.binding_kinds(variant, texture_slots))
+            .collect()
+    }
+
+    /// The set's bindings in `variant`, binding `i` the `i`-th.
     pub fn binding_kinds(self, variant: KernelVariant, texture_slots: u32) -> Vec<BindingKind> {
         match (self, variant) {
             (Self::Geometry, KernelVariant::RayQuery) => vec![BindingKind::AccelerationStructure],
@@ -495,9 +535,9 @@ impl DescriptorSet {
     /// Allocates set `kind` and points it at `resources` (in the order of
     /// [`SceneSet::binding_kinds`]), which must outlive every dispatch that binds it.
     pub fn new(ctx: &Context, kind: SceneSet, resources: &[Resource<'_>]) -> Result<Self> {
-        let kinds = kind.binding_kinds(ctx.variant(), ctx.capabilities().scene_texture_slots());
+        let kinds = kind.binding_slots(ctx.variant(), ctx.capabilities().scene_texture_slots());
         let mut sizes: Vec<vk::DescriptorPoolSize> = vec![];
-        for k in &kinds {
+        for (_, k) in &kinds {
             let ty = descriptor_type(*k);
             let count = descriptor_count(*k);
             match sizes.iter_mut().find(|s| s.ty == ty) {
@@ -562,19 +602,17 @@ impl SceneSets<'_> {
     }
 }
 
-/// A descriptor set layout of `bindings` (binding `i` = `bindings[i]`), for push descriptors when
-/// `push`.
+/// A descriptor set layout of `bindings` (number and kind), for push descriptors when `push`.
 pub(crate) fn create_set_layout(
     device: &ash::Device,
-    bindings: &[BindingKind],
+    bindings: &[(u32, BindingKind)],
     push: bool,
 ) -> Result<vk::DescriptorSetLayout> {
     let layout_bindings: Vec<_> = bindings
         .iter()
-        .enumerate()
         .map(|(i, kind)| {
             vk::DescriptorSetLayoutBinding::default()
-                .binding(i as u32)
+                .binding(*i)
                 .descriptor_type(descriptor_type(*kind))
                 .descriptor_count(descriptor_count(*kind))
                 .stage_flags(vk::ShaderStageFlags::COMPUTE)
@@ -582,7 +620,7 @@ pub(crate) fn create_set_layout(
         .collect();
     let flags: Vec<_> = bindings
         .iter()
-        .map(|kind| match kind {
+        .map(|(_, kind)| match kind {
             BindingKind::Textures(_) => vk::DescriptorBindingFlags::PARTIALLY_BOUND,
             _ => vk::DescriptorBindingFlags::empty(),
         })
@@ -592,7 +630,7 @@ pub(crate) fn create_set_layout(
     let mut info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings);
     if bindings
         .iter()
-        .any(|k| matches!(k, BindingKind::Textures(_)))
+        .any(|(_, k)| matches!(k, BindingKind::Textures(_)))
     {
         info = info.push_next(&mut binding_flags);
     }
@@ -602,10 +640,10 @@ pub(crate) fn create_set_layout(
     unsafe { device.create_descriptor_set_layout(&info, None) }.vk("vkCreateDescriptorSetLayout")
 }
 
-/// Calls `f` with the writes that point bindings `kinds` at `resources` (no destination set), or
-/// says which resource does not fit.
+/// Calls `f` with the writes that point bindings `kinds` (number and kind) at `resources` (no
+/// destination set), or says which resource does not fit.
 fn with_writes<R>(
-    kinds: &[BindingKind],
+    kinds: &[(u32, BindingKind)],
     resources: &[Resource<'_>],
     f: impl FnOnce(&[vk::WriteDescriptorSet<'_>]) -> R,
 ) -> std::result::Result<R, String> {
@@ -663,14 +701,14 @@ fn with_writes<R>(
         })
         .collect();
     let mut writes = vec![];
-    for (i, ((kind, res), accel_write)) in kinds
+    for (i, (((binding, kind), res), accel_write)) in kinds
         .iter()
         .zip(resources)
         .zip(accel_writes.iter_mut())
         .enumerate()
     {
         let w = vk::WriteDescriptorSet::default()
-            .dst_binding(i as u32)
+            .dst_binding(*binding)
             .descriptor_type(descriptor_type(*kind));
         let w = match (kind, res) {
             (BindingKind::StorageBuffer, Resource::Buffer(_))
