@@ -73,9 +73,20 @@ pub const IMAGE_NAMES: [&str; 7] = [
 
 /// The G-buffer's storage images, all `width × height`, in the `GENERAL` layout.
 pub struct GBufferImages {
-    /// Depth, geometric normal, shading normal, albedo, emissive, motion, ids: formats in
-    /// [`FORMATS`], names in [`IMAGE_NAMES`].
-    pub images: [Image; 7],
+    /// Linear depth.
+    pub depth: Image,
+    /// Geometric normal.
+    pub geometric_normal: Image,
+    /// Shading normal.
+    pub shading_normal: Image,
+    /// Albedo.
+    pub albedo: Image,
+    /// Emission.
+    pub emissive: Image,
+    /// Motion vectors.
+    pub motion: Image,
+    /// Instance, primitive and material ids, front face.
+    pub ids: Image,
 }
 
 crate::bindings! {
@@ -112,23 +123,52 @@ impl GBufferImages {
                 Image::new(ctx, &format!("G-buffer {name}"), width, height, format)
             })
             .collect::<Result<Vec<Image>>>()?;
-        let images = made
+        let [
+            depth,
+            geometric_normal,
+            shading_normal,
+            albedo,
+            emissive,
+            motion,
+            ids,
+        ] = made
             .try_into()
             .map_err(|unexpected: Vec<Image>| Error::InvalidArgument {
                 name: "G-buffer",
                 why: format!("{} images made for 7", unexpected.len()),
             })?;
-        Ok(Self { images })
+        Ok(Self {
+            depth,
+            geometric_normal,
+            shading_normal,
+            albedo,
+            emissive,
+            motion,
+            ids,
+        })
+    }
+
+    /// The images in binding order (formats in [`FORMATS`], names in [`IMAGE_NAMES`]).
+    pub fn all(&self) -> [&Image; 7] {
+        [
+            &self.depth,
+            &self.geometric_normal,
+            &self.shading_normal,
+            &self.albedo,
+            &self.emissive,
+            &self.motion,
+            &self.ids,
+        ]
     }
 
     /// Width in pixels.
     pub fn width(&self) -> u32 {
-        self.images[0].width
+        self.depth.width
     }
 
     /// Height in pixels.
     pub fn height(&self) -> u32 {
-        self.images[0].height
+        self.depth.height
     }
 
     /// The G-buffer pass's set 0 writing these images, with the pass's `camera` and the
@@ -138,31 +178,22 @@ impl GBufferImages {
         camera: &'a Buffer,
         previous_transforms: &'a Buffer,
     ) -> GBufferBindings<'a> {
-        let [
-            depth,
-            geometric_normal,
-            shading_normal,
-            albedo,
-            emissive,
-            motion,
-            ids,
-        ] = &self.images;
         GBufferBindings {
             camera,
-            depth,
-            geometric_normal,
-            shading_normal,
-            albedo,
-            emissive,
-            motion,
-            ids,
+            depth: &self.depth,
+            geometric_normal: &self.geometric_normal,
+            shading_normal: &self.shading_normal,
+            albedo: &self.albedo,
+            emissive: &self.emissive,
+            motion: &self.motion,
+            ids: &self.ids,
             previous_transforms,
         }
     }
 
     /// Copies every image to the host (after the pass that wrote them was submitted).
     pub fn read_back(&self, ctx: &Context) -> Result<GBufferData> {
-        let [depth, gn, sn, albedo, emissive, motion, ids] = &self.images;
+        let [depth, gn, sn, albedo, emissive, motion, ids] = self.all();
         let depth = depth.read_back(ctx)?;
         let gn = gn.read_back(ctx)?;
         let sn = sn.read_back(ctx)?;

@@ -13,6 +13,7 @@ use gi_host::engine::{
     OUTPUT_FORMAT, OUTPUT_STAGE, OutputImage, ViewOptions,
 };
 use gi_host::gbuffer::scene_camera;
+use gi_host::gi::gi_denoiser::DenoiserStage;
 use gi_host::image_io::HdrImage;
 use gi_host::metrics::{CompareSettings, compare};
 use gi_host::vulkan::Image;
@@ -177,7 +178,7 @@ fn an_engine_device_renders_what_render_frame_renders() {
     let written = irradiance.read_back(&ctx).unwrap();
     let denoised: Vec<[f32; 4]> = gi
         .denoiser()
-        .output(true, settings.denoiser_spatial)
+        .output(DenoiserStage::last(&settings))
         .read_back(&ctx)
         .unwrap();
     assert!(denoised.iter().any(|t| t[0] > 0.0), "no irradiance");

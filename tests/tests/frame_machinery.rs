@@ -4,7 +4,9 @@
 //! inserts under contention through the shared `insert_tile`; and the memory table's registry.
 
 use gi_host::KernelVariant;
-use gi_host::frame::{DispatchFromCounter, MemoryTable, Scan, indirect_args, indirect_offset};
+use gi_host::frame::{
+    DispatchFromCounter, FiniteCheck, MemoryTable, Recorder, Scan, indirect_args, indirect_offset,
+};
 use gi_host::vulkan::{
     Bindings, Buffer, Context, Image, Kernel, KernelModule, MemoryLocation, compute_barrier,
 };
@@ -347,46 +349,28 @@ fn indirect_dispatch_processes_exactly_the_appended_items() {
                 _pad: 0,
             };
             // One submission: the host never learns the count.
+            // The recorder places every barrier: after the append, after the arguments (an
+            // indirect read), and for the host's reads.
             ctx.submit(|cmd| {
-                append_k
-                    .dispatch(
-                        ctx,
-                        cmd,
-                        &AppendItems {
-                            counters: &counters,
-                            list: &list,
-                        },
-                        bytemuck::bytes_of(&push),
-                        groups(n),
-                    )
-                    .unwrap();
-                compute_barrier(ctx, cmd);
+                let mut rec = Recorder::new(ctx, cmd, None);
+                let appended = AppendItems {
+                    counters: &counters,
+                    list: &list,
+                };
+                let push = bytemuck::bytes_of(&push);
+                rec.dispatch(&append_k, &appended, push, groups(n)).unwrap();
+                let count = COUNTER_ITEMS as u32;
                 from_counter
-                    .record(
-                        ctx,
-                        cmd,
-                        &counters,
-                        COUNTER_ITEMS as u32,
-                        capacity,
-                        &args,
-                        1,
-                    )
+                    .record(&mut rec, &counters, count, capacity, &args, 1)
                     .unwrap();
-                touch
-                    .dispatch_indirect(
-                        ctx,
-                        cmd,
-                        &TouchItems {
-                            counters: &counters,
-                            list: &list,
-                            touched: &touched,
-                        },
-                        bytemuck::bytes_of(&push),
-                        &args,
-                        indirect_offset(1),
-                    )
+                let touching = TouchItems {
+                    counters: &counters,
+                    list: &list,
+                    touched: &touched,
+                };
+                rec.dispatch_indirect(&touch, &touching, push, &args, indirect_offset(1))
                     .unwrap();
-                compute_barrier(ctx, cmd);
+                rec.finish();
             })
             .unwrap();
             let c = counters.read_back::<u32>(ctx).unwrap();
@@ -446,8 +430,10 @@ fn the_gpu_scan_equals_the_cpu_exactly() {
             let counters =
                 Buffer::device_local(ctx, "scan total", &sentinel, Default::default()).unwrap();
             ctx.submit(|cmd| {
-                scan.record(ctx, cmd, &data, *n, Some((&counters, 2)))
-                    .unwrap()
+                let mut rec = Recorder::new(ctx, cmd, None);
+                scan.record(&mut rec, &data, *n, Some((&counters, 2)))
+                    .unwrap();
+                rec.finish();
             })
             .unwrap();
             let got = data.read_back::<u32>(ctx).unwrap();
@@ -462,10 +448,15 @@ fn the_gpu_scan_equals_the_cpu_exactly() {
         // Without a total, and a size the scan was not made for.
         let data =
             Buffer::device_local(ctx, "scan data", &[5u32, 6, 7], Default::default()).unwrap();
-        ctx.submit(|cmd| scan.record(ctx, cmd, &data, 3, None).unwrap())
-            .unwrap();
+        ctx.submit(|cmd| {
+            let mut rec = Recorder::new(ctx, cmd, None);
+            scan.record(&mut rec, &data, 3, None).unwrap();
+            rec.finish();
+        })
+        .unwrap();
         assert_eq!(data.read_back::<u32>(ctx).unwrap(), [0, 5, 11]);
-        let too_many = ctx.submit(|cmd| scan.record(ctx, cmd, &data, 4, None));
+        let too_many =
+            ctx.submit(|cmd| scan.record(&mut Recorder::new(ctx, cmd, None), &data, 4, None));
         assert!(
             too_many.unwrap().is_err(),
             "{variant}: 4 words in a buffer of 3"
@@ -669,4 +660,70 @@ fn the_memory_table_lists_live_buffers_and_images_by_name() {
             "{variant}: freed"
         );
     });
+}
+
+gi_host::bindings! {
+    /// The smoke kernel's set 0: it writes `out`.
+    struct Smoke<'a> {
+        out: &'a Buffer,
+    }
+}
+
+gi_host::bindings! {
+    /// The finite check's set 0: it reads `words` and writes `counts`.
+    struct CountNonFinite<'a> {
+        words: &'a Buffer,
+        counts: &'a Buffer,
+    }
+}
+
+/// The recorder places a barrier exactly where a command depends on an earlier one: none between
+/// independent dispatches, one buffer barrier for a read after a write, and one (with the memory
+/// barrier of the write before) for a write after that read; the validation layer's
+/// synchronization checks agree.
+#[test]
+fn the_recorder_places_barriers_only_where_a_dependency_needs_one() {
+    let ctx = context(KernelVariant::Software);
+    let module = KernelModule::new(&ctx).unwrap();
+    let smoke = Kernel::new::<Smoke>(&ctx, &module, "smoke::smoke", 0).unwrap();
+    let push = std::mem::size_of::<gi_shared::finite_check::FiniteCheckPush>() as u32;
+    let check = Kernel::new::<CountNonFinite>(&ctx, &module, FiniteCheck::ENTRY, push).unwrap();
+    drop(module);
+    let [a, b] = ["a", "b"].map(|n| Buffer::device_zeroed::<u32>(&ctx, n, 64).unwrap());
+    let counts = Buffer::device_zeroed::<u32>(&ctx, "counts", 8).unwrap();
+    let push = gi_shared::finite_check::FiniteCheckPush {
+        word_count: 64,
+        record_words: 1,
+        float_mask: 1,
+        slot: 0,
+    };
+    let seen = ctx
+        .submit(|cmd| -> gi_host::Result<Vec<(u32, u32)>> {
+            let mut rec = Recorder::new(&ctx, cmd, None);
+            let mut seen = vec![];
+            let mut step = |rec: &Recorder<'_>| {
+                let c = rec.counts();
+                seen.push((c.barriers, c.buffer_barriers));
+            };
+            rec.dispatch(&smoke, &Smoke { out: &a }, &[], [1, 1, 1])?;
+            rec.dispatch(&smoke, &Smoke { out: &b }, &[], [1, 1, 1])?;
+            step(&rec);
+            let reading = CountNonFinite {
+                words: &a,
+                counts: &counts,
+            };
+            rec.dispatch(&check, &reading, bytemuck::bytes_of(&push), [1, 1, 1])?;
+            step(&rec);
+            rec.dispatch(&smoke, &Smoke { out: &a }, &[], [1, 1, 1])?;
+            step(&rec);
+            rec.finish();
+            Ok(seen)
+        })
+        .unwrap()
+        .unwrap();
+    // Independent: nothing. Read after write: one barrier on `a`. Write after that read and
+    // the first write: one more barrier on `a`.
+    assert_eq!(seen, [(0, 0), (1, 1), (2, 2)]);
+    drop((smoke, check, a, b, counts));
+    finish_without_validation_messages(ctx);
 }

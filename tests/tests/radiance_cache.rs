@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use gi_host::KernelVariant;
-use gi_host::frame::{FiniteCheck, FloatWords};
+use gi_host::frame::{FiniteCheck, FloatWords, Recorder};
 use gi_host::gbuffer::scene_camera;
 use gi_host::gi::hash_cells::HashCellPasses;
 use gi_host::gi::resources::{CacheResources, RestirResources};
@@ -29,7 +29,7 @@ use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::{Environment, LightSet};
 use gi_host::scene::upload::GpuScene;
 use gi_host::scene::{Material, Mesh, Scene, procedural};
-use gi_host::vulkan::{Buffer, Context, KernelModule, transfer_barrier};
+use gi_host::vulkan::{Buffer, Context, KernelModule};
 use gi_shared::cache_view::{
     CACHE_COUNTER_WORDS, CachePassParams, CacheQuery, CacheViewPixel, FLAG_SHORT_RAY,
     FeedbackTexel, NO_TILE, QUERY_COUNT, SHADOW_RAY_COUNT, ShadowRay, keyed_hit_distance,
@@ -492,18 +492,16 @@ impl Replay {
         let res = &self.res;
         let reservoirs = &self.restir.grids.current().reservoirs;
         ctx.submit(|cmd| -> gi_host::Result<()> {
-            res.ray_records.record_fill_zero(ctx, cmd);
-            transfer_barrier(ctx, cmd);
-            self.passes.record_purge(ctx, cmd, res, params)?;
-            staged[0].record_copy_to(ctx, cmd, &res.queries)?;
-            staged[1].record_copy_to(ctx, cmd, &res.shadow_rays)?;
-            staged[2].record_copy_to(ctx, cmd, &res.counters)?;
-            transfer_barrier(ctx, cmd);
-            self.passes.record_insert(ctx, cmd, res, params)?;
-            self.passes.record_shadow_ray_args(ctx, cmd, res)?;
+            let mut rec = Recorder::new(ctx, cmd, None);
+            rec.fill(&res.ray_records, 0);
+            self.passes.record_purge(&mut rec, res, params)?;
+            rec.copy(&staged[0], &res.queries)?;
+            rec.copy(&staged[1], &res.shadow_rays)?;
+            rec.copy(&staged[2], &res.counters)?;
+            self.passes.record_insert(&mut rec, res, params)?;
+            self.passes.record_shadow_ray_args(&mut rec, res)?;
             self.passes.record_populate(
-                ctx,
-                cmd,
+                &mut rec,
                 gpu.scene.sets(),
                 res,
                 reservoirs,
@@ -511,9 +509,10 @@ impl Replay {
                 params,
             )?;
             if update {
-                self.passes.record_update(ctx, cmd, res, params)?;
-                self.passes.record_resolve(ctx, cmd, res, params)?;
+                self.passes.record_update(&mut rec, res, params)?;
+                self.passes.record_resolve(&mut rec, res, params)?;
             }
+            rec.finish();
             Ok(())
         })
         .unwrap()

@@ -1,8 +1,8 @@
 //! Host side of the `indirect::dispatch_from_counter` kernel: the arguments buffer of indirect
 //! dispatches and the barrier before they are read.
 
+use super::Recorder;
 use crate::error::Result;
-use crate::vulkan::memory_barrier;
 use crate::vulkan::{Buffer, Context, Kernel, KernelModule, MemoryLocation};
 use ash::vk;
 use gi_shared::indirect::{DispatchIndirect, IndirectPush};
@@ -37,18 +37,15 @@ impl DispatchFromCounter {
     }
 
     /// Records the kernel writing `args[args_index]` (a [`DispatchIndirect`]) for the count in
-    /// word `counter_index` of `counters`, clamped to `capacity` items, then
-    /// [`indirect_barrier`]. Whatever wrote the counter must be followed by
-    /// [`crate::vulkan::compute_barrier`] before this. Dispatch with
-    /// `Kernel::dispatch_indirect(.., args, indirect_offset(args_index))`.
+    /// word `counter_index` of `counters`, clamped to `capacity` items. Dispatch with
+    /// `Recorder::dispatch_indirect(.., args, indirect_offset(args_index))`, which waits for it.
     #[allow(
         clippy::too_many_arguments,
         reason = "the counter and the arguments are each a buffer and an index"
     )]
     pub fn record(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         counters: &Buffer,
         counter_index: u32,
         capacity: u32,
@@ -58,17 +55,15 @@ impl DispatchFromCounter {
         let push = IndirectPush {
             counter_index,
             capacity,
-            max_groups: ctx.capabilities().max_workgroup_count[0],
+            max_groups: rec.ctx().capabilities().max_workgroup_count[0],
             args_index,
         };
-        self.kernel.dispatch(
-            ctx,
-            cmd,
+        rec.dispatch(
+            &self.kernel,
             &CounterToArguments { counters, args },
             bytemuck::bytes_of(&push),
             [1, 1, 1],
         )?;
-        indirect_barrier(ctx, cmd);
         Ok(())
     }
 }
@@ -88,23 +83,4 @@ pub fn indirect_args(ctx: &Context, name: &str, count: usize) -> Result<Buffer> 
 /// Byte offset of [`DispatchIndirect`] `index` in an [`indirect_args`] buffer.
 pub fn indirect_offset(index: u32) -> u64 {
     u64::from(index) * std::mem::size_of::<DispatchIndirect>() as u64
-}
-
-/// Makes shader writes before it visible to the indirect-argument reads of later dispatches (and
-/// to later shaders).
-pub fn indirect_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
-    memory_barrier(
-        ctx,
-        cmd,
-        (
-            vk::PipelineStageFlags::COMPUTE_SHADER,
-            vk::AccessFlags::SHADER_WRITE,
-        ),
-        (
-            vk::PipelineStageFlags::DRAW_INDIRECT | vk::PipelineStageFlags::COMPUTE_SHADER,
-            vk::AccessFlags::INDIRECT_COMMAND_READ
-                | vk::AccessFlags::SHADER_READ
-                | vk::AccessFlags::SHADER_WRITE,
-        ),
-    );
 }

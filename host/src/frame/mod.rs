@@ -9,14 +9,14 @@
 //!
 //! 1. **Append.** The producing kernel wraps its counter buffer in `DeviceWords` (kernels'
 //!    `atomics`) and calls `gi_shared::append_list::append(&mut counters, i, capacity)`; `Some(slot)`
-//!    is where its item goes. Clear the counters with `Buffer::record_fill_zero` at the start of
-//!    the frame, then [`crate::vulkan::compute_barrier`] after the producer.
+//!    is where its item goes. Clear the counters with [`Recorder::fill`] at the start of the
+//!    frame; the [`Recorder`] orders the producer after the fill and its readers after it.
 //! 2. **Scan** (when items fan out into variable-sized ranges): [`Scan::record`] turns per-item
 //!    counts into offsets in place and writes their total into a counter word, which step 3
 //!    reads like any other counter.
 //! 3. **Dispatch what exists.** [`DispatchFromCounter::record`] writes the
 //!    `DispatchIndirect` for `min(counter, capacity)` items into an [`indirect_args`] buffer and
-//!    records [`indirect_barrier`]; `Kernel::dispatch_indirect(.., &args, indirect_offset(index))` then runs
+//!    [`Recorder::dispatch_indirect`]`(.., &args, indirect_offset(index))` then runs
 //!    one invocation per item, rounded up to a workgroup. The consumer clamps the counter with
 //!    `gi_shared::append_list::clamped_count` and returns for invocations past it.
 //!
@@ -28,9 +28,11 @@
 mod finite_check;
 mod indirect;
 mod memory_table;
+mod recorder;
 mod scan;
 
 pub use finite_check::{FiniteCheck, FloatWords};
-pub use indirect::{DispatchFromCounter, indirect_args, indirect_barrier, indirect_offset};
+pub use indirect::{DispatchFromCounter, indirect_args, indirect_offset};
 pub use memory_table::{MemoryRow, MemoryTable};
+pub use recorder::{BETWEEN_PASSES, BarrierCounts, PassUses, Recorder, pass_table};
 pub use scan::Scan;

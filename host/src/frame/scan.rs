@@ -1,8 +1,9 @@
 //! Host side of the `scan::scan_blocks` and `scan::add_block_offsets` kernels: an exclusive prefix
 //! sum of `u32` words in place on the GPU, level by level (`gi_shared::scan`).
 
+use super::Recorder;
 use crate::error::{Error, Result};
-use crate::vulkan::{Buffer, Context, Kernel, KernelModule, MemoryLocation, compute_barrier};
+use crate::vulkan::{Buffer, Context, Kernel, KernelModule, MemoryLocation};
 use ash::vk;
 use gi_shared::scan::{NO_WORD, SCAN_BLOCK, ScanPush, level_count, level_len};
 
@@ -98,12 +99,11 @@ impl Scan {
 
     /// Records the scan of the first `count` words of `data` in place (exclusive, wrapping) and,
     /// with `total = Some((buffer, index))`, the sum of all of them into that word, for example
-    /// the counter of a later [`super::DispatchFromCounter`]. Each level ends with
-    /// [`compute_barrier`], so later commands see the result. `count` may be 0 (the total is 0).
+    /// the counter of a later [`super::DispatchFromCounter`]. The recorder orders each level
+    /// after the one before and later readers after the last. `count` may be 0 (the total is 0).
     pub fn record(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         data: &Buffer,
         count: u32,
         total: Option<(&Buffer, u32)>,
@@ -144,9 +144,8 @@ impl Scan {
                 },
                 total_index,
             };
-            self.blocks.dispatch(
-                ctx,
-                cmd,
+            rec.dispatch(
+                &self.blocks,
                 &ScanBlocks {
                     data: words,
                     sums: &self.scratch,
@@ -155,7 +154,6 @@ impl Scan {
                 bytemuck::bytes_of(&push),
                 [push.count.div_ceil(SCAN_BLOCK).max(1), 1, 1],
             )?;
-            compute_barrier(ctx, cmd);
         }
         for level in (0..levels - 1).rev() {
             let (words, data_offset) = level_data(level);
@@ -165,9 +163,8 @@ impl Scan {
                 sums_offset: scratch_offset(count, level + 1),
                 total_index: NO_WORD,
             };
-            self.add.dispatch(
-                ctx,
-                cmd,
+            rec.dispatch(
+                &self.add,
                 &AddBlockOffsets {
                     data: words,
                     sums: &self.scratch,
@@ -175,7 +172,6 @@ impl Scan {
                 bytemuck::bytes_of(&push),
                 [push.count.div_ceil(SCAN_BLOCK), 1, 1],
             )?;
-            compute_barrier(ctx, cmd);
         }
         Ok(())
     }

@@ -17,16 +17,14 @@ use super::debug_views::{DebugView, debug_views};
 use super::hash_cells::PUSH_BYTES;
 use super::resources::{CacheResources, RestirResources};
 use super::settings::GiSettings;
-use super::world_cache::{CacheFrame, PassTimer, SceneLighting, WorldCache};
+use super::world_cache::{CacheFrame, SceneLighting, WorldCache};
 use crate::error::{Error, Result};
+use crate::frame::Recorder;
 use crate::gbuffer::{GBufferBindings, GBufferImages};
 use crate::image_io::HdrImage;
 use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
-use crate::vulkan::{
-    Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule, compute_barrier,
-    transfer_barrier,
-};
+use crate::vulkan::{Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule};
 use ash::vk;
 use gi_shared::cache_view::{
     CACHE_VIEW_TILE, CachePassParams, CacheQuery, QUERY_COUNT, running_mean,
@@ -359,8 +357,13 @@ impl CacheView {
         self.res.camera.write(bytemuck::bytes_of(&frame_camera))?;
         let restart = self.accumulated == 0;
         let mut timer = self.timer.take();
-        let recorded =
-            ctx.submit(|cmd| self.record_frame(ctx, cmd, scene, &params, restart, timer.as_mut()));
+        let recorded = ctx.submit(|cmd| {
+            let mut rec = Recorder::new(ctx, cmd, timer.as_mut());
+            rec.begin();
+            self.record_frame(&mut rec, scene, &params, restart)?;
+            rec.finish();
+            Ok::<_, crate::Error>(())
+        });
         let spans = match (&recorded, &timer) {
             (Ok(Ok(())), Some(t)) => Some(t.results(ctx)),
             _ => None,
@@ -385,57 +388,50 @@ impl CacheView {
     /// Records every pass of a frame (see the [module](self)).
     fn record_frame(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         scene: &GpuScene,
         params: &CachePassParams,
         restart: bool,
-        timer: Option<&mut GpuTimer>,
     ) -> Result<()> {
-        let mut timer = PassTimer::new(ctx, cmd, timer);
         if restart {
-            self.res.accumulation.record_fill_zero(ctx, cmd);
-            transfer_barrier(ctx, cmd);
+            rec.fill(&self.res.accumulation, 0);
         }
         let res = &self.res;
-        let images = &self.gbuffer.images;
+        let images = &self.gbuffer;
         let pixel_groups = [
             self.width.div_ceil(CACHE_VIEW_TILE),
             self.height.div_ceil(CACHE_VIEW_TILE),
             1,
         ];
         let push = bytemuck::bytes_of(params);
-        timer.pass(ctx, cmd, "PurgeRadianceCache", || {
-            self.cache.hash_cells.record_purge(ctx, cmd, res, params)
+        rec.pass("PurgeRadianceCache", |rec| {
+            self.cache.hash_cells.record_purge(rec, res, params)
         })?;
-        timer.pass(ctx, cmd, "GBuffer", || {
+        rec.pass("GBuffer", |rec| {
             let bindings = self
                 .gbuffer
                 .bindings(&res.camera, scene.previous_transforms());
-            self.gbuffer_kernel.dispatch_traced(
-                ctx,
-                cmd,
+            rec.dispatch_traced(
+                &self.gbuffer_kernel,
                 scene.sets(),
                 &bindings,
                 &[],
                 pixel_groups,
             )?;
-            compute_barrier(ctx, cmd);
             Ok(())
         })?;
-        timer.pass(ctx, cmd, "TraceCacheRays", || {
-            self.trace.dispatch_traced(
-                ctx,
-                cmd,
+        rec.pass("TraceCacheRays", |rec| {
+            rec.dispatch_traced(
+                &self.trace,
                 scene.sets(),
                 &TraceCacheRays {
                     camera: &res.camera,
-                    depth: &images[0],
-                    geometric_normal: &images[1],
-                    shading_normal: &images[2],
-                    albedo: &images[3],
-                    emissive: &images[4],
-                    ids: &images[6],
+                    depth: &images.depth,
+                    geometric_normal: &images.geometric_normal,
+                    shading_normal: &images.shading_normal,
+                    albedo: &images.albedo,
+                    emissive: &images.emissive,
+                    ids: &images.ids,
                     pixels: &res.ray_records,
                     queries: &res.queries,
                     counters: &res.counters,
@@ -444,28 +440,18 @@ impl CacheView {
                 push,
                 pixel_groups,
             )?;
-            compute_barrier(ctx, cmd);
             Ok(())
         })?;
-        self.cache.record_after_trace(
-            ctx,
-            cmd,
-            scene,
-            res,
-            &self.restir,
-            &self.settings,
-            params,
-            &mut timer,
-        )?;
-        timer.pass(ctx, cmd, "CacheViewComposite", || {
-            self.composite.dispatch(
-                ctx,
-                cmd,
+        self.cache
+            .record_after_trace(rec, scene, res, &self.restir, &self.settings, params)?;
+        rec.pass("CacheViewComposite", |rec| {
+            rec.dispatch(
+                &self.composite,
                 &CacheViewComposite {
                     camera: &res.camera,
-                    depth: &images[0],
-                    geometric_normal: &images[1],
-                    albedo: &images[3],
+                    depth: &images.depth,
+                    geometric_normal: &images.geometric_normal,
+                    albedo: &images.albedo,
                     pixels: &res.ray_records,
                     accumulation: &res.accumulation,
                     history: &res.history,
@@ -473,7 +459,6 @@ impl CacheView {
                 &[],
                 pixel_groups,
             )?;
-            compute_barrier(ctx, cmd);
             Ok(())
         })
     }
@@ -539,26 +524,17 @@ impl CacheView {
             vk::BufferUsageFlags::empty(),
         )?;
         let recorded = ctx.submit(|cmd| -> Result<()> {
-            self.cache
-                .hash_cells
-                .record_purge(ctx, cmd, &self.res, &params)?;
-            staging.record_copy_to(ctx, cmd, &self.res.queries)?;
+            let mut rec = Recorder::new(ctx, cmd, None);
+            rec.begin();
+            let cells = &self.cache.hash_cells;
+            cells.record_purge(&mut rec, &self.res, &params)?;
+            rec.copy(&staging, &self.res.queries)?;
             let count_offset = (QUERY_COUNT * std::mem::size_of::<u32>()) as u64;
-            unsafe {
-                ctx.device.cmd_update_buffer(
-                    cmd,
-                    self.res.counters.handle,
-                    count_offset,
-                    &n.to_le_bytes(),
-                )
-            };
-            transfer_barrier(ctx, cmd);
-            self.cache
-                .hash_cells
-                .record_insert(ctx, cmd, &self.res, &params)?;
-            self.cache
-                .hash_cells
-                .record_update(ctx, cmd, &self.res, &params)
+            rec.update(&self.res.counters, count_offset, &n.to_le_bytes());
+            cells.record_insert(&mut rec, &self.res, &params)?;
+            cells.record_update(&mut rec, &self.res, &params)?;
+            rec.finish();
+            Ok(())
         });
         drop(staging);
         recorded??;

@@ -23,11 +23,9 @@
 //! the previous frame's view-projection for the motion of the camera.
 
 use crate::error::{Error, Result};
+use crate::frame::Recorder;
 use crate::gbuffer::GBufferImages;
-use crate::vulkan::{
-    Buffer, Context, Image, Kernel, KernelModule, Sampled, SampledImage, compute_barrier,
-    memory_barrier,
-};
+use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, Sampled, SampledImage};
 use ash::vk;
 use gi_shared::camera::CameraParams;
 pub use gi_shared::gbuffer_import::{Conventions, DepthEncoding, MotionUnits, MotionVectors};
@@ -317,35 +315,10 @@ impl GBufferImport {
         let params =
             GBufferImportParams::new(&engine.conventions, UVec2::new(width, height), flags)
                 .map_err(|why| refused("depth", why.to_string()))?;
+        let mut rec = Recorder::new(ctx, cmd, None);
         // Earlier dispatches may still read the camera buffer and our images.
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::SHADER_WRITE,
-            ),
-        );
-        unsafe {
-            ctx.device
-                .cmd_update_buffer(cmd, self.camera.handle, 0, bytemuck::bytes_of(camera))
-        };
-        memory_barrier(
-            ctx,
-            cmd,
-            (
-                vk::PipelineStageFlags::TRANSFER,
-                vk::AccessFlags::TRANSFER_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::AccessFlags::SHADER_READ,
-            ),
-        );
+        rec.begin();
+        rec.update(&self.camera, 0, bytemuck::bytes_of(camera));
         // An absent image's binding gets a present one: the flags say it is not read.
         let motion = engine.motion.as_ref().unwrap_or(&engine.depth);
         let emissive = engine.emissive.as_ref().unwrap_or(&engine.albedo);
@@ -357,7 +330,7 @@ impl GBufferImport {
             emissive_out,
             motion_out,
             ids,
-        ] = &out.images;
+        ] = out.all();
         let bindings = ImportGbuffer {
             camera: &self.camera,
             engine_depth: sampled(&engine.depth),
@@ -374,9 +347,8 @@ impl GBufferImport {
             ids,
         };
         let groups = [width.div_ceil(IMPORT_TILE), height.div_ceil(IMPORT_TILE), 1];
-        self.kernel
-            .dispatch(ctx, cmd, &bindings, bytemuck::bytes_of(&params), groups)?;
-        compute_barrier(ctx, cmd);
+        rec.dispatch(&self.kernel, &bindings, bytemuck::bytes_of(&params), groups)?;
+        rec.finish();
         Ok(())
     }
 }

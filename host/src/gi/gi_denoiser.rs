@@ -5,10 +5,11 @@
 //! buffers.
 
 use super::screen_probes::ScreenProbeResources;
+use super::settings::GiSettings;
 use crate::error::Result;
+use crate::frame::Recorder;
 use crate::gbuffer::GBufferImages;
-use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong, compute_barrier};
-use ash::vk;
+use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong};
 
 /// The per-pixel buffers of interpolation and the denoiser.
 pub struct DenoiserResources {
@@ -54,14 +55,35 @@ impl DenoiserResources {
         self.luma_delta.swap();
     }
 
-    /// The irradiance the composite reads: the last stage that ran.
-    pub fn output(&self, temporal: bool, spatial: bool) -> &Buffer {
-        if spatial {
-            &self.filtered[1]
-        } else if temporal {
-            self.history.current()
+    /// The irradiance `stage` wrote.
+    pub fn output(&self, stage: DenoiserStage) -> &Buffer {
+        match stage {
+            DenoiserStage::Spatial => &self.filtered[1],
+            DenoiserStage::Temporal => self.history.current(),
+            DenoiserStage::Interpolated => &self.irradiance,
+        }
+    }
+}
+
+/// A stage of interpolation and the denoiser, by the irradiance it writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DenoiserStage {
+    /// InterpolateScreenProbes: the probes' irradiance at each pixel, before the denoiser.
+    Interpolated,
+    /// ReprojectGI: the temporal accumulation (the interpolated irradiance passed through when
+    /// `denoiser_temporal` is off).
+    Temporal,
+    /// FilterGI: the bilateral blur's second direction.
+    Spatial,
+}
+
+impl DenoiserStage {
+    /// The last stage that runs under `settings`: what the composite reads.
+    pub fn last(settings: &GiSettings) -> Self {
+        if settings.denoiser_spatial {
+            Self::Spatial
         } else {
-            &self.irradiance
+            Self::Temporal
         }
     }
 }
@@ -161,23 +183,21 @@ impl DenoiserPasses {
     /// InterpolateScreenProbes: each pixel's irradiance from up to four probes.
     pub fn record_interpolate(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         probes: &ScreenProbeResources,
         res: &DenoiserResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
     ) -> Result<()> {
-        let i = &gbuffer.images;
-        self.interpolate.dispatch(
-            ctx,
-            cmd,
+        let g = gbuffer;
+        rec.dispatch(
+            &self.interpolate,
             &InterpolateScreenProbes {
                 frame: &probes.frame,
                 camera,
-                depth: &i[0],
-                geometric_normal: &i[1],
-                shading_normal: &i[2],
+                depth: &g.depth,
+                geometric_normal: &g.geometric_normal,
+                shading_normal: &g.shading_normal,
                 records: probes.records.current(),
                 mask: probes.mask.current(),
                 sh: &probes.sh,
@@ -187,29 +207,26 @@ impl DenoiserPasses {
             &[],
             pixel_groups(gbuffer),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
     /// ReprojectGI: temporal accumulation of the irradiance and the blur mask.
     pub fn record_reproject(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         probes: &ScreenProbeResources,
         res: &DenoiserResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
     ) -> Result<()> {
-        let i = &gbuffer.images;
-        self.reproject.dispatch(
-            ctx,
-            cmd,
+        let g = gbuffer;
+        rec.dispatch(
+            &self.reproject,
             &ReprojectGi {
                 frame: &probes.frame,
                 camera,
-                depth: &i[0],
-                geometric_normal: &i[1],
+                depth: &g.depth,
+                geometric_normal: &g.geometric_normal,
                 irradiance: &res.irradiance,
                 previous_history: res.history.previous(),
                 history: res.history.current(),
@@ -218,12 +235,11 @@ impl DenoiserPasses {
                 previous_luma_delta: res.luma_delta.previous(),
                 luma_delta: res.luma_delta.current(),
                 blur_mask: &res.blur_mask,
-                motion: &i[5],
+                motion: &g.motion,
             },
             &[],
             pixel_groups(gbuffer),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
@@ -231,16 +247,14 @@ impl DenoiserPasses {
     /// blur starts from (the temporal history, or the interpolated irradiance without it).
     pub fn record_filter(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         probes: &ScreenProbeResources,
         res: &DenoiserResources,
         gbuffer: &GBufferImages,
         input: &Buffer,
     ) -> Result<()> {
-        self.blur_mask.dispatch(
-            ctx,
-            cmd,
+        rec.dispatch(
+            &self.blur_mask,
             &FilterBlurMask {
                 frame: &probes.frame,
                 mask: &res.blur_mask,
@@ -250,20 +264,18 @@ impl DenoiserPasses {
             &[],
             pixel_groups(gbuffer),
         )?;
-        compute_barrier(ctx, cmd);
-        let i = &gbuffer.images;
+        let g = gbuffer;
         for (direction, (from, to)) in [input, &res.filtered[0]]
             .into_iter()
             .zip(&res.filtered)
             .enumerate()
         {
-            self.filter.dispatch(
-                ctx,
-                cmd,
+            rec.dispatch(
+                &self.filter,
                 &FilterGi {
                     frame: &probes.frame,
-                    depth: &i[0],
-                    geometric_normal: &i[1],
+                    depth: &g.depth,
+                    geometric_normal: &g.geometric_normal,
                     radius: &res.blur_radius,
                     input: from,
                     output: to,
@@ -272,7 +284,6 @@ impl DenoiserPasses {
                 &(direction as u32).to_le_bytes(),
                 pixel_groups(gbuffer),
             )?;
-            compute_barrier(ctx, cmd);
         }
         Ok(())
     }

@@ -5,12 +5,10 @@
 
 use super::resources::CacheResources;
 use crate::error::Result;
+use crate::frame::Recorder;
 use crate::frame::{DispatchFromCounter, indirect_offset};
 use crate::scene::lights::GpuLights;
-use crate::vulkan::{
-    Buffer, Context, Kernel, KernelModule, SceneSets, compute_barrier, transfer_barrier,
-};
-use ash::vk;
+use crate::vulkan::{Buffer, Context, Kernel, KernelModule, SceneSets};
 use gi_shared::cache_view::{
     ARGS_PURGE, ARGS_QUERIES, ARGS_SHADOW_RAYS, ARGS_UPDATE, CachePassParams, QUERY_COUNT,
     SHADOW_RAY_COUNT,
@@ -192,15 +190,13 @@ impl HashCellPasses {
     /// list's expired tiles and carries the others into this frame's list.
     pub fn record_purge(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &CacheResources,
         params: &CachePassParams,
     ) -> Result<()> {
         let push = bytemuck::bytes_of(params);
-        self.begin_frame.dispatch(
-            ctx,
-            cmd,
+        rec.dispatch(
+            &self.begin_frame,
             &BeginFrame {
                 lists: &res.lists,
                 counters: &res.counters,
@@ -210,11 +206,9 @@ impl HashCellPasses {
             push,
             [1, 1, 1],
         )?;
-        compute_barrier(ctx, cmd);
         if res.carried_capacity() > 0 {
-            self.carry.dispatch(
-                ctx,
-                cmd,
+            rec.dispatch(
+                &self.carry,
                 &CarryQueries {
                     counters: &res.counters,
                     carried: &res.carried,
@@ -225,17 +219,15 @@ impl HashCellPasses {
             )?;
         }
         self.dispatch.record(
-            ctx,
-            cmd,
+            rec,
             &res.lists,
             previous_live_list(params.grid.frame_index),
             res.tile_count(),
             &res.args,
             ARGS_PURGE,
         )?;
-        self.purge.dispatch_indirect(
-            ctx,
-            cmd,
+        rec.dispatch_indirect(
+            &self.purge,
             &PurgeTiles {
                 keys: &res.keys,
                 last_touch: &res.last_touch,
@@ -245,7 +237,6 @@ impl HashCellPasses {
             &res.args,
             indirect_offset(ARGS_PURGE),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
@@ -254,16 +245,13 @@ impl HashCellPasses {
     /// (`gi_shared::hash_cells::full_buckets`), each a dispatch over the queries.
     pub fn record_insert(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &CacheResources,
         params: &CachePassParams,
     ) -> Result<()> {
-        res.insert_marks.record_fill(ctx, cmd, MARKS_CLEAR);
-        transfer_barrier(ctx, cmd);
+        rec.fill(&res.insert_marks, MARKS_CLEAR);
         self.dispatch.record(
-            ctx,
-            cmd,
+            rec,
             &res.counters,
             QUERY_COUNT as u32,
             res.query_capacity(),
@@ -287,16 +275,10 @@ impl HashCellPasses {
             marks: &res.insert_marks,
         };
         let (push, offset) = (bytemuck::bytes_of(params), indirect_offset(ARGS_QUERIES));
-        self.insert
-            .dispatch_indirect(ctx, cmd, &insert, push, &res.args, offset)?;
-        compute_barrier(ctx, cmd);
-        self.settle
-            .dispatch_indirect(ctx, cmd, &settle, push, &res.args, offset)?;
-        compute_barrier(ctx, cmd);
+        rec.dispatch_indirect(&self.insert, &insert, push, &res.args, offset)?;
+        rec.dispatch_indirect(&self.settle, &settle, push, &res.args, offset)?;
         // Admitted keys are inserted as the first inserts were.
-        self.admit
-            .dispatch_indirect(ctx, cmd, &insert, push, &res.args, offset)?;
-        compute_barrier(ctx, cmd);
+        rec.dispatch_indirect(&self.admit, &insert, push, &res.args, offset)?;
         Ok(())
     }
 
@@ -304,13 +286,11 @@ impl HashCellPasses {
     /// ResampleReservoirs, PopulateRadianceCache).
     pub fn record_shadow_ray_args(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &CacheResources,
     ) -> Result<()> {
         self.dispatch.record(
-            ctx,
-            cmd,
+            rec,
             &res.counters,
             SHADOW_RAY_COUNT as u32,
             res.query_capacity(),
@@ -326,8 +306,7 @@ impl HashCellPasses {
     #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_populate(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         scene: SceneSets<'_>,
         res: &CacheResources,
         reservoirs: &Buffer,
@@ -335,9 +314,8 @@ impl HashCellPasses {
         params: &CachePassParams,
     ) -> Result<()> {
         let [_, _, environment, _] = lights.buffers();
-        self.populate.dispatch_indirect_traced(
-            ctx,
-            cmd,
+        rec.dispatch_indirect_traced(
+            &self.populate,
             scene,
             &PopulateRadianceCache {
                 counters: &res.counters,
@@ -357,30 +335,26 @@ impl HashCellPasses {
             &res.args,
             indirect_offset(ARGS_SHADOW_RAYS),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
     /// UpdateRadianceCache over the tiles touched this frame.
     pub fn record_update(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &CacheResources,
         params: &CachePassParams,
     ) -> Result<()> {
         self.dispatch.record(
-            ctx,
-            cmd,
+            rec,
             &res.lists,
             UPDATE_TILES,
             res.tile_count(),
             &res.args,
             ARGS_UPDATE,
         )?;
-        self.update.dispatch_indirect(
-            ctx,
-            cmd,
+        rec.dispatch_indirect(
+            &self.update,
             &UpdateRadianceCache {
                 values: &res.values,
                 accumulators: &res.accumulators,
@@ -390,21 +364,18 @@ impl HashCellPasses {
             &res.args,
             indirect_offset(ARGS_UPDATE),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
     /// ResolveRadianceCache over the queries (reusing InsertRadianceCache's arguments).
     pub fn record_resolve(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &CacheResources,
         params: &CachePassParams,
     ) -> Result<()> {
-        self.resolve.dispatch_indirect(
-            ctx,
-            cmd,
+        rec.dispatch_indirect(
+            &self.resolve,
             &ResolveRadianceCache {
                 counters: &res.counters,
                 queries: &res.queries,
@@ -415,7 +386,6 @@ impl HashCellPasses {
             &res.args,
             indirect_offset(ARGS_QUERIES),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 }

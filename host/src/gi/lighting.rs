@@ -6,11 +6,11 @@
 use super::hash_cells::PUSH_BYTES;
 use super::resources::{CacheResources, RestirResources};
 use crate::error::Result;
+use crate::frame::Recorder;
+use crate::frame::Scan;
 use crate::frame::indirect_offset;
-use crate::frame::{Scan, indirect_barrier};
 use crate::scene::lights::GpuLights;
-use crate::vulkan::{Buffer, Context, Kernel, KernelModule, compute_barrier, transfer_barrier};
-use ash::vk;
+use crate::vulkan::{Buffer, Context, Kernel, KernelModule};
 use gi_shared::cache_view::{ARGS_LIGHT_GRID, ARGS_QUERIES, ARGS_SHADOW_RAYS, CachePassParams};
 
 crate::bindings! {
@@ -136,16 +136,14 @@ impl LightingPasses {
     /// reported), then its entries.
     pub fn record_light_grid(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &CacheResources,
         lights: &GpuLights,
         params: &CachePassParams,
     ) -> Result<()> {
         let push = bytemuck::bytes_of(params);
-        self.update_grid.dispatch(
-            ctx,
-            cmd,
+        rec.dispatch(
+            &self.update_grid,
             &UpdateLightGrid {
                 bounds: &res.bounds,
                 grid: &res.light_grid,
@@ -154,11 +152,9 @@ impl LightingPasses {
             push,
             [1, 1, 1],
         )?;
-        indirect_barrier(ctx, cmd);
         let [light_buffer, ..] = lights.buffers();
-        self.build_grid.dispatch_indirect(
-            ctx,
-            cmd,
+        rec.dispatch_indirect(
+            &self.build_grid,
             &BuildLightGrid {
                 grid: &res.light_grid,
                 entries: &res.light_grid_entries,
@@ -168,29 +164,21 @@ impl LightingPasses {
             &res.args,
             indirect_offset(ARGS_LIGHT_GRID),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
     /// ClearReservoirs: empties this frame's reservoir grid.
-    pub fn record_clear_reservoirs(
-        &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
-        restir: &RestirResources,
-    ) {
+    pub fn record_clear_reservoirs(&self, rec: &mut Recorder<'_>, restir: &RestirResources) {
         let grid = restir.grids.current();
-        grid.keys.record_fill_zero(ctx, cmd);
-        grid.offsets.record_fill_zero(ctx, cmd);
-        transfer_barrier(ctx, cmd);
+        rec.fill(&grid.keys, 0);
+        rec.fill(&grid.offsets, 0);
     }
 
     /// GenerateReservoirs over the queries (InsertRadianceCache's arguments); with ReSTIR
     /// (`params`' flags) the hits also join this frame's reservoir grid.
     pub fn record_generate(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &CacheResources,
         restir: &RestirResources,
         lights: &GpuLights,
@@ -198,9 +186,8 @@ impl LightingPasses {
     ) -> Result<()> {
         let [light_buffer, _, environment, distribution] = lights.buffers();
         let grid = restir.grids.current();
-        self.generate.dispatch_indirect(
-            ctx,
-            cmd,
+        rec.dispatch_indirect(
+            &self.generate,
             &GenerateReservoirs {
                 camera: &res.camera,
                 queries: &res.queries,
@@ -225,7 +212,6 @@ impl LightingPasses {
             &res.args,
             indirect_offset(ARGS_QUERIES),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
@@ -234,23 +220,20 @@ impl LightingPasses {
     /// written).
     pub fn record_compact(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &CacheResources,
         restir: &RestirResources,
         params: &CachePassParams,
     ) -> Result<()> {
         let grid = restir.grids.current();
         self.scan.record(
-            ctx,
-            cmd,
+            rec,
             &grid.offsets,
             restir.slots,
             Some((&grid.offsets, restir.slots)),
         )?;
-        self.compact.dispatch_indirect(
-            ctx,
-            cmd,
+        rec.dispatch_indirect(
+            &self.compact,
             &CompactReservoirs {
                 counters: &res.counters,
                 places: &restir.places,
@@ -261,7 +244,6 @@ impl LightingPasses {
             &res.args,
             indirect_offset(ARGS_SHADOW_RAYS),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
@@ -269,8 +251,7 @@ impl LightingPasses {
     /// neighbours, its light sample rewritten.
     pub fn record_resample(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &CacheResources,
         restir: &RestirResources,
         lights: &GpuLights,
@@ -278,9 +259,8 @@ impl LightingPasses {
     ) -> Result<()> {
         let [light_buffer, _, environment, distribution] = lights.buffers();
         let (current, previous) = restir.grids.pair();
-        self.resample.dispatch_indirect(
-            ctx,
-            cmd,
+        rec.dispatch_indirect(
+            &self.resample,
             &ResampleReservoirs {
                 counters: &res.counters,
                 queries: &res.queries,
@@ -300,7 +280,6 @@ impl LightingPasses {
             &res.args,
             indirect_offset(ARGS_SHADOW_RAYS),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 }

@@ -7,10 +7,10 @@
 use super::gi_denoiser::pixel_groups;
 use super::screen_probes::ScreenProbeResources;
 use crate::error::Result;
+use crate::frame::Recorder;
 use crate::gbuffer::GBufferImages;
 use crate::scene::upload::GpuScene;
-use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, compute_barrier};
-use ash::vk;
+use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule};
 use gi_shared::primary_lighting::PrimaryLighting;
 
 /// The per-pixel buffers of the primary hit's light and the output.
@@ -79,33 +79,30 @@ impl PrimaryPasses {
     #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_direct(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         scene: &GpuScene,
         probes: &ScreenProbeResources,
         res: &PrimaryResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
     ) -> Result<()> {
-        let i = &gbuffer.images;
-        self.direct.dispatch_traced(
-            ctx,
-            cmd,
+        let g = gbuffer;
+        rec.dispatch_traced(
+            &self.direct,
             scene.sets(),
             &DirectLight {
                 frame: &probes.frame,
                 camera,
-                depth: &i[0],
-                geometric_normal: &i[1],
-                shading_normal: &i[2],
-                emissive: &i[4],
-                ids: &i[6],
+                depth: &g.depth,
+                geometric_normal: &g.geometric_normal,
+                shading_normal: &g.shading_normal,
+                emissive: &g.emissive,
+                ids: &g.ids,
                 lighting: &res.primary,
             },
             &[],
             pixel_groups(gbuffer),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
@@ -115,8 +112,7 @@ impl PrimaryPasses {
     #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_resolve(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &PrimaryResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
@@ -124,15 +120,14 @@ impl PrimaryPasses {
         feedback: &Buffer,
         undenoised: &Buffer,
     ) -> Result<()> {
-        let i = &gbuffer.images;
-        self.resolve.dispatch(
-            ctx,
-            cmd,
+        let g = gbuffer;
+        rec.dispatch(
+            &self.resolve,
             &ResolveGi {
                 camera,
-                depth: &i[0],
-                geometric_normal: &i[1],
-                albedo: &i[3],
+                depth: &g.depth,
+                geometric_normal: &g.geometric_normal,
+                albedo: &g.albedo,
                 lighting: &res.primary,
                 irradiance,
                 color: &res.color,
@@ -142,7 +137,6 @@ impl PrimaryPasses {
             &[],
             pixel_groups(gbuffer),
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 }

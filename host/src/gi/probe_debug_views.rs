@@ -3,6 +3,7 @@
 //! irradiance before and after the denoiser.
 
 use super::debug_views::{DebugView, debug_views, write_pngs};
+use super::gi_denoiser::DenoiserStage;
 use super::renderer::GiRenderer;
 use crate::error::{Error, Result};
 use crate::image_io::HdrImage;
@@ -189,7 +190,7 @@ pub fn gi_debug_views(ctx: &Context, gi: &GiRenderer) -> Result<Vec<GiDebugView>
     push("irradiance_before_denoiser", w, h, rgb(before), true)?;
     let settings = gi.settings();
     let after: Vec<[f32; 4]> = denoiser
-        .output(true, settings.denoiser_spatial)
+        .output(DenoiserStage::last(settings))
         .read_back(ctx)?;
     push("irradiance_after_denoiser", w, h, rgb(after), true)?;
     // The world cache's cells at each pixel's primary hit.

@@ -11,23 +11,20 @@
 //! spatial denoiser) and are flags the kernels read otherwise (`GiFrameParams::flags`).
 
 use super::cache_view::{Occupancy, ViewOptions, check_image_size};
-use super::gi_denoiser::{DenoiserPasses, DenoiserResources};
+use super::gi_denoiser::{DenoiserPasses, DenoiserResources, DenoiserStage};
 use super::primary_lighting::{PrimaryPasses, PrimaryResources};
 use super::resources::{CacheResources, RestirResources};
 use super::screen_probes::{ProbeLayout, ScreenProbePasses, ScreenProbeResources, technique_flags};
 use super::settings::GiSettings;
-use super::world_cache::{CacheFrame, PassTimer, SceneLighting, WorldCache};
+use super::world_cache::{CacheFrame, SceneLighting, WorldCache};
 use crate::engine::{FrameInputs, FrameOutputs, GBufferSource, OutputImage};
 use crate::error::Result;
-use crate::frame::FloatWords;
+use crate::frame::{BarrierCounts, FloatWords, PassUses, Recorder};
 use crate::gbuffer::{GBufferBindings, GBufferImages};
 use crate::image_io::HdrImage;
 use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
-use crate::vulkan::{
-    Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule, compute_barrier,
-    memory_barrier, transfer_barrier,
-};
+use crate::vulkan::{Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule};
 use ash::vk;
 use gi_shared::cache_view::{
     CachePassParams, CacheQuery, CacheViewPixel, FLAG_EMITTERS_SAMPLED, FLAG_PROBE_RAYS,
@@ -95,6 +92,10 @@ pub struct GiRenderer {
     lighting: SceneLighting,
     timer: Option<GpuTimer>,
     timings: FrameTimings,
+    /// [`GiRenderer::log_passes`]: keep what each pass of [`GiRenderer::render_frame`] touched.
+    log_passes: bool,
+    pass_uses: Vec<PassUses>,
+    barriers: BarrierCounts,
     frame: u32,
     previous: Option<CameraParams>,
     last: Option<(CameraParams, CachePassParams, GiFrameParams)>,
@@ -150,6 +151,9 @@ impl GiRenderer {
             primary_passes,
             lighting: SceneLighting::new(lights),
             timer: GpuTimer::new(ctx, PASSES_PER_FRAME).ok(),
+            log_passes: false,
+            pass_uses: vec![],
+            barriers: BarrierCounts::default(),
             timings: FrameTimings::new(),
             frame: 0,
             previous: None,
@@ -165,6 +169,23 @@ impl GiRenderer {
     /// GPU time per pass, per frame and averaged.
     pub fn timings(&self) -> &FrameTimings {
         &self.timings
+    }
+
+    /// Keeps, from the next [`GiRenderer::render_frame`] on, what each pass read and wrote
+    /// ([`GiRenderer::pass_uses`]).
+    pub fn log_passes(&mut self, on: bool) {
+        self.log_passes = on;
+    }
+
+    /// The barriers the last [`GiRenderer::render_frame`] recorded ([`Recorder`] placed them).
+    pub fn barrier_counts(&self) -> BarrierCounts {
+        self.barriers
+    }
+
+    /// What each pass of the last [`GiRenderer::render_frame`] read and wrote, in order (empty
+    /// unless [`GiRenderer::log_passes`] is on): the pass table of `docs/integration.md`.
+    pub fn pass_uses(&self) -> &[PassUses] {
+        &self.pass_uses
     }
 
     /// Frames rendered.
@@ -260,14 +281,15 @@ impl GiRenderer {
         let inputs = FrameInputs::new(*camera);
         let mut timer = self.timer.take();
         let recorded = ctx.submit(|cmd| {
-            self.record_frame(
-                ctx,
-                cmd,
-                scene,
-                &inputs,
-                &FrameOutputs::default(),
-                timer.as_mut(),
-            )
+            let mut rec = Recorder::new(ctx, cmd, timer.as_mut());
+            if self.log_passes {
+                rec = rec.log();
+            }
+            rec.begin();
+            self.record_frame(&mut rec, scene, &inputs, &FrameOutputs::default())?;
+            self.pass_uses = rec.uses().to_vec();
+            self.barriers = rec.finish();
+            Ok::<_, crate::Error>(())
         });
         let spans = match (&recorded, &timer) {
             (Ok(Ok(())), Some(t)) => Some(t.results(ctx)),
@@ -311,7 +333,11 @@ impl GiRenderer {
             // wait for the frames in flight that read them.
             ctx.submit(|_| ())?;
         }
-        self.record_frame(ctx, cmd, scene, inputs, outputs, None)
+        let mut rec = Recorder::new(ctx, cmd, None);
+        rec.begin();
+        self.record_frame(&mut rec, scene, inputs, outputs)?;
+        rec.finish();
+        Ok(())
     }
 
     /// The counters of the last frame (spawned probes, cache occupancy, ...), read back with one
@@ -421,12 +447,10 @@ impl GiRenderer {
     /// next one.
     fn record_frame(
         &mut self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         scene: &GpuScene,
         inputs: &FrameInputs,
         outputs: &FrameOutputs,
-        timer: Option<&mut GpuTimer>,
     ) -> Result<()> {
         self.check_frame(inputs, outputs)?;
         if inputs.camera_cut {
@@ -456,44 +480,22 @@ impl GiRenderer {
                 },
             },
         );
-        let max_groups = ctx.capabilities().max_workgroup_count[0];
+        let max_groups = rec.ctx().capabilities().max_workgroup_count[0];
         params.view.max_groups = max_groups;
         let mut frame_params = self.frame_params(&frame_camera, previous.as_ref());
         frame_params.max_groups = max_groups;
         self.probes.swap();
         self.denoiser.swap();
-        // Earlier frames on the queue (still reading these buffers) and the engine's G-buffer
-        // writes come before anything here.
-        let all = (
-            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-            vk::AccessFlags::SHADER_READ
-                | vk::AccessFlags::SHADER_WRITE
-                | vk::AccessFlags::TRANSFER_READ
-                | vk::AccessFlags::TRANSFER_WRITE,
-        );
-        memory_barrier(ctx, cmd, all, all);
-        unsafe {
-            ctx.device.cmd_update_buffer(
-                cmd,
-                self.cache_res.camera.handle,
-                0,
-                bytemuck::bytes_of(&frame_camera),
-            );
-            ctx.device.cmd_update_buffer(
-                cmd,
-                self.probes.frame.handle,
-                0,
-                bytemuck::bytes_of(&frame_params),
-            );
-        }
-        self.record_passes(ctx, cmd, scene, &params, inputs.gbuffer, timer)?;
-        let irradiance = self.denoiser.output(true, self.settings.denoiser_spatial);
+        rec.update(&self.cache_res.camera, 0, bytemuck::bytes_of(&frame_camera));
+        rec.update(&self.probes.frame, 0, bytemuck::bytes_of(&frame_params));
+        self.record_passes(rec, scene, &params, inputs.gbuffer)?;
+        let irradiance = self.denoiser.output(DenoiserStage::last(&self.settings));
         for (buffer, image) in [
             (&self.primary.color, &outputs.image),
             (irradiance, &outputs.irradiance),
         ] {
             if let Some(image) = image {
-                record_copy_to_image(ctx, cmd, buffer, image);
+                record_copy_to_image(rec, buffer, image);
             }
         }
         self.last = Some((frame_camera, params, frame_params));
@@ -509,117 +511,89 @@ impl GiRenderer {
     /// Records every pass of a frame (see the [module](self)).
     fn record_passes(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         scene: &GpuScene,
         params: &CachePassParams,
         gbuffer_source: GBufferSource,
-        timer: Option<&mut GpuTimer>,
     ) -> Result<()> {
-        let mut timer = PassTimer::new(ctx, cmd, timer);
         let s = &self.settings;
         let (cache, probes, denoiser, primary) =
             (&self.cache_res, &self.probes, &self.denoiser, &self.primary);
         let (pp, dp) = (&self.probe_passes, &self.denoiser_passes);
         let camera = &cache.camera;
         let gbuffer = &self.gbuffer;
-        probes.counters.record_fill_zero(ctx, cmd);
-        transfer_barrier(ctx, cmd);
-        timer.pass(ctx, cmd, "PurgeRadianceCache", || {
-            self.cache.hash_cells.record_purge(ctx, cmd, cache, params)
+        rec.fill(&probes.counters, 0);
+        rec.pass("PurgeRadianceCache", |rec| {
+            self.cache.hash_cells.record_purge(rec, cache, params)
         })?;
         if gbuffer_source == GBufferSource::Traced {
-            timer.pass(ctx, cmd, "GBuffer", || {
+            rec.pass("GBuffer", |rec| {
                 let bindings = gbuffer.bindings(camera, scene.previous_transforms());
-                self.gbuffer_kernel.dispatch_traced(
-                    ctx,
-                    cmd,
+                rec.dispatch_traced(
+                    &self.gbuffer_kernel,
                     scene.sets(),
                     &bindings,
                     &[],
                     super::gi_denoiser::pixel_groups(gbuffer),
                 )?;
-                compute_barrier(ctx, cmd);
                 Ok(())
             })?;
         }
-        timer.pass(ctx, cmd, "ReprojectScreenProbes", || {
-            pp.record_reproject(ctx, cmd, probes, camera, gbuffer)
+        rec.pass("ReprojectScreenProbes", |rec| {
+            pp.record_reproject(rec, probes, camera, gbuffer)
         })?;
-        timer.pass(ctx, cmd, "SpawnScreenProbes", || {
-            pp.record_spawn(ctx, cmd, probes, camera, gbuffer)
+        rec.pass("SpawnScreenProbes", |rec| {
+            pp.record_spawn(rec, probes, camera, gbuffer)
         })?;
         if s.patching {
-            timer.pass(ctx, cmd, "PatchScreenProbes", || {
-                pp.record_patch(ctx, cmd, probes, camera, gbuffer)
+            rec.pass("PatchScreenProbes", |rec| {
+                pp.record_patch(rec, probes, camera, gbuffer)
             })?;
         }
-        timer.pass(ctx, cmd, "SampleScreenProbes", || {
-            pp.record_sample(ctx, cmd, probes, camera, gbuffer)
+        rec.pass("SampleScreenProbes", |rec| {
+            pp.record_sample(rec, probes, camera, gbuffer)
         })?;
-        timer.pass(ctx, cmd, "PopulateScreenProbes", || {
-            pp.record_populate(
-                ctx,
-                cmd,
-                scene.sets(),
-                probes,
-                cache,
-                camera,
-                gbuffer,
-                params,
-            )
+        rec.pass("PopulateScreenProbes", |rec| {
+            pp.record_populate(rec, scene.sets(), probes, cache, camera, gbuffer, params)
         })?;
-        self.cache.record_after_trace(
-            ctx,
-            cmd,
-            scene,
-            cache,
-            &self.restir,
-            s,
-            params,
-            &mut timer,
-        )?;
-        timer.pass(ctx, cmd, "BlendScreenProbes", || {
-            pp.record_blend(ctx, cmd, probes, cache, camera, gbuffer)
+        self.cache
+            .record_after_trace(rec, scene, cache, &self.restir, s, params)?;
+        rec.pass("BlendScreenProbes", |rec| {
+            pp.record_blend(rec, probes, cache, camera, gbuffer)
         })?;
-        timer.pass(ctx, cmd, "FilterProbeMask", || {
-            pp.record_probe_mask(ctx, cmd, probes)
-        })?;
+        rec.pass("FilterProbeMask", |rec| pp.record_probe_mask(rec, probes))?;
         if s.probe_filter {
-            timer.pass(ctx, cmd, "FilterScreenProbes", || {
-                pp.record_filter(ctx, cmd, probes)
-            })?;
+            rec.pass("FilterScreenProbes", |rec| pp.record_filter(rec, probes))?;
         }
-        timer.pass(ctx, cmd, "ProjectScreenProbes", || {
-            pp.record_project(ctx, cmd, probes, probes.projected_cells(s.probe_filter))
+        rec.pass("ProjectScreenProbes", |rec| {
+            pp.record_project(rec, probes, probes.projected_cells(s.probe_filter))
         })?;
-        timer.pass(ctx, cmd, "DirectLight", || {
+        rec.pass("DirectLight", |rec| {
             self.primary_passes
-                .record_direct(ctx, cmd, scene, probes, primary, camera, gbuffer)
+                .record_direct(rec, scene, probes, primary, camera, gbuffer)
         })?;
-        timer.pass(ctx, cmd, "InterpolateScreenProbes", || {
-            dp.record_interpolate(ctx, cmd, probes, denoiser, camera, gbuffer)
+        rec.pass("InterpolateScreenProbes", |rec| {
+            dp.record_interpolate(rec, probes, denoiser, camera, gbuffer)
         })?;
-        timer.pass(ctx, cmd, "ReprojectGI", || {
-            dp.record_reproject(ctx, cmd, probes, denoiser, camera, gbuffer)
+        rec.pass("ReprojectGI", |rec| {
+            dp.record_reproject(rec, probes, denoiser, camera, gbuffer)
         })?;
-        let temporal_out = denoiser.output(true, false);
+        let temporal_out = denoiser.output(DenoiserStage::Temporal);
         if s.denoiser_spatial {
-            timer.pass(ctx, cmd, "FilterGI", || {
-                dp.record_filter(ctx, cmd, probes, denoiser, gbuffer, temporal_out)
+            rec.pass("FilterGI", |rec| {
+                dp.record_filter(rec, probes, denoiser, gbuffer, temporal_out)
             })?;
         }
-        let irradiance = denoiser.output(true, s.denoiser_spatial);
-        timer.pass(ctx, cmd, "ResolveGI", || {
+        let irradiance = denoiser.output(DenoiserStage::last(s));
+        rec.pass("ResolveGI", |rec| {
             self.primary_passes.record_resolve(
-                ctx,
-                cmd,
+                rec,
                 primary,
                 camera,
                 gbuffer,
                 irradiance,
                 &cache.history,
-                denoiser.output(false, false),
+                denoiser.output(DenoiserStage::Interpolated),
             )
         })
     }
@@ -694,8 +668,8 @@ impl GiRenderer {
     /// G-buffer images (normals, emission) are not among them: the check reads 32-bit floats.
     pub fn float_images(&self) -> Vec<&Image> {
         self.gbuffer
-            .images
-            .iter()
+            .all()
+            .into_iter()
             .filter(|i| {
                 matches!(
                     i.format,
@@ -718,24 +692,7 @@ impl GiRenderer {
 
 /// Records a copy of `buffer` (`[f32; 4]` texels, row after row) into the engine's `image`
 /// (checked by [`OutputImage::check`]), after the compute writes before it.
-fn record_copy_to_image(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    buffer: &Buffer,
-    image: &OutputImage,
-) {
-    memory_barrier(
-        ctx,
-        cmd,
-        (
-            vk::PipelineStageFlags::COMPUTE_SHADER,
-            vk::AccessFlags::SHADER_WRITE,
-        ),
-        (
-            vk::PipelineStageFlags::TRANSFER,
-            vk::AccessFlags::TRANSFER_READ,
-        ),
-    );
+fn record_copy_to_image(rec: &mut Recorder<'_>, buffer: &Buffer, image: &OutputImage) {
     let region = [vk::BufferImageCopy::default()
         .image_subresource(vk::ImageSubresourceLayers {
             aspect_mask: vk::ImageAspectFlags::COLOR,
@@ -748,8 +705,5 @@ fn record_copy_to_image(
             height: image.height,
             depth: 1,
         })];
-    unsafe {
-        ctx.device
-            .cmd_copy_buffer_to_image(cmd, buffer.handle, image.image, image.layout, &region)
-    };
+    rec.copy_to_image(buffer, image.image, image.layout, &region);
 }

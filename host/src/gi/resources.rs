@@ -94,13 +94,13 @@ fn carried_queries(settings: &GiSettings, rays: usize) -> usize {
 
 /// Each resource's name, in the order [`CacheResources::buffers`] lists them.
 pub const RESOURCE_NAMES: [&str; 18] = [
-    "cache-view camera",
+    "camera",
     "hash grid keys",
     "hash grid last touch",
     "hash grid values",
     "hash grid accumulators",
     "hash grid lists",
-    "cache-view counters",
+    "cache counters",
     "cache queries",
     "shadow rays",
     "ray records",

@@ -9,10 +9,9 @@ use super::hash_cells::PUSH_BYTES;
 use super::resources::CacheResources;
 use super::settings::GiSettings;
 use crate::error::Result;
+use crate::frame::Recorder;
 use crate::gbuffer::GBufferImages;
-use crate::vulkan::{
-    Buffer, Context, Image, Kernel, KernelModule, PingPong, SceneSets, compute_barrier,
-};
+use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong, SceneSets};
 use ash::vk;
 use gi_shared::cache_view::CachePassParams;
 use gi_shared::screen_probes::{
@@ -386,17 +385,15 @@ impl ScreenProbePasses {
     /// ReprojectScreenProbes: last frame's probes into this frame's tiles.
     pub fn record_reproject(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
     ) -> Result<()> {
-        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         let g = res.layout.probe_grid;
-        self.reproject.dispatch(
-            ctx,
-            cmd,
+        rec.dispatch(
+            &self.reproject,
             &ReprojectScreenProbes {
                 frame: &res.frame,
                 camera,
@@ -410,28 +407,25 @@ impl ScreenProbePasses {
                 atlas: res.atlas.current(),
                 empty_tiles: &res.empty_tiles,
                 counters: &res.counters,
-                motion: &gbuffer.images[5],
+                motion: &gbuffer.motion,
             },
             &[],
             [g[0], g[1], 1],
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
     /// SpawnScreenProbes, then (with patching) PatchScreenProbes.
     pub fn record_spawn(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
     ) -> Result<()> {
-        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
-        self.spawn.dispatch(
-            ctx,
-            cmd,
+        let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
+        rec.dispatch(
+            &self.spawn,
             &SpawnScreenProbes {
                 frame: &res.frame,
                 camera,
@@ -445,7 +439,6 @@ impl ScreenProbePasses {
             &[],
             [res.layout.spawn_capacity().div_ceil(64), 1, 1],
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
@@ -453,13 +446,12 @@ impl ScreenProbePasses {
     /// take the first they won.
     pub fn record_patch(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
     ) -> Result<()> {
-        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         let patch = PatchScreenProbes {
             frame: &res.frame,
             camera,
@@ -480,27 +472,23 @@ impl ScreenProbePasses {
             counters: patch.counters,
         };
         let groups = [res.layout.probe_count().div_ceil(64), 1, 1];
-        self.claim.dispatch(ctx, cmd, &claim, &[], groups)?;
-        compute_barrier(ctx, cmd);
-        self.patch.dispatch(ctx, cmd, &patch, &[], groups)?;
-        compute_barrier(ctx, cmd);
+        rec.dispatch(&self.claim, &claim, &[], groups)?;
+        rec.dispatch(&self.patch, &patch, &[], groups)?;
         Ok(())
     }
 
     /// SampleScreenProbes: each spawned probe's history hemisphere and ray directions.
     pub fn record_sample(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
     ) -> Result<()> {
-        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         let s = res.layout.spawn_grid;
-        self.sample.dispatch(
-            ctx,
-            cmd,
+        rec.dispatch(
+            &self.sample,
             &SampleScreenProbes {
                 frame: &res.frame,
                 camera,
@@ -515,7 +503,6 @@ impl ScreenProbePasses {
             &[],
             [s[0], s[1], 1],
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
@@ -523,8 +510,7 @@ impl ScreenProbePasses {
     #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_populate(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         scene: SceneSets<'_>,
         res: &ScreenProbeResources,
         cache: &CacheResources,
@@ -532,11 +518,10 @@ impl ScreenProbePasses {
         gbuffer: &GBufferImages,
         params: &CachePassParams,
     ) -> Result<()> {
-        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         let s = res.layout.spawn_grid;
-        self.populate.dispatch_traced(
-            ctx,
-            cmd,
+        rec.dispatch_traced(
+            &self.populate,
             scene,
             &PopulateScreenProbes {
                 frame: &res.frame,
@@ -553,25 +538,22 @@ impl ScreenProbePasses {
             bytemuck::bytes_of(params),
             [s[0], s[1], 1],
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
     /// BlendScreenProbes: the rays' radiance into the spawned probes' cells.
     pub fn record_blend(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
         cache: &CacheResources,
         camera: &Buffer,
         gbuffer: &GBufferImages,
     ) -> Result<()> {
-        let [depth, normal] = [&gbuffer.images[0], &gbuffer.images[1]];
+        let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         let s = res.layout.spawn_grid;
-        self.blend.dispatch(
-            ctx,
-            cmd,
+        rec.dispatch(
+            &self.blend,
             &BlendScreenProbes {
                 frame: &res.frame,
                 camera,
@@ -588,22 +570,19 @@ impl ScreenProbePasses {
             &[],
             [s[0], s[1], 1],
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 
     /// FilterProbeMask: mips 1.. of the probe mask, one dispatch each.
     pub fn record_probe_mask(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
     ) -> Result<()> {
         for mip in 1..res.layout.mask_mips {
             let size = mask_mip_size(res.layout.probe_grid, mip);
-            self.probe_mask.dispatch(
-                ctx,
-                cmd,
+            rec.dispatch(
+                &self.probe_mask,
                 &FilterProbeMask {
                     frame: &res.frame,
                     mask: res.mask.current(),
@@ -611,24 +590,17 @@ impl ScreenProbePasses {
                 &mip.to_le_bytes(),
                 [size[0].div_ceil(8), size[1].div_ceil(8), 1],
             )?;
-            compute_barrier(ctx, cmd);
         }
         Ok(())
     }
 
     /// FilterScreenProbes, horizontal then vertical, from the atlas into `filtered`.
-    pub fn record_filter(
-        &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
-        res: &ScreenProbeResources,
-    ) -> Result<()> {
+    pub fn record_filter(&self, rec: &mut Recorder<'_>, res: &ScreenProbeResources) -> Result<()> {
         let g = res.layout.probe_grid;
         let inputs = [res.atlas.current(), &res.filtered[0]];
         for (direction, (input, output)) in inputs.into_iter().zip(&res.filtered).enumerate() {
-            self.filter.dispatch(
-                ctx,
-                cmd,
+            rec.dispatch(
+                &self.filter,
                 &FilterScreenProbes {
                     frame: &res.frame,
                     records: res.records.current(),
@@ -639,7 +611,6 @@ impl ScreenProbePasses {
                 &(direction as u32).to_le_bytes(),
                 [g[0], g[1], 1],
             )?;
-            compute_barrier(ctx, cmd);
         }
         Ok(())
     }
@@ -647,15 +618,13 @@ impl ScreenProbePasses {
     /// ProjectScreenProbes: SH L2 of every probe from `cells`.
     pub fn record_project(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
         cells: &Buffer,
     ) -> Result<()> {
         let g = res.layout.probe_grid;
-        self.project.dispatch(
-            ctx,
-            cmd,
+        rec.dispatch(
+            &self.project,
             &ProjectScreenProbes {
                 frame: &res.frame,
                 records: res.records.current(),
@@ -665,7 +634,6 @@ impl ScreenProbePasses {
             &[],
             [g[0], g[1], 1],
         )?;
-        compute_barrier(ctx, cmd);
         Ok(())
     }
 }

@@ -1,9 +1,8 @@
 //! The world-space radiance cache as one unit the frames share: the cache passes that follow a
 //! tracing pass (InsertRadianceCache, UpdateLightGrid, ClearReservoirs, GenerateReservoirs,
 //! CompactReservoirs, ResampleReservoirs, PopulateRadianceCache, UpdateRadianceCache,
-//! ResolveRadianceCache), the push constants every cache pass reads, and [`PassTimer`], which
-//! wraps each pass in a GPU timestamp span under its name. `gi cache-view` feeds the cache with
-//! one ray per pixel, the GI frame with the screen probes' rays.
+//! ResolveRadianceCache) and the push constants every cache pass reads. `gi cache-view` feeds the
+//! cache with one ray per pixel, the GI frame with the screen probes' rays.
 
 use super::cache_view::{ViewOptions, environment_irradiance};
 use super::hash_cells::HashCellPasses;
@@ -11,10 +10,10 @@ use super::lighting::LightingPasses;
 use super::resources::{CacheResources, RestirResources};
 use super::settings::GiSettings;
 use crate::error::Result;
+use crate::frame::Recorder;
 use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
-use crate::vulkan::{Context, GpuTimer, KernelModule};
-use ash::vk;
+use crate::vulkan::{Context, KernelModule};
 use gi_shared::cache_view::{
     CachePassParams, CacheViewParams, FLAG_BYPASS, FLAG_ENVIRONMENT_LIGHT, FLAG_FEEDBACK,
     FLAG_HISTORY, FLAG_MULTI_BOUNCE, FLAG_RESTIR, FLAG_RESTIR_HISTORY, FLAG_SHORT_RAY,
@@ -24,39 +23,6 @@ use gi_shared::hash_cells::cell_size_const;
 use gi_shared::layout::HashGridParams;
 use gi_shared::scene_data::NONE;
 use gi_shared::world_restir::reservoir_cell_const;
-
-/// Records passes, each inside a timestamp span named after it when there is a timer.
-pub struct PassTimer<'t> {
-    timer: Option<&'t mut GpuTimer>,
-}
-
-impl<'t> PassTimer<'t> {
-    /// Times into `timer` (reset here), or not at all.
-    pub fn new(ctx: &Context, cmd: vk::CommandBuffer, mut timer: Option<&'t mut GpuTimer>) -> Self {
-        if let Some(t) = timer.as_deref_mut() {
-            t.reset(ctx, cmd);
-        }
-        Self { timer }
-    }
-
-    /// Records `body` as the pass `label`.
-    pub fn pass(
-        &mut self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
-        label: &str,
-        body: impl FnOnce() -> Result<()>,
-    ) -> Result<()> {
-        if let Some(t) = self.timer.as_deref_mut() {
-            t.begin(ctx, cmd, label)?;
-        }
-        body()?;
-        if let Some(t) = self.timer.as_deref() {
-            t.end(ctx, cmd);
-        }
-        Ok(())
-    }
-}
 
 /// What the cache's lighting needs to know about the scene's lights.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -191,44 +157,41 @@ impl WorldCache {
     #[allow(clippy::too_many_arguments, reason = "the passes' inputs")]
     pub fn record_after_trace(
         &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         scene: &GpuScene,
         res: &CacheResources,
         restir: &RestirResources,
         settings: &GiSettings,
         params: &CachePassParams,
-        timer: &mut PassTimer<'_>,
     ) -> Result<()> {
         let (hash_cells, lighting) = (&self.hash_cells, &self.lighting);
-        timer.pass(ctx, cmd, "InsertRadianceCache", || {
-            hash_cells.record_insert(ctx, cmd, res, params)
+        rec.pass("InsertRadianceCache", |rec| {
+            hash_cells.record_insert(rec, res, params)
         })?;
-        timer.pass(ctx, cmd, "UpdateLightGrid", || {
-            lighting.record_light_grid(ctx, cmd, res, &scene.lights, params)
+        rec.pass("UpdateLightGrid", |rec| {
+            lighting.record_light_grid(rec, res, &scene.lights, params)
         })?;
         if settings.restir {
-            timer.pass(ctx, cmd, "ClearReservoirs", || {
-                lighting.record_clear_reservoirs(ctx, cmd, restir);
+            rec.pass("ClearReservoirs", |rec| {
+                lighting.record_clear_reservoirs(rec, restir);
                 Ok(())
             })?;
         }
-        timer.pass(ctx, cmd, "GenerateReservoirs", || {
-            lighting.record_generate(ctx, cmd, res, restir, &scene.lights, params)?;
-            hash_cells.record_shadow_ray_args(ctx, cmd, res)
+        rec.pass("GenerateReservoirs", |rec| {
+            lighting.record_generate(rec, res, restir, &scene.lights, params)?;
+            hash_cells.record_shadow_ray_args(rec, res)
         })?;
         if settings.restir {
-            timer.pass(ctx, cmd, "CompactReservoirs", || {
-                lighting.record_compact(ctx, cmd, res, restir, params)
+            rec.pass("CompactReservoirs", |rec| {
+                lighting.record_compact(rec, res, restir, params)
             })?;
-            timer.pass(ctx, cmd, "ResampleReservoirs", || {
-                lighting.record_resample(ctx, cmd, res, restir, &scene.lights, params)
+            rec.pass("ResampleReservoirs", |rec| {
+                lighting.record_resample(rec, res, restir, &scene.lights, params)
             })?;
         }
-        timer.pass(ctx, cmd, "PopulateRadianceCache", || {
+        rec.pass("PopulateRadianceCache", |rec| {
             hash_cells.record_populate(
-                ctx,
-                cmd,
+                rec,
                 scene.sets(),
                 res,
                 &restir.grids.current().reservoirs,
@@ -236,11 +199,11 @@ impl WorldCache {
                 params,
             )
         })?;
-        timer.pass(ctx, cmd, "UpdateRadianceCache", || {
-            hash_cells.record_update(ctx, cmd, res, params)
+        rec.pass("UpdateRadianceCache", |rec| {
+            hash_cells.record_update(rec, res, params)
         })?;
-        timer.pass(ctx, cmd, "ResolveRadianceCache", || {
-            hash_cells.record_resolve(ctx, cmd, res, params)
+        rec.pass("ResolveRadianceCache", |rec| {
+            hash_cells.record_resolve(rec, res, params)
         })
     }
 }

@@ -57,6 +57,9 @@ pub struct Context {
     variant: KernelVariant,
     /// Layouts of the scene's sets 1 and 2 (`SceneSet`), shared by every kernel that traces.
     scene_set_layouts: [vk::DescriptorSetLayout; 2],
+    /// `VK_EXT_debug_utils`' command labels, where the instance has the extension (ours, when
+    /// the loader offers it): each pass's name in RenderDoc, Nsight and the validation layer.
+    pub(crate) labels: Option<ash::ext::debug_utils::Device>,
 }
 
 /// The device-level state resources need to free themselves, shared by the context and every
@@ -205,14 +208,19 @@ impl Context {
         } else {
             vec![]
         };
-        let ext_ptrs: Vec<*const c_char> = if validation.is_some() {
-            vec![
-                ash::ext::debug_utils::NAME.as_ptr(),
-                ash::ext::validation_features::NAME.as_ptr(),
-            ]
-        } else {
-            vec![]
-        };
+        // Debug utils wherever the loader has it: the passes' labels, and validation's messenger.
+        let debug_utils = validation.is_some()
+            || unsafe { entry.enumerate_instance_extension_properties(None) }
+                .unwrap_or_default()
+                .iter()
+                .any(|e| e.extension_name_as_c_str() == Ok(ash::ext::debug_utils::NAME));
+        let mut ext_ptrs: Vec<*const c_char> = vec![];
+        if debug_utils {
+            ext_ptrs.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        if validation.is_some() {
+            ext_ptrs.push(ash::ext::validation_features::NAME.as_ptr());
+        }
         // VK_EXT_validation_features rather than VK_EXT_layer_settings: the layer of Debian
         // bookworm (1.3.239, what scripts/setup.sh installs) predates the latter, and later
         // layers still honour the former.
@@ -336,7 +344,7 @@ impl Context {
             images: ResourceRegistry::default(),
             instance: Some(owner),
         });
-        Self::with_device(
+        let mut ctx = Self::with_device(
             shared,
             &instance,
             validation,
@@ -344,7 +352,11 @@ impl Context {
             queue_family,
             required.capabilities,
             variant,
-        )
+        )?;
+        if debug_utils {
+            ctx.labels = Some(ash::ext::debug_utils::Device::new(&instance, &ctx.device));
+        }
+        Ok(ctx)
     }
 
     /// The context of a device that exists (`shared`): our command pool and scene layouts.
@@ -375,6 +387,7 @@ impl Context {
             capabilities,
             variant,
             scene_set_layouts: [vk::DescriptorSetLayout::null(); 2],
+            labels: None,
         };
         // Dropping `ctx` on an error frees what exists (destroying a null layout is a no-op).
         for (slot, set) in ctx

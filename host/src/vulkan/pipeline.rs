@@ -154,6 +154,8 @@ pub struct Kernel {
     set_layout: vk::DescriptorSetLayout,
     /// Set 0: each binding's number and kind, in the order of `declared`.
     slots: Vec<(u32, BindingKind)>,
+    /// Set 0: whether the kernel writes each binding, in the order of `declared`.
+    writes: Vec<bool>,
     declared: &'static [DeclaredBinding],
     push_constant_bytes: u32,
     traces: bool,
@@ -204,6 +206,7 @@ impl Kernel {
             layout: vk::PipelineLayout::null(),
             set_layout: create_set_layout(&ctx.device, &slots, true)?,
             slots,
+            writes: kernel_bindings.iter().map(|b| b.writes).collect(),
             declared: bindings,
             push_constant_bytes,
             traces,
@@ -297,8 +300,8 @@ impl Kernel {
     /// Records a dispatch whose workgroup counts the GPU reads, when the dispatch executes, from
     /// the `VkDispatchIndirectCommand` (`gi_shared::indirect::DispatchIndirect`) at byte `offset`
     /// of `args` (a buffer with `INDIRECT_BUFFER` usage: `frame::indirect_args`). A count of
-    /// zero dispatches nothing. Whatever wrote the arguments must be followed by
-    /// `frame::indirect_barrier` first.
+    /// zero dispatches nothing. Whatever wrote the arguments must be made visible to indirect
+    /// reads first (`frame::Recorder::dispatch_indirect` does).
     pub fn dispatch_indirect<B: Bindings>(
         &self,
         ctx: &Context,
@@ -355,6 +358,13 @@ impl Kernel {
         self.bind(ctx, cmd, scene, bindings, push)?;
         unsafe { ctx.device.cmd_dispatch_indirect(cmd, args.handle, offset) };
         Ok(())
+    }
+
+    /// Whether the kernel writes each of its set-0 bindings, in the order of its [`Bindings`]
+    /// (buffers it only reads are `NonWritable` in its SPIR-V; storage images it writes have an
+    /// `OpImageWrite`).
+    pub fn binding_writes(&self) -> &[bool] {
+        &self.writes
     }
 
     fn bad_dispatch(&self, why: String) -> Error {

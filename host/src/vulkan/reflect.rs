@@ -2,8 +2,13 @@
 //!
 //! rust-gpu emits SPIR-V 1.5, whose `OpEntryPoint` lists every global the entry point uses, each
 //! with its `OpName` (the kernel parameter's name), `DescriptorSet`, `Binding` and, on buffers the
-//! kernel only reads, `NonWritable`. A parameter the kernel never uses is compiled away and has no
-//! binding. The host declares the same bindings by name ([`super::bindings`]) and
+//! kernel only reads, `NonWritable`; a storage image is written when the module has an
+//! `OpImageWrite` to a value loaded from its variable (rust-gpu inlines every call into the entry
+//! point; a function that still calls another counts the images it loads as written). The test is
+//! per variable, not per entry point, because rust-gpu gives the same parameter of two kernels
+//! (same set, binding and type) one variable, and the validation layer's synchronization checks
+//! then count a kernel that only reads it as writing it too. A parameter the kernel never uses is
+//! compiled away and has no binding. The host declares the same bindings by name ([`crate::bindings!`]) and
 //! [`check_declared`] compares the two when the pipeline is created, so a swapped pair, a missing
 //! binding or a wrong kind is an error naming the kernel and the binding, not a silent misbind.
 
@@ -20,13 +25,19 @@ pub struct KernelBinding {
     pub name: String,
     /// What it holds.
     pub kind: BindingKind,
-    /// Whether the kernel may write it (buffers without `NonWritable`; every storage image).
+    /// Whether the kernel may write it (buffers without `NonWritable`; storage images it
+    /// `OpImageWrite`s).
     pub writes: bool,
 }
 
 // SPIR-V opcodes, decorations and storage classes read here (SPIR-V 1.5 specification, §3).
 const OP_NAME: u32 = 5;
 const OP_ENTRY_POINT: u32 = 15;
+const OP_FUNCTION: u32 = 54;
+const OP_FUNCTION_END: u32 = 56;
+const OP_FUNCTION_CALL: u32 = 57;
+const OP_LOAD: u32 = 61;
+const OP_IMAGE_WRITE: u32 = 99;
 const OP_TYPE_IMAGE: u32 = 25;
 const OP_TYPE_SAMPLED_IMAGE: u32 = 27;
 const OP_TYPE_ARRAY: u32 = 28;
@@ -51,6 +62,10 @@ pub fn set0_bindings(words: &[u32]) -> HashMap<String, Vec<KernelBinding>> {
     let mut types: HashMap<u32, (u32, Vec<u32>)> = HashMap::new();
     let mut variables: HashMap<u32, u32> = HashMap::new();
     let mut entries: Vec<(String, Vec<u32>)> = vec![];
+    // The variables images are written through, and those loaded in a function that calls.
+    let mut written: Vec<u32> = vec![];
+    let mut calls = false;
+    let mut loads: HashMap<u32, u32> = HashMap::new();
     let mut i = 5; // past the header
     while i < words.len() {
         let count = (words[i] >> 16) as usize;
@@ -71,6 +86,16 @@ pub fn set0_bindings(words: &[u32]) -> HashMap<String, Vec<KernelBinding>> {
                 let (name, used) = string(&args[2..]);
                 entries.push((name, args[2 + used..].to_vec()));
             }
+            OP_FUNCTION => {
+                calls = false;
+                loads.clear();
+            }
+            OP_FUNCTION_CALL => calls = true,
+            OP_LOAD if args.len() >= 3 => {
+                loads.insert(args[1], args[2]);
+            }
+            OP_FUNCTION_END if calls => written.extend(loads.values()),
+            OP_IMAGE_WRITE if !args.is_empty() => written.extend(loads.get(&args[0])),
             OP_TYPE_POINTER if args.len() >= 3 => {
                 pointers.insert(args[0], (args[1], args[2]));
             }
@@ -125,8 +150,10 @@ pub fn set0_bindings(words: &[u32]) -> HashMap<String, Vec<KernelBinding>> {
                         binding: decoration(v, DECORATION_BINDING)?,
                         name: names.get(&v).cloned().unwrap_or_default(),
                         kind,
-                        writes: kind == BindingKind::StorageImage
-                            || decoration(v, DECORATION_NON_WRITABLE).is_none(),
+                        writes: match kind {
+                            BindingKind::StorageImage => written.contains(&v),
+                            _ => decoration(v, DECORATION_NON_WRITABLE).is_none(),
+                        },
                     })
                 })
                 .collect();
@@ -233,6 +260,11 @@ mod tests {
         let gbuffer = &all["gbuffer::gbuffer"];
         assert_eq!(gbuffer[1].name, "depth");
         assert_eq!(gbuffer[1].kind, BindingKind::StorageImage);
+        // The G-buffer pass writes its images; a pass that reads them does not.
+        assert!(gbuffer[1..8].iter().all(|b| b.writes), "{gbuffer:?}");
+        let interpolate = &all["screen_probes::interpolate::interpolate_screen_probes"];
+        let depth = interpolate.iter().find(|b| b.name == "depth").unwrap();
+        assert!(!depth.writes, "{interpolate:?}");
         let import = &all["gbuffer_import::import_gbuffer"];
         assert_eq!(import[1].name, "engine_depth");
         assert_eq!(import[1].kind, BindingKind::SampledImage);

@@ -375,6 +375,12 @@ pub fn render_gi(
             None => vec![],
         };
         println!("GPU time per pass:\n{}", gi.timings());
+        let b = gi.barrier_counts();
+        println!(
+            "barriers:            {} in the last frame ({} buffer, {} image barriers), placed by \
+             the frame recorder",
+            b.barriers, b.buffer_barriers, b.image_barriers
+        );
         println!("memory:\n{}", gi_host::frame::MemoryTable::of(ctx));
         Ok((image, views))
     })();
