@@ -1,13 +1,14 @@
 //! Debug views of a GI frame, one image per stage: the probe atlas, the probe mask, spawn and
-//! patch tiles, the ray-guiding PDFs, the cache's cells at each pixel, the blur mask, and the
-//! irradiance before and after the denoiser.
+//! patch tiles, the ray-guiding PDFs, the cache's cells at each pixel, the blur mask, the probes'
+//! age (ProbeAgeView, a pass of its own), and the irradiance before and after the denoiser.
 
 use super::debug_views::{DebugView, debug_views, write_pngs};
 use super::gi_denoiser::DenoiserStage;
 use super::renderer::GiRenderer;
 use crate::error::{Error, Result};
+use crate::frame::Recorder;
 use crate::image_io::HdrImage;
-use crate::vulkan::Context;
+use crate::vulkan::{Buffer, Context, Kernel, KernelModule};
 use gi_shared::color::luminance;
 use gi_shared::layout::HashCellValue;
 use gi_shared::packing::{SEED_NONE, unpack_seed};
@@ -27,6 +28,40 @@ pub struct GiDebugView {
     pub image: HdrImage,
     /// Radiance or irradiance, tone-mapped with the exposure.
     pub radiance: bool,
+}
+
+crate::bindings! {
+    /// ProbeAgeView's set 0 (`kernels::screen_probes::probe_age_view`).
+    pub(crate) struct ProbeAgeView<'a> {
+        frame: &'a Buffer,
+        records: &'a Buffer,
+        colours: &'a Buffer,
+    }
+}
+
+/// ProbeAgeView, run on the last frame's probes: each pixel in the colour of its tile's probe
+/// age (`ProbeRecord::age_colour`).
+fn probe_age_view(ctx: &Context, gi: &GiRenderer, [w, h]: [u32; 2]) -> Result<Vec<[f32; 3]>> {
+    let module = KernelModule::new(ctx)?;
+    let kernel = Kernel::new::<ProbeAgeView>(ctx, &module, "screen_probes::probe_age_view", 0)?;
+    let colours = Buffer::device_zeroed::<[f32; 4]>(ctx, "probe age view", (w * h) as usize)?;
+    let probes = gi.probes();
+    let bindings = ProbeAgeView {
+        frame: &probes.frame,
+        records: probes.records.current(),
+        colours: &colours,
+    };
+    ctx.submit(|cmd| {
+        let mut rec = Recorder::new(ctx, cmd, None);
+        rec.begin();
+        rec.pass("ProbeAgeView", |rec| {
+            rec.dispatch(&kernel, &bindings, &[], [w.div_ceil(8), h.div_ceil(8), 1])
+        })?;
+        rec.finish();
+        Ok::<_, Error>(())
+    })??;
+    let texels: Vec<[f32; 4]> = colours.read_back(ctx)?;
+    Ok(texels.iter().map(|c| [c[0], c[1], c[2]]).collect())
 }
 
 /// A colour per index, stable across frames.
@@ -185,6 +220,7 @@ pub fn gi_debug_views(ctx: &Context, gi: &GiRenderer) -> Result<Vec<GiDebugView>
         })
         .collect();
     push("blur_mask", w, h, blur_pixels, false)?;
+    push("probe_age", w, h, probe_age_view(ctx, gi, [w, h])?, false)?;
     let rgb = |v: Vec<[f32; 4]>| v.iter().map(|c| [c[0], c[1], c[2]]).collect::<Vec<_>>();
     let before: Vec<[f32; 4]> = denoiser.irradiance.read_back(ctx)?;
     push("irradiance_before_denoiser", w, h, rgb(before), true)?;

@@ -277,7 +277,26 @@ impl ProbeRecord {
     pub fn seed_pixel(&self) -> UVec2 {
         unpack_seed(self.seed)
     }
+
+    /// The probe-age debug view's colour (ProbeAgeView): green for a probe traced this frame,
+    /// through yellow to red at [`AGE_VIEW_OLDEST`] frames or more; black for a tile without one.
+    #[inline]
+    pub fn age_colour(&self) -> Vec3 {
+        if !self.is_valid() {
+            return Vec3::ZERO;
+        }
+        let t = crate::math::min_u32(self.age, AGE_VIEW_OLDEST) as f32 / AGE_VIEW_OLDEST as f32;
+        Vec3::new(
+            crate::math::min(2.0 * t, 1.0),
+            crate::math::min(2.0 - 2.0 * t, 1.0),
+            0.0,
+        )
+    }
 }
+
+/// The age at which ProbeAgeView's colour is fully red: `fast` traces each probe tile once in 16
+/// frames, so an older probe missed its turn (its tile was reprojected instead).
+pub const AGE_VIEW_OLDEST: u32 = 16;
 
 /// One probe ray (32 bytes): written by SampleScreenProbes (direction, cell), completed by
 /// PopulateScreenProbes (hit distance).
@@ -368,6 +387,26 @@ pub fn mask_words(grid: [u32; 2]) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn probe_age_colours_run_from_green_to_red() {
+        let probe = |age| ProbeRecord {
+            seed: 0,
+            age,
+            ..ProbeRecord::NONE
+        };
+        assert_eq!(ProbeRecord::NONE.age_colour(), Vec3::ZERO);
+        assert_eq!(probe(0).age_colour(), Vec3::new(0.0, 1.0, 0.0));
+        assert_eq!(
+            probe(AGE_VIEW_OLDEST / 2).age_colour(),
+            Vec3::new(1.0, 1.0, 0.0)
+        );
+        assert_eq!(
+            probe(AGE_VIEW_OLDEST).age_colour(),
+            Vec3::new(1.0, 0.0, 0.0)
+        );
+        assert_eq!(probe(u32::MAX).age_colour(), Vec3::new(1.0, 0.0, 0.0));
+    }
 
     #[test]
     fn the_mask_chain_goes_down_to_one_texel() {
