@@ -49,7 +49,7 @@ mean() { echo "  $1: $(grep 'against reference' "$OUT/$1.log")"; }
 
 # Debugging: every debug view of a healthy frame (Cornell box, a slow orbit, 32 frames).
 gi_render debug cornell-box --camera-path orbit:1 --frames 32 --debug-views "$OUT/debug-debug"
-for v in probe_atlas probe_mask spawn_and_patch_tiles ray_guiding_pdf blur_mask \
+for v in probe_atlas probe_mask spawn_and_patch_tiles ray_guiding_pdf blur_mask probe_age \
   irradiance_before_denoiser irradiance_after_denoiser cache_cells_by_hash cache_lod \
   cache_sample_count cache_cached_radiance; do
   view debug "$v"

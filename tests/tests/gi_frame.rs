@@ -15,6 +15,7 @@
 use gi_host::KernelVariant;
 use gi_host::frame::FiniteCheck;
 use gi_host::gbuffer::scene_camera;
+use gi_host::gi::probe_debug_views::gi_debug_views;
 use gi_host::gi::renderer::{GiFrameStats, GiRenderer};
 use gi_host::gi::{GiSettings, Preset, ViewOptions};
 use gi_host::image_io::HdrImage;
@@ -30,6 +31,7 @@ use gi_shared::hash::pcg_chain;
 use gi_shared::light_grid::{
     LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams, build_light_grid_cell,
 };
+use gi_shared::screen_probes::{PROBE_SIZE, ProbeRecord};
 use gi_tests::{
     context, finish_without_validation_messages, load_scene, reference_image, variants,
 };
@@ -658,5 +660,38 @@ fn the_light_grid_build_matches_the_cpu() {
     // Rounding may flip a streaming pick in the last bit of a comparison, rarely.
     assert!(same * 100 >= total * 99, "{same} of {total} entries agree");
     drop(gi);
+    gpu.finish();
+}
+
+/// ProbeAgeView (a pass of its own, `gi render --debug-views`) colours each pixel as the CPU's
+/// `ProbeRecord::age_colour` colours its tile's probe, with `fast`'s spread of ages.
+#[test]
+fn the_probe_age_view_matches_the_cpu() {
+    let scene = load_scene("cornell-box.gltf");
+    let gpu = Gpu::new(KernelVariant::Software, &scene);
+    let mut gi = gpu.renderer(Preset::Fast.settings(SIDE, SIDE));
+    gpu.run(&mut gi, 12, |_| scene_camera(&scene, SIDE, SIDE));
+    let views = gi_debug_views(&gpu.ctx, &gi).unwrap();
+    let view = views.iter().find(|v| v.name == "probe_age").unwrap();
+    let probes = gi.probes();
+    let records: Vec<ProbeRecord> = probes.records.current().read_back(&gpu.ctx).unwrap();
+    let grid = probes.layout.probe_grid;
+    let mut ages = std::collections::BTreeSet::new();
+    for y in 0..SIDE {
+        for x in 0..SIDE {
+            let record = records[((y / PROBE_SIZE) * grid[0] + x / PROBE_SIZE) as usize];
+            ages.insert(record.age);
+            let want = record.age_colour().to_array();
+            assert_eq!(
+                view.image.pixel(x, y),
+                want,
+                "pixel ({x}, {y}), age {}",
+                record.age
+            );
+        }
+    }
+    // `fast` traces a sixteenth of the probes a frame: young and old probes both show.
+    assert!(ages.len() > 2, "ages {ages:?}");
+    drop((gi, views));
     gpu.finish();
 }
