@@ -7,6 +7,7 @@
 //! and what each channel holds).
 
 use crate::error::{Error, Result};
+use crate::frame::Recorder;
 use crate::scene::Scene;
 use crate::scene::bvh::Bvh;
 use crate::scene::gpu_data::ShadingData;
@@ -257,9 +258,44 @@ impl GBufferData {
     }
 }
 
-/// The `gbuffer::gbuffer` pipeline and its camera buffer.
-pub struct GBufferPass {
+/// The G-buffer pass (`gbuffer::gbuffer`): the camera's primary rays traced into
+/// [`GBufferImages`]. The GI frame and the cache view record it; [`GBufferPass`] runs it alone.
+pub struct GBufferKernel {
     kernel: Kernel,
+}
+
+impl GBufferKernel {
+    /// Creates the pipeline from `module`.
+    pub fn new(ctx: &Context, module: &KernelModule) -> Result<Self> {
+        Ok(Self {
+            kernel: Kernel::new::<GBufferBindings>(ctx, module, "gbuffer::gbuffer", 0)?,
+        })
+    }
+
+    /// Records the pass GBuffer: the camera `camera` holds (a [`CameraParams`] of the images'
+    /// size) seen into `images`.
+    pub fn record(
+        &self,
+        rec: &mut Recorder<'_>,
+        scene: &GpuScene,
+        camera: &Buffer,
+        images: &GBufferImages,
+    ) -> Result<()> {
+        let groups = [
+            images.width().div_ceil(GBUFFER_TILE),
+            images.height().div_ceil(GBUFFER_TILE),
+            1,
+        ];
+        let bindings = images.bindings(camera, scene.previous_transforms());
+        rec.pass("GBuffer", |rec| {
+            rec.dispatch_traced(&self.kernel, scene.sets(), &bindings, &[], groups)
+        })
+    }
+}
+
+/// The G-buffer pass run on its own, with its camera buffer.
+pub struct GBufferPass {
+    kernel: GBufferKernel,
     camera: Buffer,
 }
 
@@ -267,7 +303,7 @@ impl GBufferPass {
     /// Creates the pipeline.
     pub fn new(ctx: &Context) -> Result<Self> {
         let module = KernelModule::new(ctx)?;
-        let kernel = Kernel::new::<GBufferBindings>(ctx, &module, "gbuffer::gbuffer", 0)?;
+        let kernel = GBufferKernel::new(ctx, &module)?;
         let camera = Buffer::parameters(ctx, "G-buffer camera", &[CameraParams::default()])?;
         Ok(Self { kernel, camera })
     }
@@ -294,15 +330,11 @@ impl GBufferPass {
         }
         // The previous submission has finished (submissions wait), so the buffer is free.
         self.camera.write(bytemuck::bytes_of(camera))?;
-        let bindings = images.bindings(&self.camera, scene.previous_transforms());
-        let groups = [
-            width.div_ceil(GBUFFER_TILE),
-            height.div_ceil(GBUFFER_TILE),
-            1,
-        ];
         submit_timed(ctx, "gbuffer", |cmd| {
-            self.kernel
-                .dispatch_traced(ctx, cmd, scene.sets(), &bindings, &[], groups)
+            let mut rec = Recorder::new(ctx, cmd, None);
+            self.kernel.record(&mut rec, scene, &self.camera, images)?;
+            rec.finish();
+            Ok(())
         })
     }
 }

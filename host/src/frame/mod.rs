@@ -26,12 +26,14 @@
 //! floats: [`FloatWords`]), so a test can check a frame's buffers without reading them back.
 
 mod finite_check;
+mod frame_timer;
 mod indirect;
 mod memory_table;
 mod recorder;
 mod scan;
 
 pub use finite_check::{FiniteCheck, FloatWords};
+pub use frame_timer::FrameTimer;
 pub use indirect::{DispatchFromCounter, indirect_args, indirect_offset};
 pub use memory_table::{MemoryRow, MemoryTable};
 pub use recorder::{BETWEEN_PASSES, BarrierCounts, PassUses, Recorder, pass_table};

@@ -19,12 +19,12 @@ use super::resources::{CacheResources, RestirResources};
 use super::settings::GiSettings;
 use super::world_cache::{CacheFrame, SceneLighting, WorldCache};
 use crate::error::{Error, Result};
-use crate::frame::Recorder;
-use crate::gbuffer::{GBufferBindings, GBufferImages};
+use crate::frame::{FrameTimer, Recorder};
+use crate::gbuffer::{GBufferImages, GBufferKernel};
 use crate::image_io::HdrImage;
 use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
-use crate::vulkan::{Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule};
+use crate::vulkan::{Buffer, Context, FrameTimings, Image, Kernel, KernelModule};
 use ash::vk;
 use gi_shared::cache_view::{
     CACHE_VIEW_TILE, CachePassParams, CacheQuery, QUERY_COUNT, running_mean,
@@ -184,12 +184,11 @@ pub struct CacheView {
     /// Whether the previous frame filled a reservoir grid.
     restir_history: bool,
     gbuffer: GBufferImages,
-    gbuffer_kernel: Kernel,
+    gbuffer_kernel: GBufferKernel,
     trace: Kernel,
     composite: Kernel,
     cache: WorldCache,
-    timer: Option<GpuTimer>,
-    timings: FrameTimings,
+    frames: FrameTimer,
     /// The next frame's index.
     frame: u32,
     /// Frames since the running mean restarted.
@@ -242,7 +241,7 @@ impl CacheView {
         let restir = RestirResources::new(ctx, settings.restir, width * height)?;
         let made = (|| -> Result<_> {
             Ok((
-                Kernel::new::<GBufferBindings>(ctx, &module, "gbuffer::gbuffer", 0)?,
+                GBufferKernel::new(ctx, &module)?,
                 Kernel::new::<TraceCacheRays>(
                     ctx,
                     &module,
@@ -268,8 +267,7 @@ impl CacheView {
             trace,
             composite,
             cache,
-            timer: GpuTimer::new(ctx, PASSES_PER_FRAME).ok(),
-            timings: FrameTimings::new(),
+            frames: FrameTimer::new(ctx, PASSES_PER_FRAME),
             frame: 0,
             accumulated: 0,
             previous: None,
@@ -296,7 +294,7 @@ impl CacheView {
 
     /// GPU time per pass, per frame and averaged.
     pub fn timings(&self) -> &FrameTimings {
-        &self.timings
+        self.frames.timings()
     }
 
     /// Frames in the running mean.
@@ -356,23 +354,10 @@ impl CacheView {
         params.view.max_groups = ctx.capabilities().max_workgroup_count[0];
         self.res.camera.write(bytemuck::bytes_of(&frame_camera))?;
         let restart = self.accumulated == 0;
-        let mut timer = self.timer.take();
-        let recorded = ctx.submit(|cmd| {
-            let mut rec = Recorder::new(ctx, cmd, timer.as_mut());
-            rec.begin();
-            self.record_frame(&mut rec, scene, &params, restart)?;
-            rec.finish();
-            Ok::<_, crate::Error>(())
-        });
-        let spans = match (&recorded, &timer) {
-            (Ok(Ok(())), Some(t)) => Some(t.results(ctx)),
-            _ => None,
-        };
-        self.timer = timer;
-        recorded??;
-        if let Some(spans) = spans {
-            self.timings.add_frame(&spans?);
-        }
+        let mut frames = std::mem::take(&mut self.frames);
+        let recorded = frames.submit(ctx, |rec| self.record_frame(rec, scene, &params, restart));
+        self.frames = frames;
+        recorded?;
         let occupancy = self.res.occupancy(ctx, self.frame)?;
         self.last_frame = Some((frame_camera, params));
         if self.settings.restir {
@@ -407,19 +392,9 @@ impl CacheView {
         rec.pass("PurgeRadianceCache", |rec| {
             self.cache.hash_cells.record_purge(rec, res, params)
         })?;
-        rec.pass("GBuffer", |rec| {
-            let bindings = self
-                .gbuffer
-                .bindings(&res.camera, scene.previous_transforms());
-            rec.dispatch_traced(
-                &self.gbuffer_kernel,
-                scene.sets(),
-                &bindings,
-                &[],
-                pixel_groups,
-            )?;
-            Ok(())
-        })?;
+        self.gbuffer_kernel
+            .record(rec, scene, &res.camera, &self.gbuffer)?;
+
         rec.pass("TraceCacheRays", |rec| {
             rec.dispatch_traced(
                 &self.trace,

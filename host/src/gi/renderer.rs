@@ -19,12 +19,12 @@ use super::settings::GiSettings;
 use super::world_cache::{CacheFrame, SceneLighting, WorldCache};
 use crate::engine::{FrameInputs, FrameOutputs, GBufferSource, OutputImage};
 use crate::error::Result;
-use crate::frame::{BarrierCounts, FloatWords, PassUses, Recorder};
-use crate::gbuffer::{GBufferBindings, GBufferImages};
+use crate::frame::{BarrierCounts, FloatWords, FrameTimer, PassUses, Recorder};
+use crate::gbuffer::{GBufferImages, GBufferKernel};
 use crate::image_io::HdrImage;
 use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
-use crate::vulkan::{Buffer, Context, FrameTimings, GpuTimer, Image, Kernel, KernelModule};
+use crate::vulkan::{Buffer, Context, FrameTimings, Image, KernelModule};
 use ash::vk;
 use gi_shared::cache_view::{
     CachePassParams, CacheQuery, CacheViewPixel, FLAG_EMITTERS_SAMPLED, FLAG_PROBE_RAYS,
@@ -79,7 +79,7 @@ pub struct GiRenderer {
     restir: RestirResources,
     restir_history: bool,
     gbuffer: GBufferImages,
-    gbuffer_kernel: Kernel,
+    gbuffer_kernel: GBufferKernel,
     cache: WorldCache,
     /// The reservoir-grid slots `cache`'s pipelines were made for (at least `restir.slots`).
     cache_slots: u32,
@@ -90,12 +90,7 @@ pub struct GiRenderer {
     primary: PrimaryResources,
     primary_passes: PrimaryPasses,
     lighting: SceneLighting,
-    timer: Option<GpuTimer>,
-    timings: FrameTimings,
-    /// [`GiRenderer::log_passes`]: keep what each pass of [`GiRenderer::render_frame`] touched.
-    log_passes: bool,
-    pass_uses: Vec<PassUses>,
-    barriers: BarrierCounts,
+    frames: FrameTimer,
     frame: u32,
     previous: Option<CameraParams>,
     last: Option<(CameraParams, CachePassParams, GiFrameParams)>,
@@ -121,7 +116,7 @@ impl GiRenderer {
         let restir = RestirResources::new(ctx, settings.restir, rays)?;
         let made = (|| -> Result<_> {
             Ok((
-                Kernel::new::<GBufferBindings>(ctx, &module, "gbuffer::gbuffer", 0)?,
+                GBufferKernel::new(ctx, &module)?,
                 WorldCache::new(ctx, &module, restir.slots)?,
                 ScreenProbePasses::new(ctx, &module)?,
                 DenoiserPasses::new(ctx, &module)?,
@@ -150,11 +145,7 @@ impl GiRenderer {
             primary: PrimaryResources::new(ctx, pixels)?,
             primary_passes,
             lighting: SceneLighting::new(lights),
-            timer: GpuTimer::new(ctx, PASSES_PER_FRAME).ok(),
-            log_passes: false,
-            pass_uses: vec![],
-            barriers: BarrierCounts::default(),
-            timings: FrameTimings::new(),
+            frames: FrameTimer::new(ctx, PASSES_PER_FRAME),
             frame: 0,
             previous: None,
             last: None,
@@ -168,24 +159,24 @@ impl GiRenderer {
 
     /// GPU time per pass, per frame and averaged.
     pub fn timings(&self) -> &FrameTimings {
-        &self.timings
+        self.frames.timings()
     }
 
     /// Keeps, from the next [`GiRenderer::render_frame`] on, what each pass read and wrote
     /// ([`GiRenderer::pass_uses`]).
     pub fn log_passes(&mut self, on: bool) {
-        self.log_passes = on;
+        self.frames.log_passes(on);
     }
 
     /// The barriers the last [`GiRenderer::render_frame`] recorded ([`Recorder`] placed them).
     pub fn barrier_counts(&self) -> BarrierCounts {
-        self.barriers
+        self.frames.barrier_counts()
     }
 
     /// What each pass of the last [`GiRenderer::render_frame`] read and wrote, in order (empty
     /// unless [`GiRenderer::log_passes`] is on): the pass table of `docs/integration.md`.
     pub fn pass_uses(&self) -> &[PassUses] {
-        &self.pass_uses
+        self.frames.pass_uses()
     }
 
     /// Frames rendered.
@@ -279,27 +270,12 @@ impl GiRenderer {
         camera: &CameraParams,
     ) -> Result<GiFrameStats> {
         let inputs = FrameInputs::new(*camera);
-        let mut timer = self.timer.take();
-        let recorded = ctx.submit(|cmd| {
-            let mut rec = Recorder::new(ctx, cmd, timer.as_mut());
-            if self.log_passes {
-                rec = rec.log();
-            }
-            rec.begin();
-            self.record_frame(&mut rec, scene, &inputs, &FrameOutputs::default())?;
-            self.pass_uses = rec.uses().to_vec();
-            self.barriers = rec.finish();
-            Ok::<_, crate::Error>(())
+        let mut frames = std::mem::take(&mut self.frames);
+        let recorded = frames.submit(ctx, |rec| {
+            self.record_frame(rec, scene, &inputs, &FrameOutputs::default())
         });
-        let spans = match (&recorded, &timer) {
-            (Ok(Ok(())), Some(t)) => Some(t.results(ctx)),
-            _ => None,
-        };
-        self.timer = timer;
-        recorded??;
-        if let Some(spans) = spans {
-            self.timings.add_frame(&spans?);
-        }
+        self.frames = frames;
+        recorded?;
         self.stats(ctx, self.frame.wrapping_sub(1))
     }
 
@@ -527,17 +503,7 @@ impl GiRenderer {
             self.cache.hash_cells.record_purge(rec, cache, params)
         })?;
         if gbuffer_source == GBufferSource::Traced {
-            rec.pass("GBuffer", |rec| {
-                let bindings = gbuffer.bindings(camera, scene.previous_transforms());
-                rec.dispatch_traced(
-                    &self.gbuffer_kernel,
-                    scene.sets(),
-                    &bindings,
-                    &[],
-                    super::gi_denoiser::pixel_groups(gbuffer),
-                )?;
-                Ok(())
-            })?;
+            self.gbuffer_kernel.record(rec, scene, camera, gbuffer)?;
         }
         rec.pass("ReprojectScreenProbes", |rec| {
             pp.record_reproject(rec, probes, camera, gbuffer)
