@@ -26,7 +26,9 @@
 //! synchronization validation every GPU test runs under reports either as a hazard.
 
 use crate::error::Result;
-use crate::vulkan::{Bindings, Buffer, Context, GpuTimer, Image, Kernel, Resource, SceneSets};
+use crate::vulkan::{
+    Bindings, Buffer, Context, GpuTimer, Groups, Image, Kernel, Resource, SceneSets, SetZero,
+};
 use ash::vk;
 use std::collections::HashMap;
 use std::ffi::CString;
@@ -164,7 +166,8 @@ pub struct Recorder<'a> {
     cmd: vk::CommandBuffer,
     timer: Option<&'a mut GpuTimer>,
     states: HashMap<Target, State>,
-    pass: Option<String>,
+    /// Passes open around the command being recorded (0: between passes).
+    depth: u32,
     log: Option<Vec<PassUses>>,
     counts: BarrierCounts,
 }
@@ -186,7 +189,7 @@ impl<'a> Recorder<'a> {
             cmd,
             timer,
             states: HashMap::new(),
-            pass: None,
+            depth: 0,
             log: None,
             counts: BarrierCounts::default(),
         }
@@ -196,11 +199,6 @@ impl<'a> Recorder<'a> {
     pub fn log(mut self) -> Self {
         self.log = Some(vec![]);
         self
-    }
-
-    /// The command buffer.
-    pub fn cmd(&self) -> vk::CommandBuffer {
-        self.cmd
     }
 
     /// The context.
@@ -266,9 +264,9 @@ impl<'a> Recorder<'a> {
                 ..Default::default()
             });
         }
-        let outer = self.pass.replace(name.to_string());
+        self.depth += 1;
         let result = body(self);
-        self.pass = outer;
+        self.depth -= 1;
         if let Some(labels) = &self.ctx.labels {
             unsafe { labels.cmd_end_debug_utils_label(self.cmd) };
         }
@@ -287,8 +285,7 @@ impl<'a> Recorder<'a> {
         push: &[u8],
         groups: [u32; 3],
     ) -> Result<()> {
-        self.before_kernel(kernel, bindings, None);
-        kernel.dispatch(self.ctx, self.cmd, bindings, push, groups)
+        self.kernel(kernel, None, bindings, push, Groups::Direct(groups))
     }
 
     /// [`Self::dispatch`] of a kernel that traces, in `scene` ([`Kernel::dispatch_traced`]).
@@ -300,8 +297,7 @@ impl<'a> Recorder<'a> {
         push: &[u8],
         groups: [u32; 3],
     ) -> Result<()> {
-        self.before_kernel(kernel, bindings, None);
-        kernel.dispatch_traced(self.ctx, self.cmd, scene, bindings, push, groups)
+        self.kernel(kernel, Some(scene), bindings, push, Groups::Direct(groups))
     }
 
     /// Dispatches `kernel` with the workgroup counts at byte `offset` of `args`
@@ -314,8 +310,8 @@ impl<'a> Recorder<'a> {
         args: &Buffer,
         offset: u64,
     ) -> Result<()> {
-        self.before_kernel(kernel, bindings, Some(args));
-        kernel.dispatch_indirect(self.ctx, self.cmd, bindings, push, args, offset)
+        let groups = Groups::Indirect(args, offset);
+        self.kernel(kernel, None, bindings, push, groups)
     }
 
     /// [`Self::dispatch_indirect`] of a kernel that traces, in `scene`.
@@ -332,8 +328,8 @@ impl<'a> Recorder<'a> {
         args: &Buffer,
         offset: u64,
     ) -> Result<()> {
-        self.before_kernel(kernel, bindings, Some(args));
-        kernel.dispatch_indirect_traced(self.ctx, self.cmd, scene, bindings, push, args, offset)
+        let groups = Groups::Indirect(args, offset);
+        self.kernel(kernel, Some(scene), bindings, push, groups)
     }
 
     /// Fills the whole of `buffer` with the word `word`.
@@ -382,10 +378,19 @@ impl<'a> Recorder<'a> {
         };
     }
 
-    fn before_kernel<B: Bindings>(&mut self, kernel: &Kernel, bindings: &B, args: Option<&Buffer>) {
+    /// Places the barriers a dispatch of `kernel` with `bindings` needs, then records it: its set
+    /// 0 is read once, for both.
+    fn kernel<B: Bindings>(
+        &mut self,
+        kernel: &Kernel,
+        scene: Option<SceneSets<'_>>,
+        bindings: &B,
+        push: &[u8],
+        groups: Groups<'_>,
+    ) -> Result<()> {
+        let set0 = SetZero::of(bindings);
         let mut touches: Vec<Touch<'_>> = vec![];
-        let resources = bindings.resources();
-        for (resource, &writes) in resources.iter().zip(kernel.binding_writes()) {
+        for (resource, &writes) in set0.resources.iter().zip(kernel.binding_writes()) {
             let how = if writes {
                 Use::SHADER_WRITE
             } else {
@@ -402,10 +407,11 @@ impl<'a> Recorder<'a> {
                 | Resource::Textures(_) => {}
             }
         }
-        if let Some(args) = args {
+        if let Groups::Indirect(args, _) = groups {
             touches.push(buffer_touch(args, Use::INDIRECT_READ));
         }
         self.before(&kernel.entry, &touches);
+        kernel.record(self.ctx, self.cmd, scene, &set0, push, groups)
     }
 
     /// Places the barriers `touches` need (merged per resource) and updates the states.
@@ -490,7 +496,7 @@ impl<'a> Recorder<'a> {
             self.counts.image_barriers += images.len() as u32;
         }
         if let Some(log) = &mut self.log
-            && self.pass.is_none()
+            && self.depth == 0
             && log.last().is_none_or(|l| l.pass != BETWEEN_PASSES)
         {
             log.push(PassUses {

@@ -34,6 +34,7 @@ pub use pipeline::{
     Resource, SHADING_BINDINGS, SceneSet, SceneSets, TEXTURES_BINDING, TRIANGLES_BINDING,
     VERTICES_BINDING, compute_barrier,
 };
+pub(crate) use pipeline::{Groups, SetZero};
 pub use sampled_image::SampledImage;
 pub use split_buffer::{SplitBuffer, split_layout};
 pub use texture_image::{STAGING_BYTES, Samplers, TextureImage, TextureLevels, upload_textures};

@@ -85,6 +85,33 @@ pub enum Resource<'a> {
     },
 }
 
+/// A kernel's set 0 ready to bind: the declaration it was written with and its resources, in
+/// order (read once per dispatch, by the recorder's barriers and by the binding).
+pub(crate) struct SetZero<'a> {
+    declared: &'static [DeclaredBinding],
+    pub(crate) resources: Vec<Resource<'a>>,
+}
+
+impl<'a> SetZero<'a> {
+    /// `bindings`' declaration and resources.
+    pub(crate) fn of<B: Bindings>(bindings: &'a B) -> Self {
+        Self {
+            declared: B::DECLARED,
+            resources: bindings.resources(),
+        }
+    }
+}
+
+/// How many workgroups a dispatch runs: counts known when it is recorded, or read by the GPU
+/// from the `VkDispatchIndirectCommand` at a byte offset of an arguments buffer.
+#[derive(Clone, Copy)]
+pub(crate) enum Groups<'a> {
+    /// `[x, y, z]` workgroups.
+    Direct([u32; 3]),
+    /// The arguments buffer and the byte offset.
+    Indirect(&'a Buffer, u64),
+}
+
 /// The kernel code of the context's variant: the common module (every kernel, tracing in
 /// software) and, with ray queries, the module of the kernels that trace with them. Freed when
 /// dropped (pipelines made from it stay valid).
@@ -257,7 +284,8 @@ impl Kernel {
         push: &[u8],
         groups: [u32; 3],
     ) -> Result<()> {
-        self.dispatch_in(ctx, cmd, None, bindings, push, groups)
+        let set0 = SetZero::of(bindings);
+        self.record(ctx, cmd, None, &set0, push, Groups::Direct(groups))
     }
 
     /// Records a dispatch of a kernel that traces, in `scene` (bound as sets 1 and up), with
@@ -271,30 +299,8 @@ impl Kernel {
         push: &[u8],
         groups: [u32; 3],
     ) -> Result<()> {
-        self.dispatch_in(ctx, cmd, Some(scene), bindings, push, groups)
-    }
-
-    fn dispatch_in<B: Bindings>(
-        &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
-        scene: Option<SceneSets<'_>>,
-        bindings: &B,
-        push: &[u8],
-        groups: [u32; 3],
-    ) -> Result<()> {
-        let max = ctx.capabilities().max_workgroup_count;
-        if groups.iter().zip(max).any(|(g, m)| *g > m) || groups.contains(&0) {
-            return Err(
-                self.bad_dispatch(format!("workgroup count {groups:?} outside 1..={max:?}"))
-            );
-        }
-        self.bind(ctx, cmd, scene, bindings, push)?;
-        unsafe {
-            ctx.device
-                .cmd_dispatch(cmd, groups[0], groups[1], groups[2])
-        };
-        Ok(())
+        let set0 = SetZero::of(bindings);
+        self.record(ctx, cmd, Some(scene), &set0, push, Groups::Direct(groups))
     }
 
     /// Records a dispatch whose workgroup counts the GPU reads, when the dispatch executes, from
@@ -311,7 +317,8 @@ impl Kernel {
         args: &Buffer,
         offset: u64,
     ) -> Result<()> {
-        self.dispatch_indirect_in(ctx, cmd, None, bindings, push, args, offset)
+        let set0 = SetZero::of(bindings);
+        self.record(ctx, cmd, None, &set0, push, Groups::Indirect(args, offset))
     }
 
     /// [`Kernel::dispatch_indirect`] for a kernel that traces, in `scene` (bound as sets 1 and
@@ -330,33 +337,55 @@ impl Kernel {
         args: &Buffer,
         offset: u64,
     ) -> Result<()> {
-        self.dispatch_indirect_in(ctx, cmd, Some(scene), bindings, push, args, offset)
+        let set0 = SetZero::of(bindings);
+        self.record(
+            ctx,
+            cmd,
+            Some(scene),
+            &set0,
+            push,
+            Groups::Indirect(args, offset),
+        )
     }
 
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "dispatch_indirect's arguments and the scene"
-    )]
-    fn dispatch_indirect_in<B: Bindings>(
+    /// Records the dispatch of every `dispatch*` method (and of `frame::Recorder`, which reads
+    /// `set0` first to place its barriers): checks the workgroup counts or the arguments' place,
+    /// binds, dispatches.
+    pub(crate) fn record(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         scene: Option<SceneSets<'_>>,
-        bindings: &B,
+        set0: &SetZero<'_>,
         push: &[u8],
-        args: &Buffer,
-        offset: u64,
+        groups: Groups<'_>,
     ) -> Result<()> {
-        let size = std::mem::size_of::<gi_shared::indirect::DispatchIndirect>() as u64;
-        if !offset.is_multiple_of(4) || offset + size > args.size {
-            return Err(self.bad_dispatch(format!(
-                "indirect arguments at byte {offset} of {:?} ({} bytes)",
-                args.name(),
-                args.size
-            )));
+        match groups {
+            Groups::Direct(groups) => {
+                let max = ctx.capabilities().max_workgroup_count;
+                if groups.iter().zip(max).any(|(g, m)| *g > m) || groups.contains(&0) {
+                    return Err(self
+                        .bad_dispatch(format!("workgroup count {groups:?} outside 1..={max:?}")));
+                }
+                self.bind(ctx, cmd, scene, set0, push)?;
+                unsafe {
+                    ctx.device
+                        .cmd_dispatch(cmd, groups[0], groups[1], groups[2])
+                };
+            }
+            Groups::Indirect(args, offset) => {
+                let size = std::mem::size_of::<gi_shared::indirect::DispatchIndirect>() as u64;
+                if !offset.is_multiple_of(4) || offset + size > args.size {
+                    return Err(self.bad_dispatch(format!(
+                        "indirect arguments at byte {offset} of {:?} ({} bytes)",
+                        args.name(),
+                        args.size
+                    )));
+                }
+                self.bind(ctx, cmd, scene, set0, push)?;
+                unsafe { ctx.device.cmd_dispatch_indirect(cmd, args.handle, offset) };
+            }
         }
-        self.bind(ctx, cmd, scene, bindings, push)?;
-        unsafe { ctx.device.cmd_dispatch_indirect(cmd, args.handle, offset) };
         Ok(())
     }
 
@@ -376,12 +405,12 @@ impl Kernel {
 
     /// Binds the pipeline and `scene` (which a kernel that traces needs, and no other takes),
     /// pushes `bindings` as set 0 and `push` as push constants.
-    fn bind<B: Bindings>(
+    fn bind(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         scene: Option<SceneSets<'_>>,
-        bindings: &B,
+        set0: &SetZero<'_>,
         push: &[u8],
     ) -> Result<()> {
         let bad = |why: String| self.bad_dispatch(why);
@@ -399,15 +428,14 @@ impl Kernel {
                 self.push_constant_bytes
             )));
         }
-        if B::DECLARED != self.declared {
+        if set0.declared != self.declared {
             return Err(bad(format!(
                 "dispatched with bindings {:?}, declared for another kernel",
-                B::DECLARED.iter().map(|d| d.name).collect::<Vec<_>>()
+                set0.declared.iter().map(|d| d.name).collect::<Vec<_>>()
             )));
         }
         let sets: Vec<vk::DescriptorSet> = scene.iter().flat_map(SceneSets::handles).collect();
-        let resources = bindings.resources();
-        with_writes(&self.slots, &resources, |writes| unsafe {
+        with_writes(&self.slots, &set0.resources, |writes| unsafe {
             ctx.device
                 .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
             if !sets.is_empty() {
