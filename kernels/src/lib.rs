@@ -81,7 +81,7 @@ pub use indirect::dispatch_from_counter;
 pub use lighting::{
     light_grid::{build_light_grid, update_light_grid},
     reservoirs::generate_reservoirs,
-    restir::{compact_reservoirs, resample_reservoirs},
+    restir::{compact_reservoirs, order_reservoirs, resample_reservoirs},
 };
 #[cfg(not(feature = "ray-query"))]
 pub use machinery_tests::{

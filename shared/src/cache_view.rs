@@ -25,7 +25,8 @@
 //!    [`sample_query_light`] (RIS through the light grid, one [`ShadowRay`]); with ReSTIR, the
 //!    hit also joins this frame's reservoir grid ([`insert_reservoir`]).
 //! 7. World-space ReSTIR (optional): **ClearReservoirs** (before GenerateReservoirs),
-//!    **CompactReservoirs** ([`reservoir_entry`] after a prefix scan of the slot counts) and
+//!    **CompactReservoirs** ([`reservoir_entry`] after a prefix scan of the slot counts, then
+//!    [`ordered_reservoir_entry`], so that each cell's list has one order whatever the GPU's) and
 //!    **ResampleReservoirs** ([`resample_reservoir`]: temporal reuse from the previous frame's
 //!    grid, which replaces each shadow ray's light sample).
 //! 8. **PopulateRadianceCache**: shadow rays; every sample is accumulated into the cell, an
@@ -90,7 +91,7 @@ use crate::light_grid::{
     sample_light_grid, sample_params_uv,
 };
 use crate::lights::{GpuLight, sky_radiance};
-use crate::math::INV_PI;
+use crate::math::{INV_PI, min_u32};
 use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
 use crate::path_tracer::{
     DirectLightSample, PathTracerParams, STRATEGY_BSDF_ONLY, STRATEGY_MIS, ShadingFrame,
@@ -1173,6 +1174,56 @@ pub fn reservoir_entry(offsets: &[u32], place: [u32; 2]) -> Option<u32> {
     Some(offsets[slot as usize] + index)
 }
 
+/// OrderReservoirs: the entry of the ordered list that shadow ray `ray`'s reservoir goes to, in
+/// its slot's run sorted by the queries' `ray_index` (unique within a frame: a ray's query, or the
+/// one query carried over from it, with [`CARRIED_QUERY_BIT`]), so that the run's order, which the
+/// next frame's ResampleReservoirs strides through, does not depend on the order in which
+/// GenerateReservoirs's atomics ran. `unordered` is CompactReservoirs's scatter. Reads every member
+/// of the run: one reservoir cell's hits (tens to hundreds; cells span a fixed angle in pixels, so
+/// the run does not grow with the resolution).
+#[inline]
+pub fn ordered_reservoir_entry(
+    offsets: &[u32],
+    unordered: &[u32],
+    queries: &[CacheQuery],
+    shadow_rays: &[ShadowRay],
+    place: [u32; 2],
+    ray: u32,
+) -> Option<u32> {
+    let slot = place[0] as usize;
+    if place[0] == RESERVOIR_GRID_NONE || slot + 1 >= offsets.len() {
+        return None;
+    }
+    let (first, end) = (
+        offsets[slot],
+        min_u32(offsets[slot + 1], unordered.len() as u32),
+    );
+    let own = reservoir_order_key(queries, shadow_rays, ray);
+    let mut rank = 0;
+    let mut e = first;
+    while e < end {
+        let other = reservoir_order_key(queries, shadow_rays, unordered[e as usize]);
+        if other[0] < own[0] || (other[0] == own[0] && other[1] < own[1]) {
+            rank += 1;
+        }
+        e += 1;
+    }
+    Some(first + rank)
+}
+
+/// What [`ordered_reservoir_entry`] sorts shadow ray `ray` by: its query's `ray_index`, then the
+/// shadow ray's own index (never reached: `ray_index` is unique); past the lists, last.
+#[inline]
+fn reservoir_order_key(queries: &[CacheQuery], shadow_rays: &[ShadowRay], ray: u32) -> [u32; 2] {
+    if (ray as usize) < shadow_rays.len() {
+        let q = shadow_rays[ray as usize].query as usize;
+        if q < queries.len() {
+            return [queries[q].ray_index, ray];
+        }
+    }
+    [u32::MAX, u32::MAX]
+}
+
 /// ResampleReservoirs for one query: its reservoir this frame (`current`, the light grid's) merged
 /// with at most four reservoirs of the previous frame's cell (looked up from the previous eye,
 /// normals checked, `M` capped at 20: [`TemporalResampling`]). The previous grid: slot checksums
@@ -1825,6 +1876,71 @@ mod tests {
         cache.insert(&params, &mut frame);
         assert!(frame.iter().all(|q| q.tile != NO_TILE));
         assert_eq!(cache.counters[INSERTED_TILES], 3);
+    }
+
+    #[test]
+    fn reservoir_runs_are_ordered_the_same_whatever_the_scatter_order() {
+        use itertools::Itertools;
+        // Five shadow rays in two slots (three in slot 0, two in slot 1), one with no slot; the
+        // queries' ray indices are unrelated to the shadow rays' and the queries' order.
+        let ray_indices = [40u32, 7, CARRIED_QUERY_BIT | 7, 12, 3, 99];
+        let queries: Vec<CacheQuery> = ray_indices
+            .iter()
+            .map(|&r| CacheQuery {
+                ray_index: r,
+                ..CacheQuery::default()
+            })
+            .collect();
+        let query_of = [2u32, 0, 4, 1, 3, 5];
+        let shadow_rays: Vec<ShadowRay> = query_of
+            .iter()
+            .map(|&q| ShadowRay {
+                query: q,
+                ..ShadowRay::default()
+            })
+            .collect();
+        let slot_of = [0u32, 1, 0, 0, 1, RESERVOIR_GRID_NONE];
+        let offsets = [0u32, 3, 5];
+        let mut lists = Vec::new();
+        for order in (0..shadow_rays.len()).permutations(shadow_rays.len()) {
+            // GenerateReservoirs's atomics hand out places in this order.
+            let mut counts = [0u32; 2];
+            let mut places = [[0u32; 2]; 6];
+            for &r in &order {
+                let slot = slot_of[r];
+                places[r] = [slot, 0];
+                if slot != RESERVOIR_GRID_NONE {
+                    places[r][1] = counts[slot as usize];
+                    counts[slot as usize] += 1;
+                }
+            }
+            let mut unordered = [u32::MAX; 5];
+            for (r, &place) in places.iter().enumerate() {
+                if let Some(e) = reservoir_entry(&offsets, place) {
+                    unordered[e as usize] = r as u32;
+                }
+            }
+            let mut ordered = [u32::MAX; 5];
+            for (r, &place) in places.iter().enumerate() {
+                let e = ordered_reservoir_entry(
+                    &offsets,
+                    &unordered,
+                    &queries,
+                    &shadow_rays,
+                    place,
+                    r as u32,
+                );
+                assert_eq!(e.is_none(), slot_of[r] == RESERVOIR_GRID_NONE);
+                if let Some(e) = e {
+                    assert_eq!(ordered[e as usize], u32::MAX, "{order:?}: entry {e} twice");
+                    ordered[e as usize] = r as u32;
+                }
+            }
+            lists.push(ordered);
+        }
+        assert!(lists.windows(2).all(|w| w[0] == w[1]));
+        // Slot 0 holds rays 0, 2, 3 (ray indices 7 | CARRIED, 3, 7), slot 1 rays 1, 4 (40, 12).
+        assert_eq!(lists[0], [2, 3, 0, 4, 1]);
     }
 
     #[test]

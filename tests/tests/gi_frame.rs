@@ -537,7 +537,8 @@ fn both_tracing_variants_render_the_same_frame_cleanly() {
 /// over, and the cache view. Random streams are keyed by spawn tile, ray and frame, spawns own
 /// fixed slots, and patching decides its winners by tile index, not by the GPU's order. A cache of
 /// 64 tiles, which overflows, repeats the runs: a full bucket keeps its old keys and the smallest
-/// new one whatever the order of the inserts (`gi_shared::hash_cells::full_buckets`).
+/// new one whatever the order of the inserts (`gi_shared::hash_cells::full_buckets`). So does
+/// world-space ReSTIR (`gi_shared::cache_view::ordered_reservoir_entry`).
 #[test]
 fn the_same_run_twice_gives_the_same_image_bit_for_bit() {
     let scene = load_scene("indirect-room.gltf");
@@ -559,9 +560,15 @@ fn the_same_run_twice_gives_the_same_image_bit_for_bit() {
         buckets_log2: 2,
         ..balanced()
     };
+    // World-space ReSTIR strides through each reservoir cell's list of the previous frame: the
+    // lists are ordered by ray, not by the order of the atomics that filled them.
+    let restir = GiSettings {
+        restir: true,
+        ..balanced()
+    };
     for (variant, settings) in variants()
         .into_iter()
-        .flat_map(|v| [(v, balanced()), (v, full)])
+        .flat_map(|v| [(v, balanced()), (v, full), (v, restir)])
     {
         let overflows = settings.buckets_log2 == full.buckets_log2;
         let gpu = Gpu::new(variant, &scene);
@@ -592,7 +599,10 @@ fn the_same_run_twice_gives_the_same_image_bit_for_bit() {
                 }
                 assert_eq!(refused > 0, overflows, "failed inserts: {refused}");
                 let cached = view.image(&gpu.ctx).unwrap();
-                println!("{variant} (full cache: {overflows}): last frame {stats:?}");
+                println!(
+                    "{variant} (full cache: {overflows}, ReSTIR: {}): last frame {stats:?}",
+                    settings.restir
+                );
                 (frame, cached)
             })
             .collect();

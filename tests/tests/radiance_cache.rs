@@ -441,7 +441,15 @@ impl Replay {
         let module = KernelModule::new(ctx).unwrap();
         Self {
             res: CacheResources::new(ctx, settings, side, side, side * side, 0).unwrap(),
-            restir: RestirResources::new(ctx, false, side * side).unwrap(),
+            restir: RestirResources::new(
+                ctx,
+                &GiSettings {
+                    restir: false,
+                    ..*settings
+                },
+                side * side,
+            )
+            .unwrap(),
             passes: HashCellPasses::new(ctx, &module).unwrap(),
         }
     }

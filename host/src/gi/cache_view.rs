@@ -238,7 +238,7 @@ impl CacheView {
         settings.validate(width, height)?;
         options.validate()?;
         let module = KernelModule::new(ctx)?;
-        let restir = RestirResources::new(ctx, settings.restir, width * height)?;
+        let restir = RestirResources::new(ctx, &settings, width * height)?;
         let made = (|| -> Result<_> {
             Ok((
                 GBufferKernel::new(ctx, &module)?,

@@ -66,6 +66,20 @@ crate::bindings! {
 }
 
 crate::bindings! {
+    /// CompactReservoirs (ordering each slot's run)'s set 0
+    /// (`kernels::lighting::restir::order_reservoirs`).
+    pub(crate) struct OrderReservoirs<'a> {
+        counters: &'a Buffer,
+        places: &'a Buffer,
+        offsets: &'a Buffer,
+        unordered: &'a Buffer,
+        queries: &'a Buffer,
+        shadow_rays: &'a Buffer,
+        entries: &'a Buffer,
+    }
+}
+
+crate::bindings! {
     /// ResampleReservoirs's set 0 (`kernels::lighting::restir::resample_reservoirs`).
     pub(crate) struct ResampleReservoirs<'a> {
         counters: &'a Buffer,
@@ -90,6 +104,7 @@ pub struct LightingPasses {
     build_grid: Kernel,
     generate: Kernel,
     compact: Kernel,
+    order: Kernel,
     resample: Kernel,
     scan: Scan,
 }
@@ -120,6 +135,12 @@ impl LightingPasses {
                 ctx,
                 module,
                 "lighting::restir::compact_reservoirs",
+                PUSH_BYTES,
+            )?,
+            order: Kernel::new::<OrderReservoirs>(
+                ctx,
+                module,
+                "lighting::restir::order_reservoirs",
                 PUSH_BYTES,
             )?,
             resample: Kernel::new::<ResampleReservoirs>(
@@ -216,7 +237,9 @@ impl LightingPasses {
     }
 
     /// CompactReservoirs: the prefix scan of this frame's slot counts, then each shadow ray's
-    /// entry in the compacted list (over the shadow rays' indirect arguments, which must be
+    /// entry in the compacted list, scattered in the order of GenerateReservoirs's atomics, then
+    /// moved to its place in its slot's run ordered by ray, which next frame's ResampleReservoirs
+    /// picks its neighbours from (over the shadow rays' indirect arguments, which must be
     /// written).
     pub fn record_compact(
         &self,
@@ -238,6 +261,21 @@ impl LightingPasses {
                 counters: &res.counters,
                 places: &restir.places,
                 offsets: &grid.offsets,
+                entries: &restir.unordered,
+            },
+            bytemuck::bytes_of(params),
+            &res.args,
+            indirect_offset(ARGS_SHADOW_RAYS),
+        )?;
+        rec.dispatch_indirect(
+            &self.order,
+            &OrderReservoirs {
+                counters: &res.counters,
+                places: &restir.places,
+                offsets: &grid.offsets,
+                unordered: &restir.unordered,
+                queries: &res.queries,
+                shadow_rays: &res.shadow_rays,
                 entries: &grid.entries,
             },
             bytemuck::bytes_of(params),

@@ -113,7 +113,7 @@ impl GiRenderer {
         let rays = layout.ray_capacity();
         let pixels = width as usize * height as usize;
         let module = KernelModule::new(ctx)?;
-        let restir = RestirResources::new(ctx, settings.restir, rays)?;
+        let restir = RestirResources::new(ctx, &settings, rays)?;
         let made = (|| -> Result<_> {
             Ok((
                 GBufferKernel::new(ctx, &module)?,
@@ -333,7 +333,7 @@ impl GiRenderer {
         let layout = ProbeLayout::new(width, height, self.settings.spawn_rate.tile());
         let rays = layout.ray_capacity();
         let pixels = width as usize * height as usize;
-        let restir = RestirResources::new(ctx, self.settings.restir, rays)?;
+        let restir = RestirResources::new(ctx, &self.settings, rays)?;
         let cache = match restir.slots > self.cache_slots {
             true => Some(WorldCache::new(
                 ctx,

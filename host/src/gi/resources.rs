@@ -84,12 +84,20 @@ pub struct CacheResources {
 /// Queries the carried list holds for `rays` rays: none without multi-bounce, whose carried
 /// queries are the only ones (the list and its room in the query and shadow-ray lists are then
 /// not allocated).
-fn carried_queries(settings: &GiSettings, rays: usize) -> usize {
-    if settings.multi_bounce {
+fn carried_queries(multi_bounce: bool, rays: usize) -> usize {
+    if multi_bounce {
         carried_capacity(rays as u32) as usize
     } else {
         0
     }
+}
+
+/// Queries per frame at most for `rays` rays with `settings`: one per ray and the carried ones.
+/// The query and shadow-ray lists, and world-space ReSTIR's per-shadow-ray buffers, hold this
+/// many (a shadow ray past ReSTIR's buffers would leave the grid in the order of the atomics).
+pub fn query_capacity(settings: &GiSettings, rays: u32) -> u32 {
+    let rays = rays.max(1) as usize;
+    (rays + carried_queries(settings.multi_bounce, rays)) as u32
 }
 
 /// Each resource's name, in the order [`CacheResources::buffers`] lists them.
@@ -130,7 +138,7 @@ impl CacheResources {
         let tiles = settings.tile_count() as usize;
         let pixels = width as usize * height as usize;
         let rays = (rays as usize).max(1);
-        let carried = carried_queries(settings, rays);
+        let carried = carried_queries(settings.multi_bounce, rays);
         let cells = tiles * CELLS_PER_TILE as usize;
         let accumulator_words = tiles * TILE_ACCUMULATOR_WORDS;
         debug_assert!(accumulator_words * 4 <= MAX_STORAGE_BUFFER_BYTES);
@@ -179,11 +187,7 @@ impl CacheResources {
     pub fn resize(&mut self, ctx: &Context, width: u32, height: u32, rays: u32) -> Result<()> {
         let pixels = width as usize * height as usize;
         let rays = (rays as usize).max(1);
-        let carried = if self.carried_capacity > 0 {
-            carried_capacity(rays as u32) as usize
-        } else {
-            0
-        };
+        let carried = carried_queries(self.carried_capacity > 0, rays);
         let n = &RESOURCE_NAMES;
         let counters = Buffer::device_zeroed::<u32>(ctx, n[6], CACHE_COUNTER_WORDS)?;
         let queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[7], rays + carried)?;
@@ -343,6 +347,9 @@ pub struct RestirResources {
     pub grids: PingPong<ReservoirGrid>,
     /// Per shadow ray `[slot, index in the slot]` (`[u32; 2]`).
     pub places: Buffer,
+    /// The shadow-ray indices slot after slot in the order of the atomics that placed them
+    /// (CompactReservoirs's scatter, before it orders each slot's run into the grid's entries).
+    pub unordered: Buffer,
     /// Slots of a grid.
     pub slots: u32,
     /// Buckets of a grid.
@@ -350,8 +357,11 @@ pub struct RestirResources {
 }
 
 impl RestirResources {
-    /// The resources of a frame of at most `rays` rays, real when `on`.
-    pub fn new(ctx: &Context, on: bool, rays: u32) -> Result<Self> {
+    /// The resources of a frame of at most `rays` rays ([`query_capacity`] shadow rays) with
+    /// `settings`, real when ReSTIR is on.
+    pub fn new(ctx: &Context, settings: &GiSettings, rays: u32) -> Result<Self> {
+        let on = settings.restir;
+        let rays = query_capacity(settings, rays);
         let buckets = if on { reservoir_grid_buckets(rays) } else { 1 };
         let slots = if on {
             buckets * RESERVOIR_GRID_SLOTS_PER_BUCKET
@@ -365,6 +375,7 @@ impl RestirResources {
                 ReservoirGrid::new(ctx, "b", slots as usize, rays)?,
             ),
             places: Buffer::device_zeroed::<[u32; 2]>(ctx, "reservoir places", rays)?,
+            unordered: Buffer::device_zeroed::<u32>(ctx, "reservoir scatter", rays)?,
             slots,
             buckets,
         })

@@ -1,11 +1,14 @@
 //! World-space ReSTIR's passes after GenerateReservoirs (which inserts each shadow ray's hit into
 //! this frame's reservoir grid): CompactReservoirs lists the shadow rays slot after slot (after a
-//! prefix scan of the slot counts), and ResampleReservoirs merges each shadow ray's reservoir with
+//! prefix scan of the slot counts, in the order of GenerateReservoirs's atomics), then orders each
+//! slot's run by ray (`order_reservoirs`), and ResampleReservoirs merges each shadow ray's reservoir with
 //! the previous frame's neighbours and rewrites its light sample
 //! (`gi_shared::cache_view::resample_reservoir`). ClearReservoirs is a buffer fill on the host.
 //!
 //! `compact_reservoirs`, set 0: cache-view counters, places (`[u32; 2]` per shadow ray), scanned
-//! slot counts (`u32`), entries (`u32`). `resample_reservoirs`, set 0: cache-view counters, queries,
+//! slot counts (`u32`), entries in scatter order (`u32`). `order_reservoirs`, set 0: cache-view
+//! counters, places, scanned slot counts, the scatter, queries, shadow rays, ordered entries.
+//! `resample_reservoirs`, set 0: cache-view counters, queries,
 //! shadow rays, this frame's reservoirs (`PackedReservoir`), the previous frame's keys, scanned
 //! counts, entries, reservoirs and hits (`ReservoirHit`), grid parameters (`LightGridParams`),
 //! lights, the environment's texels and distribution. Push constants: `CachePassParams`.
@@ -14,7 +17,7 @@
 
 use gi_shared::cache_view::{
     CachePassParams, CacheQuery, PASS_RESTIR, QUERY_BYPASS, SHADOW_RAY_COUNT, ShadowRay,
-    pass_random, resample_reservoir, reservoir_entry, shadow_ray,
+    ordered_reservoir_entry, pass_random, resample_reservoir, reservoir_entry, shadow_ray,
 };
 use gi_shared::light_grid::LightGridParams;
 use gi_shared::lights::GpuLight;
@@ -38,6 +41,35 @@ pub fn compact_reservoirs(
     }
     if let Some(e) = reservoir_entry(offsets, places[id.x as usize])
         && (e as usize) < entries.len()
+    {
+        entries[e as usize] = id.x;
+    }
+}
+
+/// Moves shadow ray `id.x` to its place in its slot's run ordered by ray.
+#[spirv(compute(threads(64)))]
+pub fn order_reservoirs(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] counters: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] places: &[[u32; 2]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] unordered: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] queries: &[CacheQuery],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] shadow_rays: &[ShadowRay],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] entries: &mut [u32],
+) {
+    let n = min_u32(counters[SHADOW_RAY_COUNT], places.len() as u32);
+    if id.x >= n {
+        return;
+    }
+    if let Some(e) = ordered_reservoir_entry(
+        offsets,
+        unordered,
+        queries,
+        shadow_rays,
+        places[id.x as usize],
+        id.x,
+    ) && (e as usize) < entries.len()
     {
         entries[e as usize] = id.x;
     }
