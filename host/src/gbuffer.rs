@@ -15,10 +15,10 @@ use crate::scene::upload::GpuScene;
 use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, submit_timed};
 use ash::vk;
 use gi_shared::camera::{CameraParams, primary_ray};
+use gi_shared::color::linear_to_srgb;
 use gi_shared::gbuffer::{GBUFFER_TILE, GBufferTexel, PreviousTransform, gbuffer_texel};
 use gi_shared::hash::pcg_chain;
 use gi_shared::packing::f16_to_f32;
-use gi_shared::scene_data::linear_to_srgb;
 use glam::{UVec2, UVec4, Vec3, Vec4};
 use std::path::{Path, PathBuf};
 

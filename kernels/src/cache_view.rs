@@ -13,14 +13,16 @@ use crate::atomics::DeviceWords;
 use crate::gbuffer::{DepthImage, HalfImage, IdImage, UnormImage};
 use crate::texture_images::Bindless;
 use gi_shared::append_list::append;
-use gi_shared::cache_view::{
-    CachePassParams, CacheQuery, CacheViewPixel, PASS_TRACE, QUERY_COUNT, cache_ray, pass_random,
-    primary_direct_light, primary_emission, primary_surface, shade_cache_hit,
-};
+use gi_shared::cache_view::{cache_ray, primary_direct_light};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
 use gi_shared::light_grid::report_hit_bounds;
 use gi_shared::lights::GpuLight;
+use gi_shared::primary_surface::{primary_emission, primary_surface};
+use gi_shared::secondary_hits::shade_cache_hit;
+use gi_shared::world_cache::{
+    CachePassParams, CacheQuery, CacheViewPixel, PASS_TRACE, QUERY_COUNT, pass_random,
+};
 use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
 
@@ -121,9 +123,10 @@ pub fn composite(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] pixels: &[CacheViewPixel],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] accumulation: &mut [[f32; 4]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)]
-    history: &mut [gi_shared::cache_view::FeedbackTexel],
+    history: &mut [gi_shared::radiance_feedback::FeedbackTexel],
 ) {
-    use gi_shared::cache_view::{accumulate_sample, composite, feedback_texel};
+    use gi_shared::cache_view::{accumulate_sample, composite};
+    use gi_shared::radiance_feedback::feedback_texel;
     let pixel = UVec2::new(id.x, id.y);
     if !in_image(camera, pixel) {
         return;

@@ -7,8 +7,8 @@
 use crate::atomics::{DeviceWords, WorkgroupWords};
 use gi_shared::append_list::{append, clamped_count};
 use gi_shared::atomics::AtomicWords;
+use gi_shared::hash_cells::layout::HashGridParams;
 use gi_shared::hash_cells::storage::insert_tile;
-use gi_shared::layout::HashGridParams;
 use gi_shared::light_grid::{clear_hit_bounds, report_hit_bounds};
 use gi_shared::machinery_tests::{
     AtomicsRecord, BOUNDS_COUNT_WORD, COUNTER_INVOCATIONS, COUNTER_ITEMS, MachineryPush, WORD_CAS,

@@ -17,13 +17,14 @@
 
 use crate::gbuffer::{DepthImage, HalfImage, IdImage};
 use crate::texture_images::Bindless;
-use gi_shared::cache_view::{pass_random, primary_emission, primary_surface};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
 use gi_shared::lights::GpuLight;
 use gi_shared::primary_lighting::{PrimaryLighting, sky_lighting, surface_lighting};
+use gi_shared::primary_surface::{primary_emission, primary_surface};
 use gi_shared::ray::Ray;
 use gi_shared::screen_probes::{GiFrameParams, PASS_DIRECT};
+use gi_shared::world_cache::pass_random;
 use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
 
@@ -101,7 +102,7 @@ pub fn resolve_gi(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] irradiance: &[[f32; 4]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] color: &mut [[f32; 4]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)]
-    history: &mut [gi_shared::cache_view::FeedbackTexel],
+    history: &mut [gi_shared::radiance_feedback::FeedbackTexel],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] undenoised: &[[f32; 4]],
 ) {
     use gi_shared::primary_lighting::{resolve_color, resolve_feedback};

@@ -2,7 +2,7 @@
 //! binding 6; each image with its mip chain, its sampler carrying the wrap modes), behind the
 //! shared [`TextureImages`] read that the CPU reference implements over its texel array.
 
-use gi_shared::scene_data::GpuTexture;
+use gi_shared::textures::GpuTexture;
 use gi_shared::textures::{TextureImages, clamped_lod};
 use spirv_std::glam::{Vec2, Vec4};
 use spirv_std::image::SampledImage;

@@ -25,9 +25,8 @@ pub use crate::texture_images::SceneTextures;
 use gi_shared::elements::{ChunkIndex, Elements};
 use gi_shared::layout::SCENE_BUFFER_CHUNKS;
 use gi_shared::ray::{HitRecord, Ray};
-pub use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex,
-};
+pub use gi_shared::scene_data::{GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex};
+pub use gi_shared::textures::GpuTexture;
 use spirv_std::{RuntimeArray, TypedBuffer};
 
 /// One of the scene's split arrays as the kernels bind it: one storage buffer per chunk, all

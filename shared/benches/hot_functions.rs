@@ -5,8 +5,8 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use gi_shared::hash_cells::layout::HashGridParams;
 use gi_shared::hash_cells::{DEFAULT_CELL_SIZE_PIXELS, cell_descriptor, cell_size_const};
-use gi_shared::layout::HashGridParams;
 use gi_shared::octahedral::{
     equal_area_hemi_decode, equal_area_hemi_encode, octahedral_decode, octahedral_encode,
 };

@@ -102,10 +102,9 @@ use num_traits::Float;
 use crate::elements::Elements;
 use crate::ray::{HitRecord, Ray};
 use crate::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED,
-    alpha_visible,
+    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED, alpha_visible,
 };
-use crate::textures::TextureImages;
+use crate::textures::{GpuTexture, TextureImages};
 
 /// Entries of the long traversal stack: enough for any tree whose leaves are within the depth
 /// limits of both levels.
@@ -1840,8 +1839,8 @@ mod tests {
             width: 2,
             height: 2,
             srgb: 0,
-            wrap_u: crate::scene_data::WRAP_CLAMP_TO_EDGE,
-            wrap_v: crate::scene_data::WRAP_CLAMP_TO_EDGE,
+            wrap_u: crate::textures::WRAP_CLAMP_TO_EDGE,
+            wrap_v: crate::textures::WRAP_CLAMP_TO_EDGE,
             levels: 1,
             _pad: 0,
         }];

@@ -6,8 +6,8 @@
 
 use crate::color::luminance;
 use crate::hash::{pcg, pcg_chain, xxhash32, xxhash32_chain};
+use crate::hash_cells::layout::HashGridParams;
 use crate::hash_cells::{CellDescriptor, cell_descriptor, cell_index};
-use crate::layout::HashGridParams;
 use crate::math::unorm24;
 use crate::octahedral::{
     equal_area_hemi_decode, equal_area_hemi_encode, hemi_octahedral_decode, hemi_octahedral_encode,

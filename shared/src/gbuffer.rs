@@ -43,10 +43,9 @@ use crate::elements::Elements;
 use crate::ray::{HitRecord, Ray};
 use crate::ray_cone::RayFootprint;
 use crate::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, hit_surface,
-    object_position,
+    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, hit_surface, object_position,
 };
-use crate::textures::TextureImages;
+use crate::textures::{GpuTexture, TextureImages};
 
 /// One instance's object-to-world transform in the previous frame, as the `gbuffer` kernel reads
 /// it (set 0, binding 8; one per instance, indexed like the instances). An instance without an

@@ -4,15 +4,13 @@
 //! Rules: `#[repr(C)]` + `Pod`; only `u32`/`i32`/`f32` and arrays of them (no `bool`, no `Vec3`,
 //! whose 12-byte layout breaks std430 without scalar block layout); explicit padding; every struct's
 //! size and field offsets are asserted by a test.
+//!
+//! These are the frame-wide limits and records; the hash grid's own layouts (its capacities, cell
+//! records and pass parameters) are in [`crate::hash_cells::layout`].
 
 use bytemuck::{Pod, Zeroable};
-use glam::{Vec2, Vec3, Vec4};
+use glam::Vec2;
 
-use crate::fixed_point;
-use crate::hash_cells::{
-    CELLS_PER_TILE, MAX_NUM_TILES_LOG2, MIN_CELL_SIZE, MIP0_CELLS_PER_TILE, NUM_BUCKETS_LOG2,
-    TILES_PER_BUCKET_LOG2,
-};
 use crate::packing::{f16_to_f32, pack_half2, pack_radiance_half, unpack_half2};
 use crate::reservoir::Reservoir;
 
@@ -48,137 +46,6 @@ pub const fn max_ray_count(width: u32, height: u32) -> u32 {
 
 /// Rays per frame at [`MAX_FRAME_WIDTH`] × [`MAX_FRAME_HEIGHT`] (2 073 600).
 pub const MAX_RAY_COUNT: u32 = max_ray_count(MAX_FRAME_WIDTH, MAX_FRAME_HEIGHT);
-
-/// Largest hash-grid tile count the buffers allow (2^16 = 4096 buckets × 16 tiles by default).
-pub const MAX_HASH_GRID_TILES: usize = 1 << MAX_NUM_TILES_LOG2;
-/// Largest hash-grid cell count: tiles × 85 (5 570 560; the value buffer is 89 MB).
-pub const MAX_HASH_GRID_CELLS: usize = MAX_HASH_GRID_TILES * CELLS_PER_TILE as usize;
-/// `u32` words of one mip-0 cell's per-frame accumulator: `r`, `g`, `b` as 64-bit fixed point
-/// (`lo`, `hi`, see [`crate::fixed_point`]) and the sample count. Seven, not a padded eight: eight
-/// would fill the 128 MiB binding exactly at [`MAX_HASH_GRID_TILES`], and the pass that clears the
-/// accumulators writes an eighth less.
-pub const ACCUMULATOR_WORDS: usize = 7;
-/// Offset, in a tile's accumulator words, of its luminance trend
-/// ([`crate::hash_cells::adaptive_blend::TileTrend`], kept across frames): after its 64 cells.
-pub const TREND_WORD: usize = MIP0_CELLS_PER_TILE as usize * ACCUMULATOR_WORDS;
-/// `u32` words of one tile's accumulators: 64 mip-0 cells × 7, then the trend word.
-pub const TILE_ACCUMULATOR_WORDS: usize = TREND_WORD + 1;
-/// Largest accumulator buffer, in words: tiles × (64 mip-0 cells × 7 + 1) (118 MB).
-pub const MAX_HASH_GRID_ACCUMULATOR_WORDS: usize = MAX_HASH_GRID_TILES * TILE_ACCUMULATOR_WORDS;
-
-/// One hash-grid cell value: `(r · n, g · n, b · n, n)`, the running mean premultiplied by its
-/// sample count `n` so that coarser mips are plain sums. Mip-0 counts are integers ≤
-/// [`crate::hash_cells::MAX_SAMPLE_COUNT`]; a mip sums its children (≤ 16 · 4^mip). `f32`
-/// throughout: unlike half floats these neither saturate at 65504 nor lose the count's integrality.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct HashCellValue {
-    /// `r · n`.
-    pub r: f32,
-    /// `g · n`.
-    pub g: f32,
-    /// `b · n`.
-    pub b: f32,
-    /// Sample count `n`.
-    pub count: f32,
-}
-
-impl HashCellValue {
-    /// An empty cell.
-    pub const ZERO: Self = Self {
-        r: 0.0,
-        g: 0.0,
-        b: 0.0,
-        count: 0.0,
-    };
-
-    /// A radiance sum `rgb · n` and its sample count `n`.
-    #[inline]
-    pub fn new(radiance_sum: Vec3, count: f32) -> Self {
-        Self {
-            r: radiance_sum.x,
-            g: radiance_sum.y,
-            b: radiance_sum.z,
-            count,
-        }
-    }
-
-    /// `(rgb · n, n)`.
-    #[inline]
-    pub fn sum_and_count(&self) -> Vec4 {
-        Vec4::new(self.r, self.g, self.b, self.count)
-    }
-
-    /// Radiance sum `rgb · n`.
-    #[inline]
-    pub fn radiance_sum(&self) -> Vec3 {
-        Vec3::new(self.r, self.g, self.b)
-    }
-
-    /// Mean radiance, zero for an empty cell.
-    #[inline]
-    pub fn mean(&self) -> Vec3 {
-        if self.count > 0.0 {
-            self.radiance_sum() / self.count
-        } else {
-            Vec3::ZERO
-        }
-    }
-}
-
-/// Component-wise sum: the parent cell of a mip.
-impl core::ops::Add for HashCellValue {
-    type Output = Self;
-
-    #[inline]
-    fn add(self, other: Self) -> Self {
-        Self {
-            r: self.r + other.r,
-            g: self.g + other.g,
-            b: self.b + other.b,
-            count: self.count + other.count,
-        }
-    }
-}
-
-/// One mip-0 cell's per-frame accumulator, as [`ACCUMULATOR_WORDS`] consecutive words of the flat
-/// `u32` accumulator buffer (the GPU adds into the words with atomics; this is the loaded copy).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
-pub struct HashCellAccumulator {
-    /// Fixed-point red sum `[lo, hi]`.
-    pub r: [u32; 2],
-    /// Fixed-point green sum `[lo, hi]`.
-    pub g: [u32; 2],
-    /// Fixed-point blue sum `[lo, hi]`.
-    pub b: [u32; 2],
-    /// Number of samples added.
-    pub count: u32,
-}
-
-impl HashCellAccumulator {
-    /// Word offset of [`HashCellAccumulator::count`] inside a cell's words.
-    pub const COUNT_WORD: usize = 6;
-
-    /// The sum of the accumulated samples.
-    #[inline]
-    pub fn radiance_sum(&self) -> Vec3 {
-        Vec3::new(
-            fixed_point::decode(self.r),
-            fixed_point::decode(self.g),
-            fixed_point::decode(self.b),
-        )
-    }
-
-    /// Mean radiance of the accumulated samples, zero when there are none.
-    #[inline]
-    pub fn mean(&self) -> Vec3 {
-        if self.count == 0 {
-            return Vec3::ZERO;
-        }
-        self.radiance_sum() / self.count as f32
-    }
-}
 
 /// A reservoir in a buffer (`uint4`): light index; half2 sample parameters; `W` as `f32`;
 /// half `M` (low) | half visibility (high).
@@ -284,151 +151,7 @@ impl PackedProbeHit {
     }
 }
 
-/// Push constants of the hash-grid passes.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct HashGridParams {
-    /// Camera position (world space).
-    pub eye: [f32; 3],
-    /// `tan(fov_y · pixels · max(1/H, H/W²))`, see [`crate::hash_cells::cell_size_const`].
-    pub cell_size_const: f32,
-    /// Lower clamp of the world-space cell size.
-    pub min_cell_size: f32,
-    /// `log2` of the bucket count.
-    pub num_buckets_log2: u32,
-    /// `log2` of the tiles per bucket.
-    pub tiles_per_bucket_log2: u32,
-    /// Frame counter: touch stamps, tile decay and the live-list ping-pong (`frame_index & 1`).
-    pub frame_index: u32,
-    /// Work items of a directly dispatched pass (e.g. the queries of a batch), which invocations
-    /// compare their index against; indirectly dispatched passes read their counts from buffers.
-    pub item_count: u32,
-    /// Sample-count cap of a cell's history (default [`crate::hash_cells::MAX_SAMPLE_COUNT`]; 0
-    /// reads as 1).
-    pub sample_cap: u32,
-    /// 1: the blend adapts its cap to how much a tile's lighting changed
-    /// ([`crate::hash_cells::adaptive_blend`]); 0: the fixed `sample_cap` (the reference).
-    pub adaptive_blend: u32,
-    /// Time constant, in updates of its tile, over which a cell's history fades: each update
-    /// weighs the history `1 − 1/history_frames` before blending ([`crate::hash_cells::update`]);
-    /// 0 keeps it whole (the reference: a history of `sample_cap` samples, however old).
-    pub history_frames: u32,
-}
-
-impl HashGridParams {
-    /// The count from which a read takes a cell rather than its parent mip
-    /// ([`crate::hash_cells::read`]): the sample cap while the history never fades (the
-    /// reference), [`crate::hash_cells::READ_MIN_SAMPLES`] when it does.
-    #[inline]
-    pub fn read_min_samples(&self) -> f32 {
-        if self.history_frames == 0 {
-            crate::math::max_u32(self.sample_cap, 1) as f32
-        } else {
-            crate::hash_cells::READ_MIN_SAMPLES
-        }
-    }
-
-    /// Parameters with the GI-1.0 defaults (4096 buckets × 16 tiles, 0.1 minimum cell size).
-    #[inline]
-    pub fn new(eye: Vec3, cell_size_const: f32, frame_index: u32) -> Self {
-        Self {
-            eye: eye.to_array(),
-            cell_size_const,
-            min_cell_size: MIN_CELL_SIZE,
-            num_buckets_log2: NUM_BUCKETS_LOG2,
-            tiles_per_bucket_log2: TILES_PER_BUCKET_LOG2,
-            frame_index,
-            item_count: 0,
-            sample_cap: crate::hash_cells::MAX_SAMPLE_COUNT,
-            adaptive_blend: 1,
-            history_frames: 0,
-        }
-    }
-
-    /// Camera position.
-    #[inline]
-    pub fn eye(&self) -> Vec3 {
-        Vec3::from_array(self.eye)
-    }
-
-    /// Whether the tile count `2^(buckets + tiles per bucket)` fits the buffers
-    /// (≤ [`MAX_HASH_GRID_TILES`]); the host must check this before uploading.
-    #[inline]
-    pub fn fits_buffers(&self) -> bool {
-        self.num_buckets_log2 <= MAX_NUM_TILES_LOG2
-            && self.tiles_per_bucket_log2 <= MAX_NUM_TILES_LOG2 - self.num_buckets_log2
-    }
-
-    /// Tile count `2^(num_buckets_log2 + tiles_per_bucket_log2)`, for parameters that
-    /// [fit the buffers](Self::fits_buffers): the length of the key and touch buffers and the
-    /// capacity of the tile lists.
-    #[inline]
-    pub fn tile_count(&self) -> u32 {
-        1 << (self.num_buckets_log2 + self.tiles_per_bucket_log2)
-    }
-}
-
-/// One query of a hash-grid batch (the CPU model's input, uploaded as is by the GPU tests): a ray
-/// from the camera side that hit `hit_position` after `hit_distance` along unit `direction`, and
-/// the radiance sample to add to the cell it falls into.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct HashGridQuery {
-    /// Hit position (world space).
-    pub hit_position: [f32; 3],
-    /// Ray length to the hit.
-    pub hit_distance: f32,
-    /// Unit ray direction.
-    pub direction: [f32; 3],
-    /// Explicit padding.
-    pub _pad0: u32,
-    /// Radiance sample.
-    pub radiance: [f32; 3],
-    /// Explicit padding.
-    pub _pad1: u32,
-}
-
-impl HashGridQuery {
-    /// A query.
-    #[inline]
-    pub fn new(hit_position: Vec3, direction: Vec3, hit_distance: f32, radiance: Vec3) -> Self {
-        Self {
-            hit_position: hit_position.to_array(),
-            hit_distance,
-            direction: direction.to_array(),
-            _pad0: 0,
-            radiance: radiance.to_array(),
-            _pad1: 0,
-        }
-    }
-
-    /// Hit position.
-    #[inline]
-    pub fn hit_position(&self) -> Vec3 {
-        Vec3::from_array(self.hit_position)
-    }
-
-    /// Ray direction.
-    #[inline]
-    pub fn direction(&self) -> Vec3 {
-        Vec3::from_array(self.direction)
-    }
-
-    /// Radiance sample.
-    #[inline]
-    pub fn radiance(&self) -> Vec3 {
-        Vec3::from_array(self.radiance)
-    }
-}
-
 // Every buffer below must fit one storage binding.
-const _: () = assert!(
-    MAX_HASH_GRID_CELLS * core::mem::size_of::<HashCellValue>() <= MAX_STORAGE_BUFFER_BYTES
-);
-const _: () = assert!(MAX_HASH_GRID_ACCUMULATOR_WORDS * 4 <= MAX_STORAGE_BUFFER_BYTES);
-const _: () = assert!(core::mem::size_of::<HashCellAccumulator>() == ACCUMULATOR_WORDS * 4);
-// Key (checksum) and touch buffers, and each live/update tile list: one u32 per tile.
-const _: () = assert!(MAX_HASH_GRID_TILES * 4 <= MAX_STORAGE_BUFFER_BYTES);
 // Two reservoirs per shadow ray.
 const _: () = assert!(
     2 * MAX_RAY_COUNT as usize * core::mem::size_of::<PackedReservoir>()
@@ -437,7 +160,6 @@ const _: () = assert!(
 const _: () = assert!(
     MAX_RAY_COUNT as usize * core::mem::size_of::<PackedProbeHit>() <= MAX_STORAGE_BUFFER_BYTES
 );
-const _: () = assert!(core::mem::size_of::<HashGridParams>() <= MAX_PUSH_CONSTANT_BYTES);
 // Seed pixels keep 16 bits per coordinate.
 const _: () = assert!(
     MAX_FRAME_WIDTH <= crate::packing::SEED_MAX_COORD
@@ -451,27 +173,6 @@ mod tests {
 
     #[test]
     fn sizes_and_offsets() {
-        assert_eq!(size_of::<HashCellValue>(), 16);
-        assert_eq!(offset_of!(HashCellValue, r), 0);
-        assert_eq!(offset_of!(HashCellValue, g), 4);
-        assert_eq!(offset_of!(HashCellValue, b), 8);
-        assert_eq!(offset_of!(HashCellValue, count), 12);
-
-        assert_eq!(size_of::<HashCellAccumulator>(), 28);
-        assert_eq!(offset_of!(HashCellAccumulator, r), 0);
-        assert_eq!(offset_of!(HashCellAccumulator, g), 8);
-        assert_eq!(offset_of!(HashCellAccumulator, b), 16);
-        assert_eq!(
-            offset_of!(HashCellAccumulator, count),
-            4 * HashCellAccumulator::COUNT_WORD
-        );
-
-        assert_eq!(size_of::<HashGridQuery>(), 48);
-        assert_eq!(offset_of!(HashGridQuery, hit_position), 0);
-        assert_eq!(offset_of!(HashGridQuery, hit_distance), 12);
-        assert_eq!(offset_of!(HashGridQuery, direction), 16);
-        assert_eq!(offset_of!(HashGridQuery, radiance), 32);
-
         assert_eq!(size_of::<PackedReservoir>(), 16);
         assert_eq!(offset_of!(PackedReservoir, light_index), 0);
         assert_eq!(offset_of!(PackedReservoir, sample_params), 4);
@@ -483,20 +184,6 @@ mod tests {
         assert_eq!(offset_of!(PackedProbeHit, geometry), 4);
         assert_eq!(offset_of!(PackedProbeHit, primitive), 8);
         assert_eq!(offset_of!(PackedProbeHit, barycentrics), 12);
-
-        assert_eq!(size_of::<HashGridParams>(), 48);
-        assert_eq!(offset_of!(HashGridParams, eye), 0);
-        assert_eq!(offset_of!(HashGridParams, cell_size_const), 12);
-        assert_eq!(offset_of!(HashGridParams, min_cell_size), 16);
-        assert_eq!(offset_of!(HashGridParams, num_buckets_log2), 20);
-        assert_eq!(offset_of!(HashGridParams, tiles_per_bucket_log2), 24);
-        assert_eq!(offset_of!(HashGridParams, frame_index), 28);
-        assert_eq!(offset_of!(HashGridParams, item_count), 32);
-        assert_eq!(offset_of!(HashGridParams, sample_cap), 36);
-        assert_eq!(offset_of!(HashGridParams, adaptive_blend), 40);
-        assert_eq!(offset_of!(HashGridParams, history_frames), 44);
-        // All alignments are 4: no implicit padding anywhere.
-        assert_eq!(core::mem::align_of::<HashGridParams>(), 4);
     }
 
     #[test]
@@ -504,50 +191,6 @@ mod tests {
         assert_eq!(max_probe_spawn_count(1920, 1080), 120 * 68);
         assert_eq!(max_ray_count(1920, 1080), 120 * 68 * 64);
         assert_eq!(MAX_RAY_COUNT, 2_073_600);
-        assert_eq!(MAX_HASH_GRID_CELLS, 5_570_560);
-        // 89 MB of values and 117 MB of accumulators, each under the 128 MiB binding.
-        assert_eq!(MAX_HASH_GRID_CELLS * size_of::<HashCellValue>(), 89_128_960);
-        assert_eq!(MAX_HASH_GRID_ACCUMULATOR_WORDS * 4, 117_702_656);
-        assert!(HashGridParams::new(Vec3::ZERO, 0.03, 0).fits_buffers());
-        assert_eq!(
-            HashGridParams::new(Vec3::ZERO, 0.03, 0).tile_count(),
-            65_536
-        );
-        let mut p = HashGridParams::new(Vec3::ZERO, 0.03, 0);
-        p.num_buckets_log2 = 16;
-        p.tiles_per_bucket_log2 = 1;
-        assert!(!p.fits_buffers());
-        p.num_buckets_log2 = 40;
-        assert!(!p.fits_buffers());
-    }
-
-    #[test]
-    fn hash_cell_value_and_accumulator() {
-        let v = HashCellValue::new(Vec3::new(8.0, 4.0, 2.0), 16.0);
-        assert_eq!(v.radiance_sum(), Vec3::new(8.0, 4.0, 2.0));
-        assert_eq!(v.mean(), Vec3::new(0.5, 0.25, 0.125));
-        assert_eq!(v.sum_and_count(), Vec4::new(8.0, 4.0, 2.0, 16.0));
-        assert_eq!(v + v, HashCellValue::new(Vec3::new(16.0, 8.0, 4.0), 32.0));
-        assert_eq!(HashCellValue::ZERO, HashCellValue::default());
-        assert_eq!(HashCellValue::ZERO.mean(), Vec3::ZERO);
-        // Large sums do not saturate.
-        assert_eq!(
-            HashCellValue::new(Vec3::splat(1e9), 1.0).radiance_sum(),
-            Vec3::splat(1e9)
-        );
-
-        let a = HashCellAccumulator {
-            r: fixed_point::encode(3.0),
-            g: fixed_point::encode(1.5),
-            b: [0, 0],
-            count: 2,
-        };
-        assert_eq!(a.mean(), Vec3::new(1.5, 0.75, 0.0));
-        assert_eq!(HashCellAccumulator::default().mean(), Vec3::ZERO);
-        // The loaded copy is the cell's seven words, in order.
-        let words: [u32; ACCUMULATOR_WORDS] = bytemuck::cast(a);
-        assert_eq!(words[HashCellAccumulator::COUNT_WORD], 2);
-        assert_eq!([words[0], words[1]], a.r);
     }
 
     #[test]

@@ -34,7 +34,7 @@
 //! Albedo enters the bounce clamped to [`MAX_BOUNCE_ALBEDO`], so a white (albedo 1) room keeps a
 //! finite radiance (20 × its direct light) instead of growing without bound, and when a light goes
 //! off its bounced light decays geometrically instead of lingering. A lookup only ever reads
-//! blended, finite cell values ([`crate::cache_view::finite_sample`]).
+//! blended, finite cell values ([`crate::world_cache::finite_sample`]).
 //!
 //! # Light leaks
 //!
@@ -48,7 +48,7 @@
 //! # Known bias
 //!
 //! A bounce ray whose cell has no sample yet adds nothing (a bounce miss,
-//! [`crate::cache_view::BOUNCE_MISSES`], printed per frame by `gi cache-view`): the first frames
+//! [`crate::world_cache::BOUNCE_MISSES`], printed per frame by `gi cache-view`): the first frames
 //! after a cell appears. Each further bounce arrives a frame and a blend later: with a history
 //! that never fades a cell blends by samples, not frames, and sparsely sampled cells converged
 //! over thousands of frames (the `balanced` GI frame of a 32 × 32 closed furnace of albedo 0.8
@@ -58,18 +58,19 @@
 use glam::{Vec2, Vec3};
 
 use crate::atomics::AtomicWords;
-use crate::cache_view::{
-    CARRIED_QUERY_BIT, CachePassParams, CacheQuery, FLAG_ENVIRONMENT_LIGHT, NO_TILE, QUERY_CARRIED,
-    finite_sample, hit_descriptor, is_bypass, surface_query,
-};
+use crate::hash_cells::layout::HashCellValue;
 use crate::hash_cells::purge::tile_age;
 use crate::hash_cells::read::filtered_radiance;
 use crate::hash_cells::storage::find_tile;
-use crate::layout::HashCellValue;
 use crate::lights::sky_radiance;
 use crate::path_tracer::sample_folded_cosine;
 use crate::ray::{HitRecord, Ray};
 use crate::scene_data::{MaterialSample, Surface};
+use crate::secondary_hits::surface_query;
+use crate::world_cache::{
+    CARRIED_QUERY_BIT, CachePassParams, CacheQuery, FLAG_ENVIRONMENT_LIGHT, NO_TILE, QUERY_CARRIED,
+    finite_sample, hit_descriptor, is_bypass,
+};
 
 /// A bounce ray whose cell no query touched for this many frames carries its hit over as a query
 /// that refreshes it: cells only bounce rays read stay at most this many frames old, at the cost
@@ -224,11 +225,11 @@ pub fn carried_query(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cache_view::{CacheViewParams, NO_TILE};
+    use crate::hash_cells::layout::HashGridParams;
     use crate::hash_cells::storage::{TileInsert, insert_tile};
     use crate::hash_cells::{CELLS_PER_TILE, TILE_CELL_RATIO, cell_descriptor, cell_index};
-    use crate::layout::HashGridParams;
     use crate::packing::pack_snorm10x3;
+    use crate::world_cache::{CacheViewParams, NO_TILE};
     use glam::Vec4;
 
     fn query(albedo: Vec3) -> CacheQuery {
@@ -375,7 +376,7 @@ mod tests {
 
     #[test]
     fn carried_queries_keep_their_parents_ray_and_are_flagged() {
-        use crate::cache_view::{CARRIED_QUERY_BIT, QUERY_CARRIED};
+        use crate::world_cache::{CARRIED_QUERY_BIT, QUERY_CARRIED};
         let parent = query(Vec3::splat(0.5));
         let ray = Ray {
             origin: [0.0, 0.0, 0.0],

@@ -77,10 +77,10 @@ use crate::ray_cone::RayFootprint;
 use crate::reservoir::Reservoir;
 use crate::sampling::{sample_cosine_hemisphere, tangent_to_world};
 use crate::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, Surface, fetch_surface,
-    hit_surface, sample_material,
+    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, Surface, fetch_surface, hit_surface,
+    sample_material,
 };
-use crate::textures::{TextureImages, UvFootprint};
+use crate::textures::{GpuTexture, TextureImages, UvFootprint};
 
 /// The largest bounce count a path may take, whatever the parameters ask.
 pub const MAX_BOUNCES: u32 = 64;

@@ -6,7 +6,7 @@
 //! The converged image holds every light path exactly once, split between three sources:
 //!
 //! * **Camera-visible emission** at the primary hit comes from the G-buffer
-//!   ([`crate::cache_view::primary_emission`], × the emissive multiplier). The sky the camera
+//!   ([`crate::primary_surface::primary_emission`], × the emissive multiplier). The sky the camera
 //!   sees directly is the emission of a sky pixel ([`sky_lighting`]).
 //! * **Direct light of punctual lights** (point, spot, directional: the first
 //!   `GiFrameParams::punctual_count` lights of the light buffer) comes from shadow rays at the
@@ -32,17 +32,19 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use crate::cache_view::{FeedbackTexel, PrimarySurface, finite_sample};
 use crate::color::luminance;
 use crate::lights::{
     GpuLight, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, punctual_incidence, sample_triangle_light_ray,
     select_light, sky_radiance,
 };
 use crate::math::{INV_PI, max, max_u32, min_u32, to_u32_clamped};
+use crate::primary_surface::PrimarySurface;
+use crate::radiance_feedback::FeedbackTexel;
 use crate::random::Random;
 use crate::ray::Ray;
 use crate::reservoir::Reservoir;
 use crate::screen_probes::{FLAG_EMITTER_SAMPLING, FLAG_SAMPLED_DIRECT, GiFrameParams};
+use crate::world_cache::finite_sample;
 
 /// Most punctual lights DirectLight sums exactly (one shadow ray each); beyond this the host sets
 /// [`FLAG_SAMPLED_DIRECT`] and one light is resampled.

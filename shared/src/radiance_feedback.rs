@@ -16,8 +16,12 @@
 
 use glam::{UVec2, Vec3};
 
+use crate::cache_view::running_mean;
 use crate::camera::{CameraParams, to_clip, uv_of_clip};
 use crate::math::{abs, to_u32_clamped};
+use crate::packing::unpack_snorm10x3;
+use crate::world_cache::{CacheQuery, CacheViewPixel};
+use bytemuck::{Pod, Zeroable};
 
 /// Largest relative difference between the previous frame's depth and the hit's depth there.
 pub const RADIANCE_FEEDBACK_DEPTH_TOLERANCE: f32 = 0.05;
@@ -77,10 +81,95 @@ pub fn accepts(
     same_depth && hit_normal.dot(previous_normal) > RADIANCE_FEEDBACK_MIN_NORMAL_DOT
 }
 
+/// One pixel of the previous frame's image as temporal feedback reads it (32 bytes), written by the
+/// composite after feedback has read it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FeedbackTexel {
+    /// The pixel's radiance toward the camera, resolved from its irradiance before the denoiser
+    /// (the denoised image lags).
+    pub radiance: [f32; 3],
+    /// Linear depth; 0 for sky.
+    pub depth: f32,
+    /// Unit geometric normal facing the camera.
+    pub normal: [f32; 3],
+    /// 1 when the pixel saw a surface.
+    pub valid: u32,
+}
+
+/// What temporal radiance feedback found for a query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FeedbackLookup {
+    /// The previous image's radiance at the reprojected hit.
+    pub radiance: Vec3,
+    /// Whether the hit reprojected and passed the depth and normal tests.
+    pub accepted: bool,
+}
+
+/// Temporal radiance feedback (`crate::radiance_feedback`): the query's hit reprojected into the
+/// previous frame's image; when that pixel passes the depth and normal tests, its radiance is the
+/// hit's outgoing radiance (diffuse: the same toward every direction). `history` holds the
+/// previous frame's [`FeedbackTexel`]s, row by row.
+pub fn feedback_lookup(
+    camera: &CameraParams,
+    query: &CacheQuery,
+    history: &[FeedbackTexel],
+) -> FeedbackLookup {
+    let mut out = FeedbackLookup {
+        radiance: Vec3::ZERO,
+        accepted: false,
+    };
+    let Some(at) = reproject(camera, query.position()) else {
+        return out;
+    };
+    let i = (at.pixel.y * camera.image_size[0] + at.pixel.x) as usize;
+    if i >= history.len() {
+        return out;
+    }
+    let texel = history[i];
+    let normal = unpack_snorm10x3(query.geometric_normal);
+    if texel.valid == 0
+        || texel.depth <= 0.0
+        || !accepts(&at, normal, texel.depth, Vec3::from_array(texel.normal))
+    {
+        return out;
+    }
+    let radiance = Vec3::from_array(texel.radiance);
+    if radiance.is_finite() && radiance.min_element() >= 0.0 {
+        out.radiance = radiance;
+        out.accepted = true;
+    }
+    out
+}
+
+/// The [`FeedbackTexel`] a pixel leaves for the next frame: the running mean `sum` of its
+/// image, its G-buffer depth and geometric normal; no source where it saw no surface or an
+/// emitter.
+#[inline]
+pub fn feedback_texel(
+    pixel: &CacheViewPixel,
+    sum: [f32; 4],
+    depth: f32,
+    normal: Vec3,
+) -> FeedbackTexel {
+    FeedbackTexel {
+        radiance: running_mean(sum).to_array(),
+        depth,
+        normal: normal.to_array(),
+        valid: if pixel.surface != 0 && pixel.emissive == 0 && depth > 0.0 {
+            1
+        } else {
+            0
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::camera::{primary_ray, view_projection};
+    use crate::primary_surface::tests::camera as wall_camera;
+    use crate::world_cache::tests::query_at;
     use glam::Vec2;
 
     fn camera() -> CameraParams {
@@ -157,5 +246,40 @@ mod tests {
         assert!(!accepts(&at, n, 10.0, -n));
         assert!(!accepts(&at, n, 10.0, Vec3::splat(f32::NAN)));
         assert!(!accepts(&at, Vec3::ZERO, 10.0, n));
+    }
+
+    #[test]
+    fn feedback_accepts_the_same_surface_and_rejects_others() {
+        let c = wall_camera();
+        let [w, h] = c.image_size;
+        let history: Vec<FeedbackTexel> = (0..w * h)
+            .map(|i| FeedbackTexel {
+                radiance: [i as f32, 1.0, 2.0],
+                depth: 5.0,
+                normal: [0.0, 0.0, 1.0],
+                valid: 1,
+            })
+            .collect();
+        let p = Vec3::new(0.1, -0.2, 0.0);
+        let hit = feedback_lookup(&c, &query_at(p, Vec3::Z), &history);
+        assert!(hit.accepted);
+        let uv = crate::camera::project(&c.view_proj, p);
+        let expected = (uv.y * h as f32) as u32 * w + (uv.x * w as f32) as u32;
+        assert_eq!(hit.radiance, Vec3::new(expected as f32, 1.0, 2.0));
+        // A point 6 % nearer the camera, the back of the wall, a point off screen: rejected.
+        assert!(!feedback_lookup(&c, &query_at(p + Vec3::Z * 0.3, Vec3::Z), &history).accepted);
+        assert!(!feedback_lookup(&c, &query_at(p, Vec3::NEG_Z), &history).accepted);
+        assert!(
+            !feedback_lookup(&c, &query_at(Vec3::new(50.0, 0.0, 0.0), Vec3::Z), &history).accepted
+        );
+        // 4 % nearer passes.
+        assert!(feedback_lookup(&c, &query_at(p + Vec3::Z * 0.2, Vec3::Z), &history).accepted);
+        // No history.
+        assert!(!feedback_lookup(&c, &query_at(p, Vec3::Z), &[]).accepted);
+    }
+
+    #[test]
+    fn feedback_texel_layout() {
+        assert_eq!(core::mem::size_of::<FeedbackTexel>(), 32);
     }
 }

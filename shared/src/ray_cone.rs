@@ -28,7 +28,6 @@ use glam::{Vec2, Vec3};
 use num_traits::Float;
 
 use crate::camera::CameraParams;
-use crate::scene_data::Surface;
 use crate::textures::UvFootprint;
 
 /// Incidence cosines below this count as this: a grazing hit reads a coarse level, not an
@@ -134,23 +133,30 @@ impl RayFootprint {
         }
     }
 
-    /// The footprint in texture coordinates where a ray of (unnormalised) `direction` hit
-    /// `surface` at parameter `t`. Never NaN for finite inputs; a point without UVs.
-    pub fn on_surface(&self, direction: Vec3, t: f32, surface: &Surface) -> UvFootprint {
+    /// The footprint in texture coordinates where a ray of (unnormalised) `direction` hit, at
+    /// parameter `t`, a triangle with unit geometric normal `normal`, world area `area`, texture
+    /// area `uv_area` and texture-coordinate gradients `uv_gradients` (the fields of these names
+    /// of [`Surface`](crate::scene_data::Surface)). Never NaN for finite inputs; a point without
+    /// UVs.
+    pub fn on_surface(
+        &self,
+        direction: Vec3,
+        t: f32,
+        normal: Vec3,
+        area: f32,
+        uv_area: f32,
+        uv_gradients: [Vec3; 2],
+    ) -> UvFootprint {
         if self.direction_dx == Vec3::ZERO && self.direction_dy == Vec3::ZERO {
             let length = direction.length();
-            let lod = self.cone.footprint_lod(
-                t * length,
-                direction / length,
-                surface.geometric_normal,
-                surface.area,
-                surface.uv_area,
-            );
+            let lod =
+                self.cone
+                    .footprint_lod(t * length, direction / length, normal, area, uv_area);
             return UvFootprint::isotropic(Float::exp2(lod));
         }
         // Igehy's transfer to the hit's plane: the point moves by t·(dD − D·(dD·n)/(D·n)). Grazing
         // incidence is clamped as for cones: a long footprint, not an infinite one.
-        let n = surface.geometric_normal;
+        let n = normal;
         let least = MIN_COSINE * direction.length();
         let dn = direction.dot(n);
         let dn = if Float::abs(dn) >= least {
@@ -161,8 +167,8 @@ impl RayFootprint {
             least
         };
         UvFootprint {
-            x: uv_step(self.direction_dx, direction, n, dn, t, surface.uv_gradients),
-            y: uv_step(self.direction_dy, direction, n, dn, t, surface.uv_gradients),
+            x: uv_step(self.direction_dx, direction, n, dn, t, uv_gradients),
+            y: uv_step(self.direction_dy, direction, n, dn, t, uv_gradients),
         }
     }
 }
@@ -227,40 +233,50 @@ mod tests {
     fn pixel_differentials_stretch_the_footprint_along_a_grazing_view() {
         // The plane y = -1 with u = x, v = z, seen from the origin 10 units away at a slope of
         // 1:10; one pixel turns the direction by 0.01 either way.
-        let surface = Surface {
-            geometric_normal: Vec3::Y,
-            uv_gradients: [Vec3::X, Vec3::Z],
-            ..Surface::default()
-        };
+        let gradients = [Vec3::X, Vec3::Z];
         let footprint = RayFootprint {
             cone: RayCone::POINT,
             direction_dx: Vec3::new(0.01, 0.0, 0.0),
             direction_dy: Vec3::new(0.0, -0.01, 0.0),
         };
-        let uv = footprint.on_surface(Vec3::new(0.0, -0.1, -1.0), 10.0, &surface);
+        let uv = footprint.on_surface(
+            Vec3::new(0.0, -0.1, -1.0),
+            10.0,
+            Vec3::Y,
+            0.0,
+            0.0,
+            gradients,
+        );
         // Across the view: 10 × 0.01; along it ten times longer, as 1 / sin of the slope says.
         assert!((uv.x - Vec2::new(0.1, 0.0)).length() < 1e-6, "{uv:?}");
         assert!((uv.y - Vec2::new(0.0, 1.0)).length() < 1e-5, "{uv:?}");
         // Edge-on and without UVs: finite, and a point.
-        let edge = footprint.on_surface(Vec3::new(0.0, 0.0, -1.0), 10.0, &surface);
+        let edge = footprint.on_surface(
+            Vec3::new(0.0, 0.0, -1.0),
+            10.0,
+            Vec3::Y,
+            0.0,
+            0.0,
+            gradients,
+        );
         assert!(edge.x.is_finite() && edge.y.is_finite());
-        let bare = Surface {
-            geometric_normal: Vec3::Y,
-            ..Surface::default()
-        };
-        let none = footprint.on_surface(Vec3::new(0.0, -0.1, -1.0), 10.0, &bare);
+        let bare = [Vec3::ZERO; 2];
+        let none = footprint.on_surface(Vec3::new(0.0, -0.1, -1.0), 10.0, Vec3::Y, 0.0, 0.0, bare);
         assert_eq!(none, UvFootprint::POINT);
         // A cone reads isotropically: its width, at the incidence, in UV units.
         let cone = RayFootprint::cone(RayCone {
             width: 0.0,
             spread: 0.01,
         });
-        let textured = Surface {
-            area: 1.0,
-            uv_area: 1.0,
-            ..surface
-        };
-        let iso = cone.on_surface(Vec3::new(0.0, -1.0, 0.0), 10.0, &textured);
+        // A triangle of world and texture area 1.
+        let iso = cone.on_surface(
+            Vec3::new(0.0, -1.0, 0.0),
+            10.0,
+            Vec3::Y,
+            1.0,
+            1.0,
+            gradients,
+        );
         assert!((iso.x.x - 0.1).abs() < 1e-6 && iso.y == Vec2::new(0.0, iso.x.x));
     }
 }

@@ -14,21 +14,63 @@
 //!
 //! For a level of detail `lod`, Vulkan's `d' = clamp(lod, 0, levels - 1)`; the two levels
 //! `floor(d')` and `floor(d') + 1` (clamped to the last) are each read bilinearly
-//! ([`crate::scene_data::sample_texture`], sRGB decoded before filtering like an `_SRGB` format),
+//! ([`sample_texture`], sRGB decoded before filtering like an `_SRGB` format),
 //! then blended by `fract(d')`. A NaN `lod` reads level 0 ([`clamped_lod`]). Devices filter with limited
 //! sub-texel precision (Vulkan requires at least 4 bits for the weights; lavapipe and current
 //! GPUs use 8), so the CPU and the device agree to about 1/256 of the texel contrast, not bit for
 //! bit.
 
+use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec4};
 use num_traits::Float;
 
-use crate::math::{ceil, clamp, floor};
-use crate::scene_data::{GpuTexture, sample_texture};
+use crate::color::srgb_to_linear;
+use crate::math::{ceil, clamp, floor, floor_to_i32_clamped, max_i32, min_i32};
 
 /// Most mip levels a texture may have: a 65536² level 0 has 17. The table and the images use it
 /// as the bound of the level loop.
 pub const MAX_MIP_LEVELS: u32 = 17;
+
+/// [`GpuTexture::wrap_u`]/[`GpuTexture::wrap_v`]: tile.
+pub const WRAP_REPEAT: u32 = 0;
+/// Tile, mirroring every other tile.
+pub const WRAP_MIRRORED_REPEAT: u32 = 1;
+/// Clamp to the edge texels.
+pub const WRAP_CLAMP_TO_EDGE: u32 = 2;
+
+/// An entry of the texture table (32 bytes).
+///
+/// | offset | field    |
+/// |--------|----------|
+/// | 0      | `offset` |
+/// | 4      | `width`  |
+/// | 8      | `height` |
+/// | 12     | `srgb`   |
+/// | 16     | `wrap_u` |
+/// | 20     | `wrap_v` |
+/// | 24     | `levels` |
+/// | 28     | `_pad`   |
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct GpuTexture {
+    /// Index of the texture's first texel in the CPU's texel array (see [`crate::textures`]);
+    /// unused on the device, where each texture is its own image.
+    pub offset: u32,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// 1 when the colour channels are sRGB-encoded (alpha never is).
+    pub srgb: u32,
+    /// Wrap mode of u: [`WRAP_REPEAT`], [`WRAP_MIRRORED_REPEAT`] or [`WRAP_CLAMP_TO_EDGE`].
+    pub wrap_u: u32,
+    /// Wrap mode of v.
+    pub wrap_v: u32,
+    /// Mip levels stored, level 0 first (at least 1).
+    pub levels: u32,
+    /// Explicit padding.
+    pub _pad: u32,
+}
 
 /// A texture read, as the kernels' shading functions need it: implemented by the device's
 /// bindless array of sampled images (`kernels`) and by the CPU's texel array (`[u32]`).
@@ -123,6 +165,85 @@ pub fn sample_mips(texture: &GpuTexture, texels: &[u32], uv: Vec2, lod: f32) -> 
     near + (far - near) * fraction
 }
 
+/// Bilinear sample of one level, `texture`, at `uv` (`(0, 0)` is the top-left corner of the first texel) with
+/// its wrap modes; sRGB colour channels are decoded to linear before filtering, like an `_SRGB`
+/// image format. Non-finite coordinates read as 0; a texture whose texels lie outside `texels`, or
+/// that is empty, reads as 1.
+pub fn sample_texture(texture: &GpuTexture, texels: &[u32], uv: Vec2) -> Vec4 {
+    let w = texture.width;
+    let h = texture.height;
+    let end = texture.offset as usize + w as usize * h as usize;
+    if w == 0 || h == 0 || end > texels.len() {
+        return Vec4::ONE;
+    }
+    let (x0, x1, fx) = texel_pair(uv.x, w, texture.wrap_u);
+    let (y0, y1, fy) = texel_pair(uv.y, h, texture.wrap_v);
+    let base = texture.offset as usize;
+    let row0 = base + y0 as usize * w as usize;
+    let row1 = base + y1 as usize * w as usize;
+    let srgb = texture.srgb;
+    let t00 = decode_texel(texels[row0 + x0 as usize], srgb);
+    let t10 = decode_texel(texels[row0 + x1 as usize], srgb);
+    let t01 = decode_texel(texels[row1 + x0 as usize], srgb);
+    let t11 = decode_texel(texels[row1 + x1 as usize], srgb);
+    let top = t00 + (t10 - t00) * fx;
+    let bottom = t01 + (t11 - t01) * fx;
+    top + (bottom - top) * fy
+}
+
+/// The two texel indices (each in `0..size`) that bilinear filtering at `coord` blends along one
+/// axis, and the weight of the second.
+#[inline]
+fn texel_pair(coord: f32, size: u32, wrap: u32) -> (u32, u32, f32) {
+    let c = if coord.is_finite() { coord } else { 0.0 };
+    // Wrap in texture space first: exact for any magnitude, and keeps the texel index small.
+    let c = if wrap == WRAP_CLAMP_TO_EDGE {
+        clamp(c, 0.0, 1.0)
+    } else if wrap == WRAP_MIRRORED_REPEAT {
+        let t = c - 2.0 * floor(0.5 * c);
+        if t > 1.0 { 2.0 - t } else { t }
+    } else {
+        c - floor(c)
+    };
+    let x = c * size as f32 - 0.5;
+    let fx = floor(x);
+    let n = size as i32;
+    // x is in [-0.5, size - 0.5]: i0 in [-1, size - 1].
+    let i0 = floor_to_i32_clamped(fx, -1, n - 1);
+    let i1 = i0 + 1;
+    let (a, b) = if wrap == WRAP_REPEAT {
+        (
+            if i0 < 0 { n - 1 } else { i0 },
+            if i1 >= n { 0 } else { i1 },
+        )
+    } else {
+        // Clamp and the mirror's seam both repeat the edge texel.
+        (max_i32(i0, 0), min_i32(i1, n - 1))
+    };
+    (a as u32, b as u32, clamp(x - fx, 0.0, 1.0))
+}
+
+/// A packed RGBA8 texel (red in the low byte) as linear floats in `[0, 1]`.
+#[inline]
+pub fn decode_texel(texel: u32, srgb: u32) -> Vec4 {
+    let c = Vec4::new(
+        (texel & 0xff) as f32,
+        ((texel >> 8) & 0xff) as f32,
+        ((texel >> 16) & 0xff) as f32,
+        (texel >> 24) as f32,
+    ) * (1.0 / 255.0);
+    if srgb != 0 {
+        Vec4::new(
+            srgb_to_linear(c.x),
+            srgb_to_linear(c.y),
+            srgb_to_linear(c.z),
+            c.w,
+        )
+    } else {
+        c
+    }
+}
+
 /// Most taps of one anisotropic read ([`sample_footprint`]): footprints longer than this many
 /// times their width are read this many times, each tap a little blurred along the long axis,
 /// as a device sampler's `maxAnisotropy` (16 on current GPUs) does.
@@ -206,9 +327,126 @@ pub fn sample_footprint<I: TextureImages + ?Sized>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
-    use crate::scene_data::{WRAP_CLAMP_TO_EDGE, WRAP_REPEAT};
+    use core::mem::{offset_of, size_of};
+
+    #[test]
+    fn gpu_texture_layout() {
+        assert_eq!(size_of::<GpuTexture>(), 32);
+        assert_eq!(offset_of!(GpuTexture, offset), 0);
+        assert_eq!(offset_of!(GpuTexture, width), 4);
+        assert_eq!(offset_of!(GpuTexture, height), 8);
+        assert_eq!(offset_of!(GpuTexture, srgb), 12);
+        assert_eq!(offset_of!(GpuTexture, wrap_u), 16);
+        assert_eq!(offset_of!(GpuTexture, wrap_v), 20);
+        assert_eq!(offset_of!(GpuTexture, levels), 24);
+        assert_eq!(offset_of!(GpuTexture, _pad), 28);
+    }
+
+    fn rgba(r: u32, g: u32, b: u32, a: u32) -> u32 {
+        r | (g << 8) | (b << 16) | (a << 24)
+    }
+
+    /// A 2×2 texture at offset 1 of the texel buffer: black, white / red, green.
+    pub(crate) fn two_by_two(wrap: u32, srgb: u32) -> (GpuTexture, [u32; 5]) {
+        let texels = [
+            0xdead_beef,
+            rgba(0, 0, 0, 255),
+            rgba(255, 255, 255, 255),
+            rgba(255, 0, 0, 255),
+            rgba(0, 255, 0, 0),
+        ];
+        let t = GpuTexture {
+            offset: 1,
+            width: 2,
+            height: 2,
+            srgb,
+            wrap_u: wrap,
+            wrap_v: wrap,
+            levels: 1,
+            _pad: 0,
+        };
+        (t, texels)
+    }
+
+    fn close(a: Vec4, b: Vec4) -> bool {
+        (a - b).abs().max_element() < 1e-6
+    }
+
+    #[test]
+    fn texel_centres_read_exactly() {
+        let (t, texels) = two_by_two(WRAP_REPEAT, 0);
+        let at = |u, v| sample_texture(&t, &texels, Vec2::new(u, v));
+        assert!(close(at(0.25, 0.25), Vec4::new(0.0, 0.0, 0.0, 1.0)));
+        assert!(close(at(0.75, 0.25), Vec4::ONE));
+        assert!(close(at(0.25, 0.75), Vec4::new(1.0, 0.0, 0.0, 1.0)));
+        assert!(close(at(0.75, 0.75), Vec4::new(0.0, 1.0, 0.0, 0.0)));
+        // Half way between the two top texels.
+        assert!(close(at(0.5, 0.25), Vec4::new(0.5, 0.5, 0.5, 1.0)));
+    }
+
+    #[test]
+    fn wrap_modes() {
+        // u = 0: between the last and the first texel of a row when repeating, the first alone when
+        // clamping or mirroring.
+        let (t, texels) = two_by_two(WRAP_REPEAT, 0);
+        let s = sample_texture(&t, &texels, Vec2::new(0.0, 0.25));
+        assert!(close(s, Vec4::new(0.5, 0.5, 0.5, 1.0)), "{s}");
+        // Whole tiles away, repeating gives the same value, even far out.
+        for k in [-3.0, 1.0, 1000.0] {
+            let s = sample_texture(&t, &texels, Vec2::new(0.75 + k, 0.25 - k));
+            assert!(close(s, Vec4::ONE), "{k}: {s}");
+        }
+        let (t, texels) = two_by_two(WRAP_CLAMP_TO_EDGE, 0);
+        let s = sample_texture(&t, &texels, Vec2::new(0.0, 0.25));
+        assert!(close(s, Vec4::new(0.0, 0.0, 0.0, 1.0)), "{s}");
+        let s = sample_texture(&t, &texels, Vec2::new(7.0, -5.0));
+        assert!(close(s, Vec4::ONE), "clamped to the top right: {s}");
+        let (t, texels) = two_by_two(WRAP_MIRRORED_REPEAT, 0);
+        // Mirrored: u = 1.25 reads like u = 0.75, u = 1.75 like u = 0.25.
+        let s = sample_texture(&t, &texels, Vec2::new(1.25, 0.25));
+        assert!(close(s, Vec4::ONE), "{s}");
+        let s = sample_texture(&t, &texels, Vec2::new(1.75, 0.25));
+        assert!(close(s, Vec4::new(0.0, 0.0, 0.0, 1.0)), "{s}");
+        let s = sample_texture(&t, &texels, Vec2::new(-0.25, 0.25));
+        assert!(close(s, Vec4::new(0.0, 0.0, 0.0, 1.0)), "{s}");
+    }
+
+    #[test]
+    fn srgb_decodes_colour_not_alpha() {
+        let t = GpuTexture {
+            offset: 0,
+            width: 1,
+            height: 1,
+            srgb: 1,
+            wrap_u: WRAP_REPEAT,
+            wrap_v: WRAP_REPEAT,
+            levels: 1,
+            _pad: 0,
+        };
+        let s = sample_texture(&t, &[rgba(230, 40, 0, 128)], Vec2::splat(0.3));
+        assert!((s.x - 0.791_298).abs() < 1e-5, "{s}");
+        assert!((s.y - 0.021_219).abs() < 1e-5, "{s}");
+        assert_eq!(s.z, 0.0);
+        assert!((s.w - 128.0 / 255.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bad_input_is_defined() {
+        let (t, texels) = two_by_two(WRAP_REPEAT, 0);
+        for uv in [
+            Vec2::new(f32::NAN, 0.5),
+            Vec2::new(f32::INFINITY, f32::NEG_INFINITY),
+        ] {
+            let s = sample_texture(&t, &texels, uv);
+            assert!(s.is_finite(), "{uv}: {s}");
+        }
+        let big = GpuTexture { width: 4, ..t };
+        assert_eq!(sample_texture(&big, &texels, Vec2::ZERO), Vec4::ONE);
+        let empty = GpuTexture { width: 0, ..t };
+        assert_eq!(sample_texture(&empty, &texels, Vec2::ZERO), Vec4::ONE);
+    }
 
     fn grey(v: u32) -> u32 {
         v | (v << 8) | (v << 16) | (255 << 24)

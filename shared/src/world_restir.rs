@@ -49,8 +49,11 @@ use crate::light_grid::{
 use crate::lights::GpuLight;
 use crate::math::{floor, max, min_u32, tan, to_i32_clamped, to_u32_clamped};
 use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
+use crate::random::Random;
 use crate::reservoir::Reservoir;
 use crate::sampling::orthonormal_basis;
+use crate::secondary_hits::diffuse_hit;
+use crate::world_cache::{CacheQuery, CacheViewParams, FLAG_RESTIR_HISTORY, ShadowRay};
 
 /// Buckets of the reservoir grid (the `mod` of the bucket hash).
 pub const RESERVOIR_GRID_BUCKETS: u32 = 262_144;
@@ -380,6 +383,196 @@ impl TemporalResampling {
     }
 }
 
+/// Buckets of the reservoir grid of a frame of `pixels` pixels: one slot per pixel
+/// (`pixels / 16` buckets of [`RESERVOIR_GRID_SLOTS_PER_BUCKET`]), a power of two between 64 and
+/// the reference's [`RESERVOIR_GRID_BUCKETS`].
+#[inline]
+pub fn reservoir_grid_buckets(pixels: u32) -> u32 {
+    let wanted = pixels.div_ceil(RESERVOIR_GRID_SLOTS_PER_BUCKET);
+    let mut b = 64;
+    while b < wanted && b < RESERVOIR_GRID_BUCKETS {
+        b *= 2;
+    }
+    b
+}
+
+/// The reservoir-grid cell of a query's hit seen from `eye`: its position jittered in the
+/// tangent plane by up to √2 cells ([`jitter_in_tangent_plane`]), so neighbouring cells share
+/// reservoirs.
+#[inline]
+pub fn reservoir_grid_cell(
+    view: &CacheViewParams,
+    eye: Vec3,
+    query: &CacheQuery,
+    rng: &mut Random,
+) -> ReservoirCell {
+    let p = query.position();
+    let n = Vec3::from_array(query.normal);
+    let cell = reservoir_cell(p, eye, view.reservoir_cell_const, view.reservoir_buckets);
+    let jittered = jitter_in_tangent_plane(p, n, cell.size, rng.next_vec2());
+    reservoir_cell(
+        jittered,
+        eye,
+        view.reservoir_cell_const,
+        view.reservoir_buckets,
+    )
+}
+
+/// GenerateReservoirs with ReSTIR: inserts the query's hit into this frame's reservoir grid
+/// (`keys`, one checksum per slot) and claims its place in the slot's list (`counts`, one word per
+/// slot): `[slot, index]`, slot [`RESERVOIR_GRID_NONE`] when the bucket is full.
+#[inline]
+pub fn insert_reservoir<K: AtomicWords + ?Sized, C: AtomicWords + ?Sized>(
+    keys: &mut K,
+    counts: &mut C,
+    view: &CacheViewParams,
+    eye: Vec3,
+    query: &CacheQuery,
+    rng: &mut Random,
+) -> [u32; 2] {
+    let cell = reservoir_grid_cell(view, eye, query, rng);
+    let slot = insert_reservoir_cell(keys, 0, &cell);
+    if slot == RESERVOIR_GRID_NONE || slot as usize >= counts.word_count() {
+        return [RESERVOIR_GRID_NONE, 0];
+    }
+    [slot, counts.fetch_add(slot as usize, 1)]
+}
+
+/// CompactReservoirs: the entry of the compacted list a shadow ray's reservoir goes to, from its
+/// `[slot, index]` and the scanned slot counts `offsets`; `None` without a slot.
+#[inline]
+pub fn reservoir_entry(offsets: &[u32], place: [u32; 2]) -> Option<u32> {
+    let [slot, index] = place;
+    if slot == RESERVOIR_GRID_NONE || slot as usize >= offsets.len() {
+        return None;
+    }
+    Some(offsets[slot as usize] + index)
+}
+
+/// OrderReservoirs: the entry of the ordered list that shadow ray `ray`'s reservoir goes to, in
+/// its slot's run sorted by the queries' `ray_index` (unique within a frame: a ray's query, or the
+/// one query carried over from it, with [`CARRIED_QUERY_BIT`](crate::world_cache::CARRIED_QUERY_BIT)), so that the run's order, which the
+/// next frame's ResampleReservoirs strides through, does not depend on the order in which
+/// GenerateReservoirs's atomics ran. `unordered` is CompactReservoirs's scatter. Reads every member
+/// of the run: one reservoir cell's hits (tens to hundreds; cells span a fixed angle in pixels, so
+/// the run does not grow with the resolution).
+#[inline]
+pub fn ordered_reservoir_entry(
+    offsets: &[u32],
+    unordered: &[u32],
+    queries: &[CacheQuery],
+    shadow_rays: &[ShadowRay],
+    place: [u32; 2],
+    ray: u32,
+) -> Option<u32> {
+    let slot = place[0] as usize;
+    if place[0] == RESERVOIR_GRID_NONE || slot + 1 >= offsets.len() {
+        return None;
+    }
+    let (first, end) = (
+        offsets[slot],
+        min_u32(offsets[slot + 1], unordered.len() as u32),
+    );
+    let own = reservoir_order_key(queries, shadow_rays, ray);
+    let mut rank = 0;
+    let mut e = first;
+    while e < end {
+        let other = reservoir_order_key(queries, shadow_rays, unordered[e as usize]);
+        if other[0] < own[0] || (other[0] == own[0] && other[1] < own[1]) {
+            rank += 1;
+        }
+        e += 1;
+    }
+    Some(first + rank)
+}
+
+/// What [`ordered_reservoir_entry`] sorts shadow ray `ray` by: its query's `ray_index`, then the
+/// shadow ray's own index (never reached: `ray_index` is unique); past the lists, last.
+#[inline]
+fn reservoir_order_key(queries: &[CacheQuery], shadow_rays: &[ShadowRay], ray: u32) -> [u32; 2] {
+    if (ray as usize) < shadow_rays.len() {
+        let q = shadow_rays[ray as usize].query as usize;
+        if q < queries.len() {
+            return [queries[q].ray_index, ray];
+        }
+    }
+    [u32::MAX, u32::MAX]
+}
+
+/// ResampleReservoirs for one query: its reservoir this frame (`current`, the light grid's) merged
+/// with at most four reservoirs of the previous frame's cell (looked up from the previous eye,
+/// normals checked, `M` capped at 20: [`TemporalResampling`]). The previous grid: slot checksums
+/// `keys`, exclusive prefix sums of its slot counts `offsets` (`slots + 1` words, the last the
+/// total), the compacted list `entries` of previous shadow-ray indices, slot after slot, and per
+/// previous shadow ray its reservoir and hit. Returns the combined sample.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
+pub fn resample_reservoir(
+    grid: &LightGridParams,
+    lights: &[GpuLight],
+    environment: &[[f32; 4]],
+    environment_cdf: &[f32],
+    view: &CacheViewParams,
+    query: &CacheQuery,
+    current: &PackedReservoir,
+    keys: &[u32],
+    offsets: &[u32],
+    entries: &[u32],
+    reservoirs: &[PackedReservoir],
+    hits: &[ReservoirHit],
+    rng: &mut Random,
+) -> LightGridSample {
+    let hit = diffuse_hit(query);
+    let mut sample = LightGridSample::NONE;
+    sample.reservoir = current.reservoir();
+    sample.params = current.params;
+    sample.contribution = light_contribution(
+        grid,
+        lights,
+        environment,
+        environment_cdf,
+        &hit,
+        current.light,
+        sample_params_uv(current.params),
+    );
+    let mut resampling = TemporalResampling::begin(&sample, rng.next_f32());
+    if view.has(FLAG_RESTIR_HISTORY) {
+        let cell = reservoir_grid_cell(view, Vec3::from_array(view.previous_eye), query, rng);
+        let slot = find_reservoir_cell(keys, 0, &cell);
+        if slot != RESERVOIR_GRID_NONE && (slot as usize) + 1 < offsets.len() {
+            let first = offsets[slot as usize];
+            let count = offsets[slot as usize + 1].wrapping_sub(first);
+            let u = rng.next_f32();
+            let n = temporal_neighbour_count(count);
+            let mut k = 0;
+            while k < n {
+                let e = (first + temporal_neighbour(count, k, u)) as usize;
+                if e < entries.len() {
+                    let r = entries[e] as usize;
+                    if r < reservoirs.len() && r < hits.len() {
+                        let neighbour = reservoirs[r];
+                        let normal = hits[r].normal();
+                        resampling.merge_neighbour(
+                            grid,
+                            lights,
+                            environment,
+                            environment_cdf,
+                            &hit,
+                            &neighbour,
+                            normal,
+                            rng.next_f32(),
+                        );
+                    }
+                }
+                k += 1;
+            }
+        }
+    }
+    resampling.finish()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -387,6 +580,7 @@ mod tests {
     use crate::hash_cells::shared_words::SharedWords;
     use crate::lights::{EMIT_FRONT, GpuLight};
     use crate::random::Random;
+    use crate::world_cache::CARRIED_QUERY_BIT;
     use core::mem::{offset_of, size_of};
     use core::sync::atomic::{AtomicU32, Ordering};
     use glam::UVec2;
@@ -725,5 +919,70 @@ mod tests {
         assert!(!t.merge_neighbour(&params, &lights, &[], &[], &HIT, &dead, Vec3::Y, 0.0));
         assert_eq!(t.reservoir.m, 21.0);
         assert_eq!(PackedReservoir::pack(&t.reservoir, 9).reservoir().m, 21.0);
+    }
+
+    #[test]
+    fn reservoir_runs_are_ordered_the_same_whatever_the_scatter_order() {
+        use itertools::Itertools;
+        // Five shadow rays in two slots (three in slot 0, two in slot 1), one with no slot; the
+        // queries' ray indices are unrelated to the shadow rays' and the queries' order.
+        let ray_indices = [40u32, 7, CARRIED_QUERY_BIT | 7, 12, 3, 99];
+        let queries: Vec<CacheQuery> = ray_indices
+            .iter()
+            .map(|&r| CacheQuery {
+                ray_index: r,
+                ..CacheQuery::default()
+            })
+            .collect();
+        let query_of = [2u32, 0, 4, 1, 3, 5];
+        let shadow_rays: Vec<ShadowRay> = query_of
+            .iter()
+            .map(|&q| ShadowRay {
+                query: q,
+                ..ShadowRay::default()
+            })
+            .collect();
+        let slot_of = [0u32, 1, 0, 0, 1, RESERVOIR_GRID_NONE];
+        let offsets = [0u32, 3, 5];
+        let mut lists = Vec::new();
+        for order in (0..shadow_rays.len()).permutations(shadow_rays.len()) {
+            // GenerateReservoirs's atomics hand out places in this order.
+            let mut counts = [0u32; 2];
+            let mut places = [[0u32; 2]; 6];
+            for &r in &order {
+                let slot = slot_of[r];
+                places[r] = [slot, 0];
+                if slot != RESERVOIR_GRID_NONE {
+                    places[r][1] = counts[slot as usize];
+                    counts[slot as usize] += 1;
+                }
+            }
+            let mut unordered = [u32::MAX; 5];
+            for (r, &place) in places.iter().enumerate() {
+                if let Some(e) = reservoir_entry(&offsets, place) {
+                    unordered[e as usize] = r as u32;
+                }
+            }
+            let mut ordered = [u32::MAX; 5];
+            for (r, &place) in places.iter().enumerate() {
+                let e = ordered_reservoir_entry(
+                    &offsets,
+                    &unordered,
+                    &queries,
+                    &shadow_rays,
+                    place,
+                    r as u32,
+                );
+                assert_eq!(e.is_none(), slot_of[r] == RESERVOIR_GRID_NONE);
+                if let Some(e) = e {
+                    assert_eq!(ordered[e as usize], u32::MAX, "{order:?}: entry {e} twice");
+                    ordered[e as usize] = r as u32;
+                }
+            }
+            lists.push(ordered);
+        }
+        assert!(lists.windows(2).all(|w| w[0] == w[1]));
+        // Slot 0 holds rays 0, 2, 3 (ray indices 7 | CARRIED, 3, 7), slot 1 rays 1, 4 (40, 12).
+        assert_eq!(lists[0], [2, 3, 0, 4, 1]);
     }
 }

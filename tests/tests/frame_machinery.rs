@@ -13,9 +13,9 @@ use gi_host::vulkan::{
 use gi_shared::abi::WORKGROUP_SIZE;
 use gi_shared::append_list::{append, clamped_count, overflow_count};
 use gi_shared::atomics::AtomicWords;
+use gi_shared::hash_cells::layout::HashGridParams;
 use gi_shared::hash_cells::storage::slots_per_bucket;
 use gi_shared::indirect::{DispatchIndirect, dispatch_for_count};
-use gi_shared::layout::HashGridParams;
 use gi_shared::light_grid::{LIGHT_GRID_BOUNDS_CLEAR, report_hit_bounds};
 use gi_shared::machinery_tests::{
     AtomicsRecord, BOUNDS_COUNT_WORD, COUNTER_INVOCATIONS, COUNTER_ITEMS, FOUND, FULL, INSERTED,

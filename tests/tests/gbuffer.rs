@@ -25,8 +25,8 @@ use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_shared::camera::{CameraParams, primary_ray, view_projection};
+use gi_shared::color::srgb_to_linear;
 use gi_shared::gbuffer::GBufferTexel;
-use gi_shared::scene_data::srgb_to_linear;
 use gi_tests::{context, finish_without_validation_messages, scene_path, variants};
 use glam::{UVec2, Vec2, Vec3};
 

@@ -33,11 +33,11 @@ use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::{Context, SampledImage};
 use gi_host::{Error, KernelVariant};
 use gi_shared::camera::{CameraParams, primary_ray, view_projection};
+use gi_shared::color::linear_to_srgb;
 use gi_shared::gbuffer::GBufferTexel;
 use gi_shared::gbuffer_import::{IMPORTED_ID, NormalEncoding};
 use gi_shared::octahedral::octahedral_encode;
 use gi_shared::packing::f32_to_f16;
-use gi_shared::scene_data::linear_to_srgb;
 use gi_tests::{context, finish_without_validation_messages, load_scene};
 use glam::{UVec2, UVec4, Vec2, Vec3, Vec4};
 

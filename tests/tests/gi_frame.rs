@@ -25,13 +25,13 @@ use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::{Context, KernelModule};
-use gi_shared::cache_view::PASS_LIGHT_GRID;
 use gi_shared::camera::CameraParams;
 use gi_shared::hash::pcg_chain;
 use gi_shared::light_grid::{
     LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams, build_light_grid_cell,
 };
 use gi_shared::screen_probes::{PROBE_SIZE, ProbeRecord};
+use gi_shared::world_cache::PASS_LIGHT_GRID;
 use gi_tests::{
     context, finish_without_validation_messages, load_scene, reference_image, variants,
 };
@@ -538,7 +538,7 @@ fn both_tracing_variants_render_the_same_frame_cleanly() {
 /// fixed slots, and patching decides its winners by tile index, not by the GPU's order. A cache of
 /// 64 tiles, which overflows, repeats the runs: a full bucket keeps its old keys and the smallest
 /// new one whatever the order of the inserts (`gi_shared::hash_cells::full_buckets`). So does
-/// world-space ReSTIR (`gi_shared::cache_view::ordered_reservoir_entry`).
+/// world-space ReSTIR (`gi_shared::world_restir::ordered_reservoir_entry`).
 #[test]
 fn the_same_run_twice_gives_the_same_image_bit_for_bit() {
     let scene = load_scene("indirect-room.gltf");

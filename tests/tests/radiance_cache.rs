@@ -30,19 +30,20 @@ use gi_host::scene::lights::{Environment, LightSet};
 use gi_host::scene::upload::GpuScene;
 use gi_host::scene::{Material, Mesh, Scene, procedural};
 use gi_host::vulkan::{Buffer, Context, KernelModule};
-use gi_shared::cache_view::{
-    CACHE_COUNTER_WORDS, CachePassParams, CacheQuery, CacheViewPixel, FLAG_SHORT_RAY,
-    FeedbackTexel, NO_TILE, QUERY_COUNT, SHADOW_RAY_COUNT, ShadowRay, keyed_hit_distance,
-};
 use gi_shared::camera::CameraParams;
+use gi_shared::hash_cells::layout::{HashCellValue, HashGridParams, HashGridQuery};
 use gi_shared::hash_cells::lists::EVICTED_TILES;
 use gi_shared::hash_cells::model::{HashGridModel, Snapshot};
 use gi_shared::hash_cells::{
     CELLS_PER_TILE, MAX_SAMPLE_COUNT, MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_DECAY_FRAMES, cell_index,
 };
-use gi_shared::layout::{HashCellValue, HashGridParams, HashGridQuery};
 use gi_shared::light_grid::{LightGridEntry, LightGridParams};
+use gi_shared::radiance_feedback::FeedbackTexel;
 use gi_shared::random::Random;
+use gi_shared::world_cache::{
+    CACHE_COUNTER_WORDS, CachePassParams, CacheQuery, CacheViewPixel, FLAG_SHORT_RAY, NO_TILE,
+    QUERY_COUNT, SHADOW_RAY_COUNT, ShadowRay, keyed_hit_distance,
+};
 use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
 use gi_tests::{
     context, fastest_variant, finish_without_validation_messages, load_scene, variants,

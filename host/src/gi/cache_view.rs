@@ -14,10 +14,10 @@
 //! alone ([`CacheView::replay_queries`]).
 
 use super::debug_views::{DebugView, debug_views};
-use super::hash_cells::PUSH_BYTES;
-use super::resources::{CacheResources, RestirResources};
+use super::pass_inputs::{PUSH_BYTES, SceneLighting, ViewOptions, check_image_size};
+use super::resources::{CacheResources, Occupancy, RestirResources};
 use super::settings::GiSettings;
-use super::world_cache::{CacheFrame, SceneLighting, WorldCache};
+use super::world_cache::{CacheFrame, WorldCache};
 use crate::error::{Error, Result};
 use crate::frame::{FrameTimer, Recorder};
 use crate::gbuffer::{GBufferImages, GBufferKernel};
@@ -26,105 +26,15 @@ use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
 use crate::vulkan::{Buffer, Context, FrameTimings, Image, Kernel, KernelModule};
 use ash::vk;
-use gi_shared::cache_view::{
-    CACHE_VIEW_TILE, CachePassParams, CacheQuery, QUERY_COUNT, running_mean,
-};
+use gi_shared::cache_view::{CACHE_VIEW_TILE, running_mean};
 use gi_shared::camera::CameraParams;
-use gi_shared::color::luminance;
-use gi_shared::layout::HashCellValue;
+use gi_shared::hash_cells::layout::HashCellValue;
 use gi_shared::random::halton23;
-use glam::{Vec2, Vec3};
+use gi_shared::world_cache::{CachePassParams, CacheQuery, QUERY_COUNT};
+use glam::Vec2;
 
 /// Timestamp spans per frame: one per pass.
 const PASSES_PER_FRAME: u32 = 16;
-
-/// What the view shows besides the settings: the sky and the emitters, like `gi render`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ViewOptions {
-    /// Constant sky radiance where there is no environment image.
-    pub sky: Vec3,
-    /// Factor on every surface's emission.
-    pub emissive_multiplier: f32,
-    /// Seed of the random streams.
-    pub seed: u32,
-}
-
-impl ViewOptions {
-    /// Checks the options, naming the first that is out of range.
-    pub fn validate(&self) -> Result<()> {
-        if !(self.emissive_multiplier.is_finite() && self.emissive_multiplier >= 0.0) {
-            return Err(Error::InvalidArgument {
-                name: "emissive_multiplier",
-                why: format!("{}: must be finite and ≥ 0", self.emissive_multiplier),
-            });
-        }
-        if !(self.sky.is_finite() && self.sky.min_element() >= 0.0) {
-            return Err(Error::InvalidArgument {
-                name: "sky",
-                why: format!("{}: each channel must be finite and ≥ 0", self.sky),
-            });
-        }
-        Ok(())
-    }
-}
-
-/// An error unless `camera` renders `width × height` images.
-pub fn check_image_size(camera: &CameraParams, width: u32, height: u32) -> Result<()> {
-    if camera.image_size == [width, height] {
-        Ok(())
-    } else {
-        Err(Error::InvalidArgument {
-            name: "camera",
-            why: format!(
-                "image size {:?} differs from the frame's {width}x{height}",
-                camera.image_size
-            ),
-        })
-    }
-}
-
-impl Default for ViewOptions {
-    /// No sky, emission as in the file, seed 0.
-    fn default() -> Self {
-        Self {
-            sky: Vec3::ZERO,
-            emissive_multiplier: 1.0,
-            seed: 0,
-        }
-    }
-}
-
-/// The cache's occupancy and the frame's work, read back after a frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Occupancy {
-    /// The frame's index.
-    pub frame: u32,
-    /// Tiles in this frame's live list (kept from the previous frame + inserted).
-    pub live_tiles: u32,
-    /// Tiles inserted this frame.
-    pub inserted: u32,
-    /// Inserts refused because the bucket was full (those rays got no cache light).
-    pub failed_inserts: u32,
-    /// Tiles evicted this frame.
-    pub evicted: u32,
-    /// Tiles updated this frame.
-    pub updated: u32,
-    /// Queries (secondary hits, and the queries carried over).
-    pub queries: u32,
-    /// Queries multi-bounce carried over from the previous frame (among `queries`).
-    pub carried: u32,
-    /// Queries lit by temporal feedback.
-    pub fed_back: u32,
-    /// Shadow rays traced.
-    pub shadow_rays: u32,
-    /// Queries that bypassed their cell (light-leak fix 2).
-    pub bypassed: u32,
-    /// Bounce rays (one per shadow ray with [`GiSettings::multi_bounce`]) whose hit had no cell
-    /// with a sample: they added nothing.
-    pub bounce_misses: u32,
-    /// Samples dropped as not finite.
-    pub dropped: u32,
-}
 
 /// The hash grid's whole state on the host.
 #[derive(Clone, Debug, PartialEq)]
@@ -139,7 +49,7 @@ pub struct CacheState {
     pub accumulators: Vec<u32>,
     /// Counters and tile lists (`gi_shared::hash_cells::lists`).
     pub lists: Vec<u32>,
-    /// The cache view's counters (`gi_shared::cache_view::QUERY_COUNT` ...).
+    /// The cache view's counters (`gi_shared::world_cache::QUERY_COUNT` ...).
     pub counters: Vec<u32>,
 }
 
@@ -197,31 +107,6 @@ pub struct CacheView {
     /// The last frame's jittered camera and parameters (for the debug views).
     last_frame: Option<(CameraParams, CachePassParams)>,
     lighting: SceneLighting,
-}
-
-/// `¼ ∫ luminance(L) dω` over the sphere of an equirectangular `size` image: the irradiance a
-/// uniform sky of the same mean gives a surface, the light grid's weight of the environment.
-pub fn environment_irradiance(size: [u32; 2], texels: &[[f32; 4]]) -> f32 {
-    let [w, h] = size;
-    if w == 0 || h == 0 {
-        return 0.0;
-    }
-    let mut sum = 0.0f64;
-    for y in 0..h {
-        let theta = (f64::from(y) + 0.5) / f64::from(h) * std::f64::consts::PI;
-        let solid_angle = (2.0 * std::f64::consts::PI / f64::from(w))
-            * (std::f64::consts::PI / f64::from(h))
-            * theta.sin();
-        for x in 0..w {
-            if let Some(t) = texels.get((y * w + x) as usize) {
-                let l = f64::from(luminance(Vec3::new(t[0], t[1], t[2])));
-                if l.is_finite() && l > 0.0 {
-                    sum += l * solid_angle;
-                }
-            }
-        }
-    }
-    (0.25 * sum) as f32
 }
 
 impl CacheView {
@@ -536,18 +421,5 @@ impl CacheView {
         let keys: Vec<u32> = self.res.keys.read_back(ctx)?;
         let values: Vec<HashCellValue> = self.res.values.read_back(ctx)?;
         debug_views(camera, &params.grid, &data, keys_before, &keys, &values)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_uniform_environment_gives_pi_l() {
-        let texels = vec![[2.0f32, 2.0, 2.0, 0.0]; 64 * 32];
-        let e = environment_irradiance([64, 32], &texels);
-        assert!((e - std::f32::consts::PI * 2.0).abs() < 0.01, "{e}");
-        assert_eq!(environment_irradiance([0, 0], &[]), 0.0);
     }
 }

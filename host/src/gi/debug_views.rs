@@ -10,15 +10,15 @@
 use crate::error::{Error, Result};
 use crate::gbuffer::GBufferData;
 use crate::image_io::{HdrImage, ToneCurve, ToneMap};
-use gi_shared::cache_view::primary_surface;
 use gi_shared::camera::CameraParams;
 use gi_shared::hash::pcg_chain;
+use gi_shared::hash_cells::layout::{HashCellValue, HashGridParams};
 use gi_shared::hash_cells::read::filtered_value;
 use gi_shared::hash_cells::storage::{find_tile, slots_per_bucket};
 use gi_shared::hash_cells::{
     CellDescriptor, DIRECTION_BINS, MAX_LOD, MIN_LOD, cell_descriptor, tile_slot,
 };
-use gi_shared::layout::{HashCellValue, HashGridParams};
+use gi_shared::primary_surface::primary_surface;
 use glam::{UVec2, Vec3};
 use std::path::{Path, PathBuf};
 

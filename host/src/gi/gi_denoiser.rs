@@ -4,6 +4,7 @@
 //! ReprojectGI, FilterBlurMask and FilterGI (horizontal, then vertical), with their per-pixel
 //! buffers.
 
+use super::pass_inputs::pixel_groups;
 use super::screen_probes::ScreenProbeResources;
 use super::settings::GiSettings;
 use crate::error::Result;
@@ -287,9 +288,4 @@ impl DenoiserPasses {
         }
         Ok(())
     }
-}
-
-/// Workgroups of 8 × 8 pixels over the G-buffer.
-pub(crate) fn pixel_groups(gbuffer: &GBufferImages) -> [u32; 3] {
-    [gbuffer.width().div_ceil(8), gbuffer.height().div_ceil(8), 1]
 }

@@ -3,21 +3,19 @@
 //! ResolveRadianceCache, each recorded into the caller's command buffer over
 //! [`CacheResources`], most dispatched indirectly from the count of the list they walk.
 
+use super::pass_inputs::PUSH_BYTES;
 use super::resources::CacheResources;
 use crate::error::Result;
 use crate::frame::Recorder;
 use crate::frame::{DispatchFromCounter, indirect_offset};
 use crate::scene::lights::GpuLights;
 use crate::vulkan::{Buffer, Context, Kernel, KernelModule, SceneSets};
-use gi_shared::cache_view::{
+use gi_shared::hash_cells::full_buckets::MARKS_CLEAR;
+use gi_shared::hash_cells::lists::{UPDATE_TILES, previous_live_list};
+use gi_shared::world_cache::{
     ARGS_PURGE, ARGS_QUERIES, ARGS_SHADOW_RAYS, ARGS_UPDATE, CachePassParams, QUERY_COUNT,
     SHADOW_RAY_COUNT,
 };
-use gi_shared::hash_cells::full_buckets::MARKS_CLEAR;
-use gi_shared::hash_cells::lists::{UPDATE_TILES, previous_live_list};
-
-/// Bytes of the push constants every cache pass takes.
-pub const PUSH_BYTES: u32 = std::mem::size_of::<CachePassParams>() as u32;
 
 crate::bindings! {
     /// PurgeRadianceCache (opening the frame)'s set 0 (`kernels::hash_cells::purge::begin_frame`).

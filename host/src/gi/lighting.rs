@@ -3,7 +3,7 @@
 //! GenerateReservoirs (temporal feedback or one RIS light sample and shadow ray per query) and
 //! world-space ReSTIR's ClearReservoirs, CompactReservoirs and ResampleReservoirs.
 
-use super::hash_cells::PUSH_BYTES;
+use super::pass_inputs::PUSH_BYTES;
 use super::resources::{CacheResources, RestirResources};
 use crate::error::Result;
 use crate::frame::Recorder;
@@ -11,7 +11,7 @@ use crate::frame::Scan;
 use crate::frame::indirect_offset;
 use crate::scene::lights::GpuLights;
 use crate::vulkan::{Buffer, Context, Kernel, KernelModule};
-use gi_shared::cache_view::{ARGS_LIGHT_GRID, ARGS_QUERIES, ARGS_SHADOW_RAYS, CachePassParams};
+use gi_shared::world_cache::{ARGS_LIGHT_GRID, ARGS_QUERIES, ARGS_SHADOW_RAYS, CachePassParams};
 
 crate::bindings! {
     /// UpdateLightGrid (sizing the grid)'s set 0 (`kernels::lighting::light_grid::update_light_grid`).

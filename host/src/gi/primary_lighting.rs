@@ -4,7 +4,7 @@
 //! by the camera, punctual lights by shadow rays) and ResolveGI (emission + albedo × irradiance,
 //! and the feedback image of the next frame).
 
-use super::gi_denoiser::pixel_groups;
+use super::pass_inputs::pixel_groups;
 use super::screen_probes::ScreenProbeResources;
 use crate::error::Result;
 use crate::frame::Recorder;

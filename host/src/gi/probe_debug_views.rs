@@ -10,7 +10,7 @@ use crate::frame::Recorder;
 use crate::image_io::HdrImage;
 use crate::vulkan::{Buffer, Context, Kernel, KernelModule};
 use gi_shared::color::luminance;
-use gi_shared::layout::HashCellValue;
+use gi_shared::hash_cells::layout::HashCellValue;
 use gi_shared::packing::{SEED_NONE, unpack_seed};
 use gi_shared::screen_probes::hemisphere::{ProbeFrame, cell_coords};
 use gi_shared::screen_probes::{

@@ -10,13 +10,13 @@
 //! Switched-off techniques skip their pass where one exists (patching, the probe filter, the
 //! spatial denoiser) and are flags the kernels read otherwise (`GiFrameParams::flags`).
 
-use super::cache_view::{Occupancy, ViewOptions, check_image_size};
 use super::gi_denoiser::{DenoiserPasses, DenoiserResources, DenoiserStage};
+use super::pass_inputs::{SceneLighting, ViewOptions, check_image_size};
 use super::primary_lighting::{PrimaryPasses, PrimaryResources};
-use super::resources::{CacheResources, RestirResources};
+use super::resources::{CacheResources, Occupancy, RestirResources};
 use super::screen_probes::{ProbeLayout, ScreenProbePasses, ScreenProbeResources, technique_flags};
 use super::settings::GiSettings;
-use super::world_cache::{CacheFrame, SceneLighting, WorldCache};
+use super::world_cache::{CacheFrame, WorldCache};
 use crate::engine::{FrameInputs, FrameOutputs, GBufferSource, OutputImage};
 use crate::error::Result;
 use crate::frame::{BarrierCounts, FloatWords, FrameTimer, PassUses, Recorder};
@@ -26,18 +26,18 @@ use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
 use crate::vulkan::{Buffer, Context, FrameTimings, Image, KernelModule};
 use ash::vk;
-use gi_shared::cache_view::{
-    CachePassParams, CacheQuery, CacheViewPixel, FLAG_EMITTERS_SAMPLED, FLAG_PROBE_RAYS,
-    FeedbackTexel, ShadowRay,
-};
 use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::cell_size_const;
 use gi_shared::light_grid::{LightGridEntry, LightGridParams};
 use gi_shared::primary_lighting::{EXACT_DIRECT_LIGHTS, PrimaryLighting};
+use gi_shared::radiance_feedback::FeedbackTexel;
 use gi_shared::screen_probes::{
     BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_SAMPLED_DIRECT, GiFrameParams, OVERRIDE_COUNT,
     PATCHED_COUNT, PROBE_CELL_PIXELS, ProbeRay, ProbeRecord, RELAXED_COUNT, REPROJECTED_COUNT,
     SPAWN_COUNT,
+};
+use gi_shared::world_cache::{
+    CachePassParams, CacheQuery, CacheViewPixel, FLAG_EMITTERS_SAMPLED, FLAG_PROBE_RAYS, ShadowRay,
 };
 use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
 

@@ -7,30 +7,31 @@
 //! [`PingPong`] pair ([`RestirResources`]). The feedback history needs no second copy: the
 //! composite writes it after GenerateReservoirs has read the previous frame's.
 
-use super::cache_view::Occupancy;
 use super::settings::GiSettings;
 use crate::error::Result;
 use crate::frame::indirect_args;
 use crate::vulkan::{Buffer, Context, PingPong};
 use ash::vk;
-use gi_shared::cache_view::{
-    ARGS_COUNT, BOUNCE_MISSES, BYPASS_COUNT, CACHE_COUNTER_WORDS, CARRIED_QUERIES, CacheQuery,
-    CacheViewPixel, FEEDBACK_COUNT, FeedbackTexel, INSERTED_TILES, QUERY_COUNT, SHADOW_RAY_COUNT,
-    ShadowRay, reservoir_grid_buckets,
-};
 use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::CELLS_PER_TILE;
 use gi_shared::hash_cells::full_buckets::marks_words;
+use gi_shared::hash_cells::layout::{HashCellValue, TILE_ACCUMULATOR_WORDS};
 use gi_shared::hash_cells::lists::{
     DROPPED_SAMPLES, EVICTED_TILES, FAILED_INSERTS, UPDATE_TILES, list_buffer_words, live_list,
 };
 use gi_shared::hash_cells::touch::initial_last_touch;
-use gi_shared::layout::{HashCellValue, MAX_STORAGE_BUFFER_BYTES, TILE_ACCUMULATOR_WORDS};
+use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
 use gi_shared::light_grid::{
     LIGHT_GRID_BOUNDS_WORDS, LIGHT_GRID_MAX_CELLS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry,
     LightGridParams,
 };
 use gi_shared::multi_bounce::carried_capacity;
+use gi_shared::radiance_feedback::FeedbackTexel;
+use gi_shared::world_cache::{
+    ARGS_COUNT, BOUNCE_MISSES, BYPASS_COUNT, CACHE_COUNTER_WORDS, CARRIED_QUERIES, CacheQuery,
+    CacheViewPixel, FEEDBACK_COUNT, INSERTED_TILES, QUERY_COUNT, SHADOW_RAY_COUNT, ShadowRay,
+};
+use gi_shared::world_restir::reservoir_grid_buckets;
 use gi_shared::world_restir::{PackedReservoir, RESERVOIR_GRID_SLOTS_PER_BUCKET, ReservoirHit};
 
 /// Every buffer of a cache-view frame.
@@ -48,7 +49,7 @@ pub struct CacheResources {
     pub accumulators: Buffer,
     /// Hash grid: counters and the live (×2, ping-pong) and update tile lists.
     pub lists: Buffer,
-    /// The cache view's counters (`gi_shared::cache_view::QUERY_COUNT` ...).
+    /// The cache view's counters (`gi_shared::world_cache::QUERY_COUNT` ...).
     pub counters: Buffer,
     /// One [`CacheQuery`] per ray at most.
     pub queries: Buffer,
@@ -288,6 +289,38 @@ impl CacheResources {
     pub fn bytes(&self) -> u64 {
         self.buffers().iter().map(|b| b.size).sum()
     }
+}
+
+/// The cache's occupancy and the frame's work, read back after a frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Occupancy {
+    /// The frame's index.
+    pub frame: u32,
+    /// Tiles in this frame's live list (kept from the previous frame + inserted).
+    pub live_tiles: u32,
+    /// Tiles inserted this frame.
+    pub inserted: u32,
+    /// Inserts refused because the bucket was full (those rays got no cache light).
+    pub failed_inserts: u32,
+    /// Tiles evicted this frame.
+    pub evicted: u32,
+    /// Tiles updated this frame.
+    pub updated: u32,
+    /// Queries (secondary hits, and the queries carried over).
+    pub queries: u32,
+    /// Queries multi-bounce carried over from the previous frame (among `queries`).
+    pub carried: u32,
+    /// Queries lit by temporal feedback.
+    pub fed_back: u32,
+    /// Shadow rays traced.
+    pub shadow_rays: u32,
+    /// Queries that bypassed their cell (light-leak fix 2).
+    pub bypassed: u32,
+    /// Bounce rays (one per shadow ray with [`GiSettings::multi_bounce`]) whose hit had no cell
+    /// with a sample: they added nothing.
+    pub bounce_misses: u32,
+    /// Samples dropped as not finite.
+    pub dropped: u32,
 }
 
 /// One frame's world-space ReSTIR reservoir grid.

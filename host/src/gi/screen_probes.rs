@@ -5,7 +5,7 @@
 //! BlendScreenProbes, FilterProbeMask, FilterScreenProbes and ProjectScreenProbes.
 //! InterpolateScreenProbes is recorded with the denoiser's passes, which read its output.
 
-use super::hash_cells::PUSH_BYTES;
+use super::pass_inputs::PUSH_BYTES;
 use super::resources::CacheResources;
 use super::settings::GiSettings;
 use crate::error::Result;
@@ -13,12 +13,12 @@ use crate::frame::Recorder;
 use crate::gbuffer::GBufferImages;
 use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong, SceneSets};
 use ash::vk;
-use gi_shared::cache_view::CachePassParams;
 use gi_shared::screen_probes::{
     EMPTY, GI_COUNTER_WORDS, GiFrameParams, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRay,
     ProbeRecord, mask_mip_count, mask_mip_size, mask_words,
 };
 use gi_shared::sh::SH_COEFFICIENT_COUNT;
+use gi_shared::world_cache::CachePassParams;
 
 crate::bindings! {
     /// ReprojectScreenProbes's set 0 (`kernels::screen_probes::reproject::reproject_screen_probes`).

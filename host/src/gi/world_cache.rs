@@ -4,61 +4,23 @@
 //! ResolveRadianceCache) and the push constants every cache pass reads. `gi cache-view` feeds the
 //! cache with one ray per pixel, the GI frame with the screen probes' rays.
 
-use super::cache_view::{ViewOptions, environment_irradiance};
 use super::hash_cells::HashCellPasses;
 use super::lighting::LightingPasses;
+use super::pass_inputs::{SceneLighting, ViewOptions};
 use super::resources::{CacheResources, RestirResources};
 use super::settings::GiSettings;
 use crate::error::Result;
 use crate::frame::Recorder;
-use crate::scene::lights::LightSet;
 use crate::scene::upload::GpuScene;
 use crate::vulkan::{Context, KernelModule};
-use gi_shared::cache_view::{
+use gi_shared::camera::CameraParams;
+use gi_shared::hash_cells::cell_size_const;
+use gi_shared::hash_cells::layout::HashGridParams;
+use gi_shared::world_cache::{
     CachePassParams, CacheViewParams, FLAG_BYPASS, FLAG_ENVIRONMENT_LIGHT, FLAG_FEEDBACK,
     FLAG_HISTORY, FLAG_MULTI_BOUNCE, FLAG_RESTIR, FLAG_RESTIR_HISTORY, FLAG_SHORT_RAY,
 };
-use gi_shared::camera::CameraParams;
-use gi_shared::hash_cells::cell_size_const;
-use gi_shared::layout::HashGridParams;
-use gi_shared::scene_data::NONE;
 use gi_shared::world_restir::reservoir_cell_const;
-
-/// What the cache's lighting needs to know about the scene's lights.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SceneLighting {
-    /// Lights in the light buffer.
-    pub light_count: u32,
-    /// Punctual lights at its front.
-    pub punctual_count: u32,
-    /// The environment is importance-sampled: the last light.
-    pub environment_light: bool,
-    /// The environment image's size (zero for none).
-    pub environment_size: [u32; 2],
-    /// The light grid's weight of the environment.
-    pub environment_irradiance: f32,
-}
-
-impl SceneLighting {
-    /// Of `lights`.
-    pub fn new(lights: &LightSet) -> Self {
-        let (environment_size, environment_irradiance) = match &lights.environment {
-            Some(e) => (e.size(), environment_irradiance(e.size(), e.texels())),
-            None => ([0, 0], 0.0),
-        };
-        Self {
-            light_count: lights.lights.len() as u32,
-            punctual_count: lights
-                .lights
-                .iter()
-                .take_while(|l| l.kind < gi_shared::lights::LIGHT_TRIANGLE)
-                .count() as u32,
-            environment_light: lights.environment_light != NONE,
-            environment_size,
-            environment_irradiance,
-        }
-    }
-}
 
 /// The cache passes' pipelines.
 pub struct WorldCache {

@@ -19,10 +19,11 @@ use crate::vulkan::{
 use ash::vk;
 use gi_shared::layout::{MAX_STORAGE_BUFFER_BYTES, SCENE_BUFFER_CHUNKS};
 use gi_shared::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTexture, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED, NONE,
-    WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT,
+    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED, NONE,
 };
-use gi_shared::textures::{level_offset, level_size};
+use gi_shared::textures::{
+    GpuTexture, WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT, level_offset, level_size,
+};
 
 /// The scene's shading data on the CPU, in GPU layouts.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -13,11 +13,11 @@
 //!
 //! Colour channels of sRGB textures are averaged in linear space (decoded through
 //! [`srgb_to_linear`], re-encoded to the nearest sRGB byte: the inverse,
-//! [`linear_to_srgb`](gi_shared::scene_data::linear_to_srgb), rounded); alpha, and every channel of linear
+//! [`linear_to_srgb`](gi_shared::color::linear_to_srgb), rounded); alpha, and every channel of linear
 //! textures, is averaged as stored. Results are rounded to the nearest 8-bit value. Each level is
 //! made from the one above it, in parallel over its rows.
 
-use gi_shared::scene_data::srgb_to_linear;
+use gi_shared::color::srgb_to_linear;
 use rayon::prelude::*;
 
 /// Width or height of level `level` of a texture whose level 0 is `size`.
@@ -189,7 +189,7 @@ fn downsample(src: &[u8], width: u32, height: u32, decode: &Decode) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use gi_shared::scene_data::linear_to_srgb;
+    use gi_shared::color::linear_to_srgb;
 
     fn image(w: u32, h: u32, f: impl Fn(u32, u32) -> [u8; 4]) -> Vec<u8> {
         (0..h)

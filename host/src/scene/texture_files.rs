@@ -27,7 +27,7 @@
 //! A file's own levels are kept when it has the complete chain down to 1×1; otherwise its first
 //! level is kept and the chain generated ([`mip_chain`]).
 
-use gi_shared::scene_data::linear_to_srgb;
+use gi_shared::color::linear_to_srgb;
 use rayon::prelude::*;
 use std::io::Read;
 

@@ -251,7 +251,7 @@ fn upload_batch(
     Ok(())
 }
 
-/// A texture's wrap modes (`gi_shared::scene_data::WRAP_*`, u then v).
+/// A texture's wrap modes (`gi_shared::textures::WRAP_*`, u then v).
 pub type WrapModes = [u32; 2];
 
 /// The samplers of a scene's textures, one per pair of wrap modes in use: trilinear, explicit
@@ -278,8 +278,8 @@ impl Samplers {
             return Ok(*s);
         }
         let mode = |w: u32| match w {
-            gi_shared::scene_data::WRAP_MIRRORED_REPEAT => vk::SamplerAddressMode::MIRRORED_REPEAT,
-            gi_shared::scene_data::WRAP_CLAMP_TO_EDGE => vk::SamplerAddressMode::CLAMP_TO_EDGE,
+            gi_shared::textures::WRAP_MIRRORED_REPEAT => vk::SamplerAddressMode::MIRRORED_REPEAT,
+            gi_shared::textures::WRAP_CLAMP_TO_EDGE => vk::SamplerAddressMode::CLAMP_TO_EDGE,
             _ => vk::SamplerAddressMode::REPEAT,
         };
         let info = vk::SamplerCreateInfo::default()

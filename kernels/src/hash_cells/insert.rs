@@ -1,6 +1,6 @@
 //! InsertRadianceCache: one invocation per query (dispatched from the query counter) finds or
 //! inserts the query's tile, stamps it, lists it for the update on its first touch of the frame,
-//! and writes the tile and cell into the query (`gi_shared::cache_view::insert_query`). Two more
+//! and writes the tile and cell into the query (`gi_shared::world_cache::insert_query`). Two more
 //! dispatches over the queries settle the buckets that could not take every new key, the same
 //! way whatever order the inserts ran in (`gi_shared::hash_cells::full_buckets`):
 //! [`settle_full_buckets`] and [`admit_to_full_buckets`].
@@ -10,11 +10,11 @@
 
 use crate::atomics::DeviceWords;
 use gi_shared::atomics::AtomicWords;
-use gi_shared::cache_view::{
+use gi_shared::hash_cells::layout::HashCellValue;
+use gi_shared::math::min_u32;
+use gi_shared::world_cache::{
     CachePassParams, CacheQuery, QUERY_COUNT, admit_query, insert_query, settle_query,
 };
-use gi_shared::layout::HashCellValue;
-use gi_shared::math::min_u32;
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 

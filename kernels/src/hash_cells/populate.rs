@@ -15,16 +15,17 @@ use crate::atomics::DeviceWords;
 use crate::texture_images::Bindless;
 use gi_shared::append_list::append;
 use gi_shared::atomics::AtomicWords;
-use gi_shared::cache_view::{
-    BOUNCE_MISSES, CARRIED_NEXT, CachePassParams, CacheQuery, CacheViewPixel, FLAG_MULTI_BOUNCE,
-    PASS_BOUNCE, QUERY_CARRIED, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay, accumulate_into_cell,
-    pass_random, secondary_hit_footprint, shadow_ray_radiance,
-};
+use gi_shared::hash_cells::layout::HashCellValue;
 use gi_shared::hash_cells::lists::{DROPPED_SAMPLES, count};
-use gi_shared::layout::HashCellValue;
 use gi_shared::math::min_u32;
 use gi_shared::multi_bounce::{bounce_radiance, bounce_ray, carried_query};
 use gi_shared::scene_data::hit_surface;
+use gi_shared::secondary_hits::{secondary_hit_footprint, shadow_ray_radiance};
+use gi_shared::world_cache::{
+    BOUNCE_MISSES, CARRIED_NEXT, CachePassParams, CacheQuery, CacheViewPixel, FLAG_MULTI_BOUNCE,
+    PASS_BOUNCE, QUERY_CARRIED, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay, accumulate_into_cell,
+    pass_random,
+};
 use gi_shared::world_restir::PackedReservoir;
 use spirv_std::glam::{UVec3, Vec3};
 use spirv_std::spirv;

@@ -9,9 +9,9 @@
 //! keys, last touch, lists.
 
 use crate::atomics::DeviceWords;
-use gi_shared::cache_view::{CachePassParams, CacheQuery, begin_cache_frame, carry_query};
 use gi_shared::hash_cells::passes::purge_pass;
 use gi_shared::light_grid::clear_hit_bounds;
+use gi_shared::world_cache::{CachePassParams, CacheQuery, begin_cache_frame, carry_query};
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 

@@ -1,14 +1,14 @@
 //! ResolveRadianceCache: one invocation per query (dispatched from the query counter) adds the
 //! adaptive-mip filtered radiance of its cell to its ray, unless temporal feedback lit it or it
-//! bypasses the cell (`gi_shared::cache_view::cache_radiance`).
+//! bypasses the cell (`gi_shared::world_cache::cache_radiance`).
 //!
 //! Set 0: cache-view counters, queries, values, pixels.
 
-use gi_shared::cache_view::{
+use gi_shared::hash_cells::layout::HashCellValue;
+use gi_shared::math::min_u32;
+use gi_shared::world_cache::{
     CachePassParams, CacheQuery, CacheViewPixel, QUERY_COUNT, cache_radiance,
 };
-use gi_shared::layout::HashCellValue;
-use gi_shared::math::min_u32;
 use spirv_std::glam::{UVec3, Vec3};
 use spirv_std::spirv;
 

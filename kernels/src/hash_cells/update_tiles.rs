@@ -6,9 +6,9 @@
 //! Set 0: values, accumulators, lists.
 
 use crate::atomics::DeviceWords;
-use gi_shared::cache_view::CachePassParams;
+use gi_shared::hash_cells::layout::HashCellValue;
 use gi_shared::hash_cells::passes::update_pass;
-use gi_shared::layout::HashCellValue;
+use gi_shared::world_cache::CachePassParams;
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 

@@ -8,7 +8,6 @@
 
 #![cfg(not(feature = "ray-query"))]
 
-use gi_shared::cache_view::{ARGS_LIGHT_GRID, CachePassParams, PASS_LIGHT_GRID};
 use gi_shared::hash::pcg_chain;
 use gi_shared::indirect::{DispatchIndirect, dispatch_for_count};
 use gi_shared::light_grid::{
@@ -16,6 +15,7 @@ use gi_shared::light_grid::{
     light_grid_entry_from_lanes, light_grid_lane, light_grid_params, read_hit_bounds,
 };
 use gi_shared::lights::GpuLight;
+use gi_shared::world_cache::{ARGS_LIGHT_GRID, CachePassParams, PASS_LIGHT_GRID};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::spirv;

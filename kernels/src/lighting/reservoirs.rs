@@ -17,17 +17,19 @@
 use crate::atomics::DeviceWords;
 use gi_shared::append_list::append;
 use gi_shared::atomics::AtomicWords;
-use gi_shared::cache_view::{
-    CachePassParams, CacheQuery, CacheViewPixel, FEEDBACK_COUNT, FLAG_FEEDBACK, FLAG_HISTORY,
-    FLAG_RESTIR, FeedbackTexel, PASS_GENERATE, QUERY_BYPASS, QUERY_COUNT, QUERY_FED_BACK,
-    SHADOW_RAY_COUNT, ShadowRay, accumulate_into_cell, feedback_lookup, insert_reservoir,
-    pass_random, sample_query_light, shadow_ray,
-};
 use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::lists::{DROPPED_SAMPLES, count};
 use gi_shared::light_grid::{LightGridEntry, LightGridParams};
 use gi_shared::lights::GpuLight;
 use gi_shared::math::min_u32;
+use gi_shared::radiance_feedback::{FeedbackTexel, feedback_lookup};
+use gi_shared::secondary_hits::{sample_query_light, shadow_ray};
+use gi_shared::world_cache::{
+    CachePassParams, CacheQuery, CacheViewPixel, FEEDBACK_COUNT, FLAG_FEEDBACK, FLAG_HISTORY,
+    FLAG_RESTIR, PASS_GENERATE, QUERY_BYPASS, QUERY_COUNT, QUERY_FED_BACK, SHADOW_RAY_COUNT,
+    ShadowRay, accumulate_into_cell, pass_random,
+};
+use gi_shared::world_restir::insert_reservoir;
 use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
 use spirv_std::glam::{UVec3, Vec3};
 use spirv_std::spirv;

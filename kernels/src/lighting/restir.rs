@@ -3,7 +3,7 @@
 //! prefix scan of the slot counts, in the order of GenerateReservoirs's atomics), then orders each
 //! slot's run by ray (`order_reservoirs`), and ResampleReservoirs merges each shadow ray's reservoir with
 //! the previous frame's neighbours and rewrites its light sample
-//! (`gi_shared::cache_view::resample_reservoir`). ClearReservoirs is a buffer fill on the host.
+//! (`gi_shared::world_restir::resample_reservoir`). ClearReservoirs is a buffer fill on the host.
 //!
 //! `compact_reservoirs`, set 0: cache-view counters, places (`[u32; 2]` per shadow ray), scanned
 //! slot counts (`u32`), entries in scatter order (`u32`). `order_reservoirs`, set 0: cache-view
@@ -15,14 +15,16 @@
 
 #![cfg(not(feature = "ray-query"))]
 
-use gi_shared::cache_view::{
-    CachePassParams, CacheQuery, PASS_RESTIR, QUERY_BYPASS, SHADOW_RAY_COUNT, ShadowRay,
-    ordered_reservoir_entry, pass_random, resample_reservoir, reservoir_entry, shadow_ray,
-};
 use gi_shared::light_grid::LightGridParams;
 use gi_shared::lights::GpuLight;
 use gi_shared::math::min_u32;
+use gi_shared::secondary_hits::shadow_ray;
+use gi_shared::world_cache::{
+    CachePassParams, CacheQuery, PASS_RESTIR, QUERY_BYPASS, SHADOW_RAY_COUNT, ShadowRay,
+    pass_random,
+};
 use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
+use gi_shared::world_restir::{ordered_reservoir_entry, resample_reservoir, reservoir_entry};
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 

@@ -11,7 +11,6 @@
 //! `workgroup.y × spawn_grid.x + workgroup.x`.
 
 use crate::gbuffer::{DepthImage, HalfImage};
-use gi_shared::cache_view::CacheViewPixel;
 use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
 use gi_shared::packing::unpack_seed;
@@ -23,6 +22,7 @@ use gi_shared::screen_probes::hemisphere::UNMAPPED;
 use gi_shared::screen_probes::hysteresis::{cell_change, other_cells};
 use gi_shared::screen_probes::spawn::spawned_seed;
 use gi_shared::screen_probes::{EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord};
+use gi_shared::world_cache::CacheViewPixel;
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::{UVec3, Vec4};
 use spirv_std::spirv;

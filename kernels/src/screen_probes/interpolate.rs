@@ -10,8 +10,8 @@
 use crate::atomics::DeviceWords;
 use crate::gbuffer::{DepthImage, HalfImage};
 use gi_shared::atomics::AtomicWords;
-use gi_shared::cache_view::primary_surface;
 use gi_shared::camera::CameraParams;
+use gi_shared::primary_surface::primary_surface;
 use gi_shared::screen_probes::interpolate::{
     SKY_IRRADIANCE, accepts_jitter, interpolate_pixel, jitter_candidate,
 };

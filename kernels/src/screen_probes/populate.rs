@@ -13,16 +13,16 @@
 use crate::gbuffer::{DepthImage, HalfImage};
 use crate::texture_images::Bindless;
 use gi_shared::append_list::append;
-use gi_shared::cache_view::{
-    CachePassParams, CacheQuery, CacheViewPixel, QUERY_COUNT, primary_surface, shade_cache_hit,
-};
 use gi_shared::camera::CameraParams;
 use gi_shared::light_grid::report_hit_bounds;
 use gi_shared::lights::GpuLight;
 use gi_shared::packing::unpack_seed;
+use gi_shared::primary_surface::primary_surface;
 use gi_shared::ray::Ray;
 use gi_shared::screen_probes::spawn::spawned_seed;
 use gi_shared::screen_probes::{GiFrameParams, MISS_DISTANCE, PROBE_CELLS, ProbeRay};
+use gi_shared::secondary_hits::shade_cache_hit;
+use gi_shared::world_cache::{CachePassParams, CacheQuery, CacheViewPixel, QUERY_COUNT};
 use spirv_std::glam::{UVec3, Vec3, Vec4};
 use spirv_std::spirv;
 

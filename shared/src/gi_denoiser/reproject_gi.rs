@@ -37,12 +37,12 @@
 
 use glam::{UVec2, Vec2, Vec3, Vec4};
 
-use crate::cache_view::primary_surface;
 use crate::camera::CameraParams;
 use crate::color::luminance;
 use crate::gbuffer::{PreviousPoint, previous_point};
 use crate::math::{abs, floor, max, min, saturate, sqrt, to_i32_clamped};
 use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
+use crate::primary_surface::primary_surface;
 use crate::screen_probes::{
     FLAG_DENOISER_TEMPORAL, FLAG_HISTORY, FLAG_OBJECT_MOTION, GiFrameParams,
 };

@@ -9,9 +9,9 @@
 use glam::Vec3;
 
 use super::TILE_CELL_RATIO;
+use super::layout::{ACCUMULATOR_WORDS, HashCellAccumulator, TILE_ACCUMULATOR_WORDS, TREND_WORD};
 use crate::atomics::AtomicWords;
 use crate::fixed_point;
-use crate::layout::{ACCUMULATOR_WORDS, HashCellAccumulator, TILE_ACCUMULATOR_WORDS, TREND_WORD};
 use crate::math::min_u32;
 
 /// First accumulator word of mip-0 cell `cell` (`[x, y]`, each clamped to 0..8) of tile `tile`.

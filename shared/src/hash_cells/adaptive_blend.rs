@@ -29,7 +29,7 @@
 //! [`super::update`], takes): the adaptive read steps to a coarser mip for cells with few recent
 //! samples, not for cells whose history a change cut short.
 //!
-//! Memory: one word per tile, after its cells' accumulators ([`crate::layout::TREND_WORD`]).
+//! Memory: one word per tile, after its cells' accumulators ([`crate::hash_cells::layout::TREND_WORD`]).
 
 use glam::{Vec2, Vec3};
 

@@ -6,7 +6,7 @@
 //! room at 320 × 180, whose cache filled, gave three images). InsertRadianceCache therefore runs in
 //! three steps over the frame's queries:
 //!
-//! 1. **Insert** (`crate::cache_view::insert_query`): as before, and each new key (inserted or
+//! 1. **Insert** (`crate::world_cache::insert_query`): as before, and each new key (inserted or
 //!    refused) is noted ([`note_new_key`]): the bucket keeps the smallest new checksum, a refused
 //!    key marks its bucket full, an inserted tile is marked new.
 //! 2. **Settle** ([`settle_tile`]): in a bucket marked full, every tile inserted this frame is
@@ -25,9 +25,9 @@
 //! Memory: one word per tile and two per bucket ([`marks_words`]), reset to [`MARKS_CLEAR`] before
 //! each frame's inserts.
 
+use super::layout::HashGridParams;
 use super::{CellDescriptor, MAX_NUM_TILES_LOG2};
 use crate::atomics::AtomicWords;
-use crate::layout::HashGridParams;
 use crate::math::min_u32;
 
 /// Value the marks buffer is filled with before a frame's inserts: no tile new, no bucket full,

@@ -11,7 +11,8 @@
 //! [`purge`] evicts tiles untouched for [`TILE_DECAY_FRAMES`] frames, [`storage`] inserts and
 //! finds tiles ([`full_buckets`] settles a bucket that could not take every new key), [`touch`] stamps them and lists them for the update, [`accumulate`] adds radiance
 //! samples, [`update`] blends them into the cells and builds the mips, and [`read`] returns the
-//! adaptively prefiltered radiance. [`lists`] lays out the frame's counters and tile lists,
+//! adaptively prefiltered radiance. [`layout`] holds the cache's buffer records and capacities,
+//! [`lists`] lays out the frame's counters and tile lists,
 //! [`passes`] strings the steps into the per-invocation bodies of the GPU passes, and `model`
 //! (tests and `std` only) runs whole frames of them on the CPU.
 //!
@@ -21,6 +22,7 @@
 pub mod accumulate;
 pub mod adaptive_blend;
 pub mod full_buckets;
+pub mod layout;
 pub mod lists;
 #[cfg(any(test, feature = "std"))]
 pub mod model;
@@ -35,8 +37,8 @@ pub mod update;
 
 use glam::Vec3;
 
+use self::layout::HashGridParams;
 use crate::hash::{pcg_chain, xxhash32_chain};
-use crate::layout::HashGridParams;
 use crate::math::{
     abs, floor, floor_to_i32_clamped, max, max_i32, max_u32, min_i32, min_u32, tan, to_u32_clamped,
 };
@@ -60,7 +62,7 @@ pub const NUM_BUCKETS_LOG2: u32 = 12;
 /// Default `log2` of the tiles per bucket (16).
 pub const TILES_PER_BUCKET_LOG2: u32 = 4;
 /// Bound on `num_buckets_log2 + tiles_per_bucket_log2` so the cell buffers fit one storage binding
-/// (checked in [`crate::layout`]); also clamps the bucket count the descriptor uses.
+/// (checked in [`layout`]); also clamps the bucket count the descriptor uses.
 pub const MAX_NUM_TILES_LOG2: u32 = 16;
 /// Default tile count: 65 536.
 pub const NUM_TILES: u32 = 1 << (NUM_BUCKETS_LOG2 + TILES_PER_BUCKET_LOG2);

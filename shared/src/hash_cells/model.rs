@@ -11,6 +11,9 @@ use glam::Vec3;
 
 use super::CELLS_PER_TILE;
 use super::adaptive_blend::TileTrend;
+use super::layout::{
+    HashCellValue, HashGridParams, HashGridQuery, TILE_ACCUMULATOR_WORDS, TREND_WORD,
+};
 use super::lists::{
     COUNTER_WORDS, UPDATE_TILES, begin_frame, list_buffer_words, list_len, list_word, live_list,
     previous_live_list,
@@ -18,9 +21,6 @@ use super::lists::{
 use super::passes::{purge_pass, query_descriptor, query_pass, update_pass};
 use super::read::lookup;
 use super::touch::initial_last_touch;
-use crate::layout::{
-    HashCellValue, HashGridParams, HashGridQuery, TILE_ACCUMULATOR_WORDS, TREND_WORD,
-};
 
 /// Largest difference of two snapshots' tile trends that [`Snapshot::compare`] accepts: a few
 /// half-precision steps of values in `[-1, 1]`.

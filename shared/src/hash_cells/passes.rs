@@ -15,6 +15,7 @@
 //! `accumulators` (7 words per mip-0 cell), `lists` ([`super::lists`]).
 
 use super::accumulate::accumulate_sample;
+use super::layout::{HashCellValue, HashGridParams, HashGridQuery};
 use super::lists::{
     DROPPED_SAMPLES, EVICTED_TILES, FAILED_INSERTS, UPDATE_TILES, count, list_tile, live_list,
     previous_live_list, push_tile,
@@ -25,7 +26,6 @@ use super::touch::{clear_tile_values, touch_tile};
 use super::update::update_tile;
 use super::{CellDescriptor, cell_descriptor};
 use crate::atomics::AtomicWords;
-use crate::layout::{HashCellValue, HashGridParams, HashGridQuery};
 
 /// The cell a query falls into, seen from `params.eye`.
 #[inline]

@@ -17,10 +17,10 @@ use glam::Vec3;
 
 #[cfg(doc)]
 use super::READ_MIN_SAMPLES;
+use super::layout::{HashCellValue, HashGridParams};
 use super::storage::find_tile;
 use super::{CellDescriptor, NUM_MIPS, cell_index};
 use crate::atomics::AtomicWords;
-use crate::layout::{HashCellValue, HashGridParams};
 
 /// The `(rgb · n, n)` value the adaptive read stops at for mip-0 cell `cell` (`[x, y]`) of tile
 /// `tile`.

@@ -16,9 +16,9 @@
 //! as inserts may miss a key inserted concurrently, so lookups that must see this frame's inserts
 //! run in a later pass.
 
+use super::layout::HashGridParams;
 use super::{CellDescriptor, MAX_NUM_TILES_LOG2, tile_slot};
 use crate::atomics::AtomicWords;
-use crate::layout::HashGridParams;
 use crate::math::min_u32;
 
 /// Outcome of [`insert_tile`].

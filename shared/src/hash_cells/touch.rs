@@ -8,9 +8,9 @@
 //! a tile's last touch; a fresh buffer must start with [`initial_last_touch`] of the first frame
 //! (zeros would make a first frame 0 look already touched).
 
+use super::layout::HashCellValue;
 use super::{CELLS_PER_TILE, cell_index};
 use crate::atomics::AtomicWords;
-use crate::layout::HashCellValue;
 
 /// The value a fresh `last_touch` buffer is filled with when the first frame is `first_frame`.
 #[inline]

@@ -32,9 +32,9 @@ use super::accumulate::{
     accumulator_count, accumulator_word, clear_accumulator, load_accumulator, trend_word,
 };
 use super::adaptive_blend::{PooledChange, TileTrend, blend_cap, frame_change};
+use super::layout::{HashCellAccumulator, HashCellValue};
 use super::{MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_CELL_RATIO, cell_index};
 use crate::atomics::AtomicWords;
-use crate::layout::{HashCellAccumulator, HashCellValue};
 use crate::math::{clamp, max, max_u32, min, min_u32};
 
 /// A mip-0 cell's new value from its old value (`(rgb · n, n)`) and the frame's accumulator (see
@@ -226,7 +226,7 @@ mod tests {
     use crate::hash_cells::CELLS_PER_TILE;
     use crate::hash_cells::MAX_SAMPLE_COUNT;
     use crate::hash_cells::accumulate::accumulate_sample;
-    use crate::layout::TILE_ACCUMULATOR_WORDS;
+    use crate::hash_cells::layout::TILE_ACCUMULATOR_WORDS;
     use glam::Vec3;
 
     fn acc(sum: Vec3, count: u32) -> HashCellAccumulator {

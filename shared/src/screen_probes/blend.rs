@@ -35,9 +35,10 @@ use super::{
     EMPTY, FLAG_HYSTERESIS, FLAG_RADIANCE_BACKUP, GiFrameParams, PROBE_CELLS, ProbeRay,
     ProbeRecord, cell_is_filled, cell_radiance, make_cell,
 };
-use crate::cache_view::{CacheViewPixel, primary_surface};
 use crate::camera::CameraParams;
 use crate::packing::{pack_seed, pack_snorm10x3, unpack_seed};
+use crate::primary_surface::primary_surface;
+use crate::world_cache::CacheViewPixel;
 
 /// The record of the probe spawned at packed seed `seed`, from the seed pixel's G-buffer linear
 /// `depth` and geometric normal (also used as the shading normal): its surface point (offset off

@@ -31,10 +31,10 @@ use super::{
     FLAG_RELAXED_FALLBACK, GiFrameParams, NO_PROBE, PROBE_SIZE, ProbeRecord, RELAXED_COUNT,
 };
 use crate::atomics::AtomicWords;
-use crate::cache_view::{PrimarySurface, primary_surface};
 use crate::camera::CameraParams;
 use crate::math::{abs, floor_to_i32_clamped, max, min_u32, saturate};
 use crate::packing::unpack_seed;
+use crate::primary_surface::{PrimarySurface, primary_surface};
 use crate::random::pixel_sample;
 use crate::sh::{SH_COEFFICIENT_COUNT, ShL2Rgb};
 

@@ -112,7 +112,7 @@ pub const FLAG_SAMPLED_DIRECT: u32 = 1 << 13;
 pub const FLAG_OBJECT_MOTION: u32 = 1 << 14;
 /// Emitter sampling: DirectLight adds one light-sampled estimate of the emissive triangles'
 /// direct light ([`crate::primary_lighting::emitter_light`]), and probe rays leave the emission
-/// they hit to it ([`crate::cache_view::FLAG_EMITTERS_SAMPLED`]), so each path still counts once.
+/// they hit to it ([`crate::world_cache::FLAG_EMITTERS_SAMPLED`]), so each path still counts once.
 pub const FLAG_EMITTER_SAMPLING: u32 = 1 << 15;
 
 /// Counter word: probes appended to the spawn list this frame.
@@ -129,7 +129,7 @@ pub const REPROJECTED_COUNT: usize = 4;
 pub const BLUR_TAPS: usize = 5;
 /// Counter word: pixels whose interpolation fell back to the relaxed weights.
 pub const RELAXED_COUNT: usize = 6;
-/// [`crate::cache_view::pass_random`] stream of SampleScreenProbes.
+/// [`crate::world_cache::pass_random`] stream of SampleScreenProbes.
 pub const PASS_SAMPLE: u32 = 16;
 /// Random stream of PatchScreenProbes.
 pub const PASS_PATCH: u32 = 17;

@@ -26,9 +26,9 @@ use super::{
 };
 use crate::append_list::clamped_count;
 use crate::atomics::AtomicWords;
-use crate::cache_view::pass_random;
 use crate::packing::pack_seed;
 use crate::random::{Random, spawn_jitter};
+use crate::world_cache::pass_random;
 
 /// Spawn slots an empty tile draws: it takes the first it wins. Each draw finds an open slot
 /// with the share of spawns whose tile kept its probe (most of them while the camera moves

@@ -35,9 +35,9 @@ use super::{
     PASS_SAMPLE, PROBE_CELLS, PROBE_SIZE, ProbeRay, ProbeRecord, cell_is_filled, cell_radiance,
     make_cell,
 };
-use crate::cache_view::pass_random;
 use crate::color::luminance;
 use crate::octahedral::probe_cell_direction;
+use crate::world_cache::pass_random;
 
 /// Share of the mean cell weight added to every cell of the guiding CDF, so that a light that
 /// appears where the history was dark is still found. It also bounds the weight of a guided

@@ -41,12 +41,12 @@ use super::{
 };
 use crate::append_list::append;
 use crate::atomics::AtomicWords;
-use crate::cache_view::primary_surface;
 use crate::camera::CameraParams;
 use crate::gbuffer::previous_point;
 use crate::math::min_u32;
 use crate::math::to_u32_clamped;
 use crate::packing::{pack_score_lane, pack_seed, pack_snorm10x3, unpack_score_lane};
+use crate::primary_surface::primary_surface;
 
 /// The workgroup's key before any lane found a probe: above every [`pack_score_lane`] key.
 pub const NO_WINNER: u32 = u32::MAX;

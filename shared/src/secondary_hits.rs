@@ -1,0 +1,288 @@
+//! Shading at secondary hits (GI-1.0's probe and cache rays): a ray's closest hit is shaded
+//! ([`shade_cache_hit`]: a miss takes the environment, a front-facing emissive hit its emission,
+//! both MIS-weighted against the primary hit's light sample), every hit appends a
+//! [`CacheQuery`] for the light it reflects ([`surface_query`]),
+//! and GenerateReservoirs samples one light for it through the light grid
+//! ([`sample_query_light`]) into a shadow ray ([`shadow_ray`], [`shadow_ray_radiance`]).
+
+use crate::elements::Elements;
+use crate::light_grid::{
+    DiffuseHit, LightGridEntry, LightGridParams, LightGridSample, sample_light_grid,
+};
+use crate::lights::{GpuLight, sky_radiance};
+use crate::math::INV_PI;
+use crate::packing::pack_snorm10x3;
+use crate::path_tracer::{
+    PathTracerParams, STRATEGY_BSDF_ONLY, STRATEGY_MIS, bsdf_mis_weight, emits_toward,
+    emitter_light_pdf, environment_light_pdf, folded_cosine,
+};
+use crate::primary_surface::PrimarySurface;
+use crate::random::Random;
+use crate::ray::{HitRecord, Ray, offset_ray_origin};
+use crate::ray_cone::{RayCone, RayFootprint};
+use crate::scene_data::{
+    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, MaterialSample, NONE, Surface,
+    hit_surface,
+};
+use crate::screen_probes::PROBE_CELLS;
+use crate::textures::{GpuTexture, TextureImages};
+use crate::world_cache::{
+    CacheQuery, CacheViewParams, FLAG_EMITTERS_SAMPLED, FLAG_ENVIRONMENT_LIGHT, FLAG_PROBE_RAYS,
+    NO_TILE, SHADOW_BYPASS, ShadowRay, finite_sample,
+};
+use glam::Vec3;
+
+/// What the cosine ray found: radiance straight into the ray (a miss or an emissive hit), or a
+/// query for the cache.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CacheHit {
+    /// Radiance the ray takes now.
+    pub radiance: Vec3,
+    /// The query (meaningful when `has_query`).
+    pub query: CacheQuery,
+    /// Whether the hit queries the cache.
+    pub has_query: bool,
+}
+
+/// Shades the cosine ray `ray` of `primary`, pixel `ray_index`, with closest hit `hit`: a miss
+/// sees the sky; a hit on a side that emits takes its emission (× the multiplier) straight into
+/// the ray, never into a cell ("adding emissive to cells enlarges the light and leaks"); both are
+/// MIS-weighted against [`primary_direct_light`](crate::cache_view::primary_direct_light) as the path tracer weighs them. Every hit,
+/// emitter or not, also becomes a query of a diffuse surface (normals facing the ray's origin):
+/// an emitter reflects light too, and dropping it darkened every emissive surface's
+/// surroundings (a closed furnace whose walls all emit got no reflected light at all).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
+pub fn shade_cache_hit<I: TextureImages + ?Sized>(
+    view: &CacheViewParams,
+    ray: &Ray,
+    primary: &PrimarySurface,
+    hit: &HitRecord,
+    ray_index: u32,
+    instances: &[GpuInstance],
+    meshes: &[GpuMesh],
+    vertices: impl Elements<Item = GpuVertex>,
+    triangles: impl Elements<Item = GpuTriangle>,
+    materials: &[GpuMaterial],
+    textures: &[GpuTexture],
+    images: &I,
+    lights: &[GpuLight],
+    light_table: &[u32],
+    environment: &[[f32; 4]],
+    environment_cdf: &[f32],
+) -> CacheHit {
+    let mut out = CacheHit {
+        radiance: Vec3::ZERO,
+        query: CacheQuery::default(),
+        has_query: false,
+    };
+    let direction = Vec3::from_array(ray.direction).normalize_or_zero();
+    if direction == Vec3::ZERO || ray.t_max < 0.0 {
+        return out;
+    }
+    let params = path_params(view);
+    let strategy = if view.has(FLAG_PROBE_RAYS) {
+        STRATEGY_BSDF_ONLY
+    } else {
+        STRATEGY_MIS
+    };
+    let bsdf_pdf =
+        folded_cosine(primary.shading_normal, primary.geometric_normal, direction) * INV_PI;
+    if !hit.is_hit() {
+        let light_pdf = environment_light_pdf(&params, lights, environment_cdf, direction);
+        out.radiance = sky_radiance(view.environment_size, view.sky, environment, direction)
+            * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
+        return out;
+    }
+    let (surface, material) = hit_surface(
+        instances,
+        meshes,
+        vertices,
+        triangles,
+        materials,
+        textures,
+        images,
+        ray,
+        secondary_hit_footprint(),
+        hit,
+    );
+    let emission = material.emissive * view.emissive_multiplier;
+    // With emitter sampling the primary hit has taken a probe ray's emitter already.
+    if emission.max_element() > 0.0
+        && !view.has(FLAG_PROBE_RAYS | FLAG_EMITTERS_SAMPLED)
+        && emits_toward(
+            materials,
+            surface.material,
+            surface.geometric_normal,
+            -direction,
+        )
+    {
+        let light_pdf = emitter_light_pdf(
+            &params,
+            lights,
+            light_table,
+            hit,
+            surface.area,
+            surface.geometric_normal.dot(direction),
+            Vec3::from_array(ray.direction).length(),
+        );
+        // The emitter's light, MIS-weighted; what it reflects still comes from its cell below
+        // (a cell never holds emission, so neither is counted twice).
+        out.radiance = emission * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
+    }
+    if let Some(query) = surface_query(ray, hit, &surface, &material, ray_index) {
+        out.query = query;
+        out.has_query = true;
+    }
+    out
+}
+
+/// The query of `ray`'s closest hit `hit` on `surface` with `material`: a diffuse surface at
+/// the offset hit, its normals facing the ray's origin; `None` for a degenerate triangle or a
+/// non-finite hit.
+#[inline]
+pub fn surface_query(
+    ray: &Ray,
+    hit: &HitRecord,
+    surface: &Surface,
+    material: &MaterialSample,
+    ray_index: u32,
+) -> Option<CacheQuery> {
+    let direction = Vec3::from_array(ray.direction).normalize_or_zero();
+    let mut ng = surface.geometric_normal;
+    let mut ns = surface.shading_normal;
+    if ng.dot(direction) > 0.0 {
+        ng = -ng;
+        ns = -ns;
+    }
+    if ng == Vec3::ZERO {
+        return None;
+    }
+    if ns.dot(ng) <= 0.0 {
+        ns = ng;
+    }
+    let distance = hit.t * Vec3::from_array(ray.direction).length();
+    let query = CacheQuery {
+        hit_position: offset_ray_origin(surface.position, ng, surface.size).to_array(),
+        ray_index,
+        direction: direction.to_array(),
+        hit_distance: distance,
+        normal: ns.to_array(),
+        geometric_normal: pack_snorm10x3(ng),
+        albedo: material.base_color.truncate().to_array(),
+        tile: NO_TILE,
+        cell: 0,
+        flags: 0,
+        _pad: [0; 2],
+    };
+    if distance.is_finite() && query.position().is_finite() {
+        Some(query)
+    } else {
+        None
+    }
+}
+
+/// The path tracer's parameters that its light sampling and MIS read, from the view's: the
+/// primary hit is lit exactly as the path tracer lights its first hit.
+#[inline]
+pub fn path_params(view: &CacheViewParams) -> PathTracerParams {
+    PathTracerParams {
+        sky: view.sky,
+        emissive_multiplier: view.emissive_multiplier,
+        light_count: view.light_count,
+        seed: view.seed,
+        environment_size: view.environment_size,
+        environment_light: if view.has(FLAG_ENVIRONMENT_LIGHT) && view.light_count > 0 {
+            view.light_count - 1
+        } else {
+            NONE
+        },
+        light_candidates: view.light_candidates,
+        strategy: STRATEGY_MIS,
+        ..Default::default()
+    }
+}
+
+/// The query's hit as light sampling shades it: diffuse, at its offset position.
+#[inline]
+pub fn diffuse_hit(query: &CacheQuery) -> DiffuseHit {
+    DiffuseHit {
+        position: query.position(),
+        normal: Vec3::from_array(query.normal),
+        albedo: Vec3::from_array(query.albedo),
+    }
+}
+
+/// The shadow ray of query `query_index` for a light sample: what an unoccluded ray adds to the
+/// cell (and, when `bypass`, to the query's ray: [`SHADOW_BYPASS`]). A sample that cannot light
+/// the hit (no candidate, zero or non-finite contribution) gives an untraceable ray that adds
+/// zero: the cell still counts it, so that its mean is not taken over the lit samples alone.
+#[inline]
+pub fn shadow_ray(sample: &LightGridSample, query_index: u32, bypass: bool) -> ShadowRay {
+    let ray = sample.contribution.sample.ray;
+    let contribution = sample.radiance;
+    let usable = sample.reservoir.ucw > 0.0
+        && contribution.is_finite()
+        && contribution.min_element() >= 0.0
+        && contribution.max_element() > 0.0
+        && ray.is_traceable();
+    ShadowRay {
+        origin: ray.origin,
+        query: query_index,
+        direction: ray.direction,
+        t_max: if usable { ray.t_max } else { -1.0 },
+        contribution: if usable {
+            contribution.to_array()
+        } else {
+            [0.0; 3]
+        },
+        flags: if bypass { SHADOW_BYPASS } else { 0 },
+    }
+}
+
+/// What a traced shadow ray adds: its contribution when it carries one and `occluded` is false,
+/// else zero (still one sample of the cell).
+#[inline]
+pub fn shadow_ray_radiance(shadow: &ShadowRay, occluded: bool) -> Vec3 {
+    if shadow.t_max < 0.0 || occluded {
+        Vec3::ZERO
+    } else {
+        finite_sample(Vec3::from_array(shadow.contribution))
+    }
+}
+
+/// Light sampling at a query's hit through the light grid (RIS over its candidates, one shadow
+/// ray: [`shadow_ray`]).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
+)]
+#[inline]
+pub fn sample_query_light(
+    grid: &LightGridParams,
+    entries: &[LightGridEntry],
+    lights: &[GpuLight],
+    environment: &[[f32; 4]],
+    environment_cdf: &[f32],
+    query: &CacheQuery,
+    rng: &mut Random,
+) -> LightGridSample {
+    sample_light_grid(
+        grid,
+        entries,
+        lights,
+        environment,
+        environment_cdf,
+        &diffuse_hit(query),
+        rng,
+    )
+}
+
+/// The footprint a secondary hit's textures are filtered for: a probe traces one ray per
+/// octahedral cell, each standing for that share of the hemisphere.
+#[inline]
+pub fn secondary_hit_footprint() -> RayFootprint {
+    RayFootprint::cone(RayCone::hemisphere_share(0.0, PROBE_CELLS))
+}
