@@ -449,47 +449,17 @@ pub fn reservoir_entry(offsets: &[u32], place: [u32; 2]) -> Option<u32> {
     Some(offsets[slot as usize] + index)
 }
 
-/// OrderReservoirs: the entry of the ordered list that shadow ray `ray`'s reservoir goes to, in
-/// its slot's run sorted by the queries' `ray_index` (unique within a frame: a ray's query, or the
-/// one query carried over from it, with [`CARRIED_QUERY_BIT`](crate::world_cache::CARRIED_QUERY_BIT)), so that the run's order, which the
-/// next frame's ResampleReservoirs strides through, does not depend on the order in which
-/// GenerateReservoirs's atomics ran. `unordered` is CompactReservoirs's scatter. Reads every member
-/// of the run: one reservoir cell's hits (tens to hundreds; cells span a fixed angle in pixels, so
-/// the run does not grow with the resolution).
+/// CompactReservoirs's scatter holds, per entry, what [`ordered_reservoir_entry`] sorts its
+/// shadow ray `ray` by: its query's `ray_index` (unique within a frame: a ray's query, or the one
+/// query carried over from it, with [`CARRIED_QUERY_BIT`](crate::world_cache::CARRIED_QUERY_BIT)),
+/// then the shadow ray's index (never reached, and what OrderReservoirs writes); past the lists,
+/// last.
 #[inline]
-pub fn ordered_reservoir_entry(
-    offsets: &[u32],
-    unordered: &[u32],
+pub fn reservoir_order_key(
     queries: &[CacheQuery],
     shadow_rays: &[ShadowRay],
-    place: [u32; 2],
     ray: u32,
-) -> Option<u32> {
-    let slot = place[0] as usize;
-    if place[0] == RESERVOIR_GRID_NONE || slot + 1 >= offsets.len() {
-        return None;
-    }
-    let (first, end) = (
-        offsets[slot],
-        min_u32(offsets[slot + 1], unordered.len() as u32),
-    );
-    let own = reservoir_order_key(queries, shadow_rays, ray);
-    let mut rank = 0;
-    let mut e = first;
-    while e < end {
-        let other = reservoir_order_key(queries, shadow_rays, unordered[e as usize]);
-        if other[0] < own[0] || (other[0] == own[0] && other[1] < own[1]) {
-            rank += 1;
-        }
-        e += 1;
-    }
-    Some(first + rank)
-}
-
-/// What [`ordered_reservoir_entry`] sorts shadow ray `ray` by: its query's `ray_index`, then the
-/// shadow ray's own index (never reached: `ray_index` is unique); past the lists, last.
-#[inline]
-fn reservoir_order_key(queries: &[CacheQuery], shadow_rays: &[ShadowRay], ray: u32) -> [u32; 2] {
+) -> [u32; 2] {
     if (ray as usize) < shadow_rays.len() {
         let q = shadow_rays[ray as usize].query as usize;
         if q < queries.len() {
@@ -497,6 +467,43 @@ fn reservoir_order_key(queries: &[CacheQuery], shadow_rays: &[ShadowRay], ray: u
         }
     }
     [u32::MAX, u32::MAX]
+}
+
+/// OrderReservoirs: the entry of the ordered list that the shadow ray at `place` goes to, in its
+/// slot's run sorted by key ([`reservoir_order_key`], read from CompactReservoirs's scatter
+/// `unordered`, where each ray wrote its own once), so that the run's order, which the next
+/// frame's ResampleReservoirs strides through, does not depend on the order in which
+/// GenerateReservoirs's atomics ran. Reads every key of the run: one reservoir cell's hits (tens
+/// to hundreds; cells span a fixed angle in pixels, so the run does not grow with the
+/// resolution).
+#[inline]
+pub fn ordered_reservoir_entry(
+    offsets: &[u32],
+    unordered: &[[u32; 2]],
+    place: [u32; 2],
+) -> Option<u32> {
+    let [slot, index] = place;
+    if slot == RESERVOIR_GRID_NONE || slot as usize + 1 >= offsets.len() {
+        return None;
+    }
+    let (first, end) = (
+        offsets[slot as usize],
+        min_u32(offsets[slot as usize + 1], unordered.len() as u32),
+    );
+    if first + index >= end {
+        return None;
+    }
+    let own = unordered[(first + index) as usize];
+    let mut rank = 0;
+    let mut e = first;
+    while e < end {
+        let other = unordered[e as usize];
+        if other[0] < own[0] || (other[0] == own[0] && other[1] < own[1]) {
+            rank += 1;
+        }
+        e += 1;
+    }
+    Some(first + rank)
 }
 
 /// ResampleReservoirs for one query: its reservoir this frame (`current`, the light grid's) merged
@@ -957,22 +964,15 @@ mod tests {
                     counts[slot as usize] += 1;
                 }
             }
-            let mut unordered = [u32::MAX; 5];
+            let mut unordered = [[u32::MAX; 2]; 5];
             for (r, &place) in places.iter().enumerate() {
                 if let Some(e) = reservoir_entry(&offsets, place) {
-                    unordered[e as usize] = r as u32;
+                    unordered[e as usize] = reservoir_order_key(&queries, &shadow_rays, r as u32);
                 }
             }
             let mut ordered = [u32::MAX; 5];
             for (r, &place) in places.iter().enumerate() {
-                let e = ordered_reservoir_entry(
-                    &offsets,
-                    &unordered,
-                    &queries,
-                    &shadow_rays,
-                    place,
-                    r as u32,
-                );
+                let e = ordered_reservoir_entry(&offsets, &unordered, place);
                 assert_eq!(e.is_none(), slot_of[r] == RESERVOIR_GRID_NONE);
                 if let Some(e) = e {
                     assert_eq!(ordered[e as usize], u32::MAX, "{order:?}: entry {e} twice");

@@ -61,7 +61,9 @@ crate::bindings! {
         counters: &'a Buffer,
         places: &'a Buffer,
         offsets: &'a Buffer,
-        entries: &'a Buffer,
+        queries: &'a Buffer,
+        shadow_rays: &'a Buffer,
+        unordered: &'a Buffer,
     }
 }
 
@@ -73,8 +75,6 @@ crate::bindings! {
         places: &'a Buffer,
         offsets: &'a Buffer,
         unordered: &'a Buffer,
-        queries: &'a Buffer,
-        shadow_rays: &'a Buffer,
         entries: &'a Buffer,
     }
 }
@@ -236,9 +236,9 @@ impl LightingPasses {
         Ok(())
     }
 
-    /// CompactReservoirs: the prefix scan of this frame's slot counts, then each shadow ray's
-    /// entry in the compacted list, scattered in the order of GenerateReservoirs's atomics, then
-    /// moved to its place in its slot's run ordered by ray, which next frame's ResampleReservoirs
+    /// CompactReservoirs: the prefix scan of this frame's slot counts, then each shadow ray's sort
+    /// key in the compacted list, scattered in the order of GenerateReservoirs's atomics, then
+    /// each ray moved to its place in its slot's run ordered by key, which next frame's ResampleReservoirs
     /// picks its neighbours from (over the shadow rays' indirect arguments, which must be
     /// written).
     pub fn record_compact(
@@ -261,7 +261,9 @@ impl LightingPasses {
                 counters: &res.counters,
                 places: &restir.places,
                 offsets: &grid.offsets,
-                entries: &restir.unordered,
+                queries: &res.queries,
+                shadow_rays: &res.shadow_rays,
+                unordered: &restir.unordered,
             },
             bytemuck::bytes_of(params),
             &res.args,
@@ -274,8 +276,6 @@ impl LightingPasses {
                 places: &restir.places,
                 offsets: &grid.offsets,
                 unordered: &restir.unordered,
-                queries: &res.queries,
-                shadow_rays: &res.shadow_rays,
                 entries: &grid.entries,
             },
             bytemuck::bytes_of(params),

@@ -93,12 +93,13 @@ fn carried_queries(multi_bounce: bool, rays: usize) -> usize {
     }
 }
 
-/// Queries per frame at most for `rays` rays with `settings`: one per ray and the carried ones.
-/// The query and shadow-ray lists, and world-space ReSTIR's per-shadow-ray buffers, hold this
-/// many (a shadow ray past ReSTIR's buffers would leave the grid in the order of the atomics).
-pub fn query_capacity(settings: &GiSettings, rays: u32) -> u32 {
+/// Queries per frame at most for `rays` rays, with or without `multi_bounce`: one per ray and the
+/// carried ones. The query and shadow-ray lists, and world-space ReSTIR's per-shadow-ray buffers,
+/// hold this many (a shadow ray past ReSTIR's buffers would leave the grid in the order of the
+/// atomics).
+pub fn query_capacity(multi_bounce: bool, rays: u32) -> u32 {
     let rays = rays.max(1) as usize;
-    (rays + carried_queries(settings.multi_bounce, rays)) as u32
+    (rays + carried_queries(multi_bounce, rays)) as u32
 }
 
 /// Each resource's name, in the order [`CacheResources::buffers`] lists them.
@@ -140,6 +141,7 @@ impl CacheResources {
         let pixels = width as usize * height as usize;
         let rays = (rays as usize).max(1);
         let carried = carried_queries(settings.multi_bounce, rays);
+        let queries = query_capacity(settings.multi_bounce, rays as u32) as usize;
         let cells = tiles * CELLS_PER_TILE as usize;
         let accumulator_words = tiles * TILE_ACCUMULATOR_WORDS;
         debug_assert!(accumulator_words * 4 <= MAX_STORAGE_BUFFER_BYTES);
@@ -158,8 +160,8 @@ impl CacheResources {
             accumulators: Buffer::device_zeroed::<u32>(ctx, n[4], accumulator_words)?,
             lists: Buffer::device_zeroed::<u32>(ctx, n[5], list_buffer_words(tiles as u32))?,
             counters: Buffer::device_zeroed::<u32>(ctx, n[6], CACHE_COUNTER_WORDS)?,
-            queries: Buffer::device_zeroed::<CacheQuery>(ctx, n[7], rays + carried)?,
-            shadow_rays: Buffer::device_zeroed::<ShadowRay>(ctx, n[8], rays + carried)?,
+            queries: Buffer::device_zeroed::<CacheQuery>(ctx, n[7], queries)?,
+            shadow_rays: Buffer::device_zeroed::<ShadowRay>(ctx, n[8], queries)?,
             ray_records: Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], rays)?,
             history: Buffer::device_zeroed::<FeedbackTexel>(ctx, n[10], pixels)?,
             accumulation: Buffer::device_zeroed::<[f32; 4]>(ctx, n[11], pixels)?,
@@ -188,11 +190,13 @@ impl CacheResources {
     pub fn resize(&mut self, ctx: &Context, width: u32, height: u32, rays: u32) -> Result<()> {
         let pixels = width as usize * height as usize;
         let rays = (rays as usize).max(1);
-        let carried = carried_queries(self.carried_capacity > 0, rays);
+        let multi_bounce = self.carried_capacity > 0;
+        let carried = carried_queries(multi_bounce, rays);
+        let capacity = query_capacity(multi_bounce, rays as u32) as usize;
         let n = &RESOURCE_NAMES;
         let counters = Buffer::device_zeroed::<u32>(ctx, n[6], CACHE_COUNTER_WORDS)?;
-        let queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[7], rays + carried)?;
-        let shadow_rays = Buffer::device_zeroed::<ShadowRay>(ctx, n[8], rays + carried)?;
+        let queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[7], capacity)?;
+        let shadow_rays = Buffer::device_zeroed::<ShadowRay>(ctx, n[8], capacity)?;
         let ray_records = Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], rays)?;
         let history = Buffer::device_zeroed::<FeedbackTexel>(ctx, n[10], pixels)?;
         let accumulation = Buffer::device_zeroed::<[f32; 4]>(ctx, n[11], pixels)?;
@@ -380,8 +384,9 @@ pub struct RestirResources {
     pub grids: PingPong<ReservoirGrid>,
     /// Per shadow ray `[slot, index in the slot]` (`[u32; 2]`).
     pub places: Buffer,
-    /// The shadow-ray indices slot after slot in the order of the atomics that placed them
-    /// (CompactReservoirs's scatter, before it orders each slot's run into the grid's entries).
+    /// Each shadow ray's sort key (`[u32; 2]`, `gi_shared::world_restir::reservoir_order_key`),
+    /// slot after slot in the order of the atomics that placed them (CompactReservoirs's scatter,
+    /// before it orders each slot's run into the grid's entries).
     pub unordered: Buffer,
     /// Slots of a grid.
     pub slots: u32,
@@ -394,7 +399,7 @@ impl RestirResources {
     /// `settings`, real when ReSTIR is on.
     pub fn new(ctx: &Context, settings: &GiSettings, rays: u32) -> Result<Self> {
         let on = settings.restir;
-        let rays = query_capacity(settings, rays);
+        let rays = query_capacity(settings.multi_bounce, rays);
         let buckets = if on { reservoir_grid_buckets(rays) } else { 1 };
         let slots = if on {
             buckets * RESERVOIR_GRID_SLOTS_PER_BUCKET
@@ -408,7 +413,7 @@ impl RestirResources {
                 ReservoirGrid::new(ctx, "b", slots as usize, rays)?,
             ),
             places: Buffer::device_zeroed::<[u32; 2]>(ctx, "reservoir places", rays)?,
-            unordered: Buffer::device_zeroed::<u32>(ctx, "reservoir scatter", rays)?,
+            unordered: Buffer::device_zeroed::<[u32; 2]>(ctx, "reservoir scatter", rays)?,
             slots,
             buckets,
         })

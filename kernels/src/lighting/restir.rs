@@ -5,9 +5,10 @@
 //! the previous frame's neighbours and rewrites its light sample
 //! (`gi_shared::world_restir::resample_reservoir`). ClearReservoirs is a buffer fill on the host.
 //!
-//! `compact_reservoirs`, set 0: cache-view counters, places (`[u32; 2]` per shadow ray), scanned
-//! slot counts (`u32`), entries in scatter order (`u32`). `order_reservoirs`, set 0: cache-view
-//! counters, places, scanned slot counts, the scatter, queries, shadow rays, ordered entries.
+//! `compact_reservoirs`, set 0: cache counters, places (`[u32; 2]` per shadow ray), scanned slot
+//! counts (`u32`), queries, shadow rays, and the scatter: each shadow ray's sort key (`[u32; 2]`),
+//! in the order of the atomics. `order_reservoirs`, set 0: cache counters, places, scanned slot
+//! counts, the scatter, ordered entries (`u32`, shadow-ray indices).
 //! `resample_reservoirs`, set 0: cache-view counters, queries,
 //! shadow rays, this frame's reservoirs (`PackedReservoir`), the previous frame's keys, scanned
 //! counts, entries, reservoirs and hits (`ReservoirHit`), grid parameters (`LightGridParams`),
@@ -23,28 +24,32 @@ use gi_shared::world_cache::{
     CachePassParams, CacheQuery, PASS_RESTIR, QUERY_BYPASS, SHADOW_RAY_COUNT, ShadowRay,
     pass_random,
 };
-use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
-use gi_shared::world_restir::{ordered_reservoir_entry, resample_reservoir, reservoir_entry};
+use gi_shared::world_restir::{
+    PackedReservoir, ReservoirHit, ordered_reservoir_entry, resample_reservoir, reservoir_entry,
+    reservoir_order_key,
+};
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 
-/// Lists shadow ray `id.x` in its slot's run of the compacted list.
+/// Lists shadow ray `id.x`'s key in its slot's run of the compacted list.
 #[spirv(compute(threads(64)))]
 pub fn compact_reservoirs(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] counters: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] places: &[[u32; 2]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] entries: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] queries: &[CacheQuery],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] shadow_rays: &[ShadowRay],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] unordered: &mut [[u32; 2]],
 ) {
     let n = min_u32(counters[SHADOW_RAY_COUNT], places.len() as u32);
     if id.x >= n {
         return;
     }
     if let Some(e) = reservoir_entry(offsets, places[id.x as usize])
-        && (e as usize) < entries.len()
+        && (e as usize) < unordered.len()
     {
-        entries[e as usize] = id.x;
+        unordered[e as usize] = reservoir_order_key(queries, shadow_rays, id.x);
     }
 }
 
@@ -55,23 +60,15 @@ pub fn order_reservoirs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] counters: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] places: &[[u32; 2]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] offsets: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] unordered: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] queries: &[CacheQuery],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] shadow_rays: &[ShadowRay],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] entries: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] unordered: &[[u32; 2]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] entries: &mut [u32],
 ) {
     let n = min_u32(counters[SHADOW_RAY_COUNT], places.len() as u32);
     if id.x >= n {
         return;
     }
-    if let Some(e) = ordered_reservoir_entry(
-        offsets,
-        unordered,
-        queries,
-        shadow_rays,
-        places[id.x as usize],
-        id.x,
-    ) && (e as usize) < entries.len()
+    if let Some(e) = ordered_reservoir_entry(offsets, unordered, places[id.x as usize])
+        && (e as usize) < entries.len()
     {
         entries[e as usize] = id.x;
     }
