@@ -360,12 +360,7 @@ pub fn render_on_cpu(
                 &ray,
                 &hit,
                 previous,
-                &shading.instances,
-                &shading.meshes,
-                shading.vertices.as_slice(),
-                shading.triangles.as_slice(),
-                &shading.materials,
-                &shading.textures,
+                shading.surfaces(),
                 &shading.texels[..],
             )
         })

@@ -260,10 +260,6 @@ pub fn render_pixel_on_cpu(
     pixel: UVec2,
 ) -> Vec3 {
     let light_params = lights.params();
-    let (texels, cdf) = lights
-        .environment
-        .as_ref()
-        .map_or((&[][..], &[][..]), |e| (e.texels(), e.distribution()));
     let mut sum = [0.0f64; 3];
     for sample in 0..settings.samples {
         let params = settings.params(&light_params, sample);
@@ -276,17 +272,9 @@ pub fn render_pixel_on_cpu(
                 &hit,
                 camera,
                 &params,
-                &shading.instances,
-                &shading.meshes,
-                shading.vertices.as_slice(),
-                shading.triangles.as_slice(),
-                &shading.materials,
-                &shading.textures,
+                shading.surfaces(),
                 &shading.texels[..],
-                &lights.lights,
-                &lights.triangle_table,
-                texels,
-                cdf,
+                lights.scene_lights(),
             );
             if path.shadow_pending && !bvh.any_hit(shading, &path.shadow_ray) {
                 path.radiance += path.shadow_radiance;

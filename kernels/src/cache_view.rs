@@ -3,7 +3,7 @@
 //! hit's next-event estimate, and CacheViewComposite, the running mean of each frame's estimate.
 //!
 //! TraceCacheRays, set 0: camera (`CameraParams`), G-buffer depth, geometric normal, shading
-//! normal, albedo, emissive, ids (images), pixels (`CacheViewPixel`), queries (`CacheQuery`),
+//! normal, albedo, emissive, ids (images), pixels (`RayRecord`), queries (`CacheQuery`),
 //! cache-view counters (`u32`), light-grid bounds (`u32`). Set 1: the scene's geometry. Set 2: the
 //! scene's shading data and lights. CacheViewComposite, set 0: camera, G-buffer depth, geometric
 //! normal and albedo, pixels, accumulation (`[f32; 4]`: sum and count), feedback history
@@ -17,11 +17,11 @@ use gi_shared::cache_view::{cache_ray, primary_direct_light};
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
 use gi_shared::light_grid::report_hit_bounds;
-use gi_shared::lights::GpuLight;
+use gi_shared::lights::{GpuLight, LightSources, SceneLights};
 use gi_shared::primary_surface::{primary_emission, primary_surface};
-use gi_shared::secondary_hits::shade_cache_hit;
+use gi_shared::secondary_hits::{TracedRay, shade_cache_hit};
 use gi_shared::world_cache::{
-    CachePassParams, CacheQuery, CacheViewPixel, PASS_TRACE, QUERY_COUNT, pass_random,
+    CachePassParams, CacheQuery, PASS_TRACE, QUERY_COUNT, RayRecord, pass_random,
 };
 use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
@@ -40,7 +40,7 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 4)] albedo: &UnormImage,
         #[spirv(descriptor_set = 0, binding = 5)] emissive: &HalfImage,
         #[spirv(descriptor_set = 0, binding = 6)] ids: &IdImage,
-        #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] pixels: &mut [CacheViewPixel],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] pixels: &mut [RayRecord],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] queries: &mut [CacheQuery],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] counters: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] bounds: &mut [u32],
@@ -49,6 +49,10 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 10)] environment_cdf: &[f32],
     ) {
+        let lighting = SceneLights {
+            sources: LightSources { lights, environment, environment_cdf },
+            light_table,
+        };
         let pixel = UVec2::new(id.x, id.y);
         if !in_image(camera, pixel) {
             return;
@@ -62,7 +66,7 @@ traced_kernel! {
         let gn: Vec4 = geometric_normal.read(pixel);
         let sn: Vec4 = shading_normal.read(pixel);
         let surface = primary_surface(camera, pixel, d, gn, sn);
-        let mut out = CacheViewPixel::default();
+        let mut out = RayRecord::default();
         if !surface.valid {
             let ray = primary_ray(camera, pixel, camera.jitter());
             let direction = Vec3::from_array(ray.direction).normalize_or_zero();
@@ -77,16 +81,13 @@ traced_kernel! {
         let ray = cache_ray(&surface, rng.next_vec2());
         let hit = scene.closest_hit(&ray, texture_images);
         let shaded = shade_cache_hit(
-            &view, &ray, &surface, &hit, index, scene.instances, scene.meshes, scene.vertices,
-            scene.triangles, scene.materials, scene.textures, &Bindless(texture_images), lights, light_table, environment,
-            environment_cdf,
+            &view, &surface, &TracedRay { ray, hit, index }, scene.surfaces, &Bindless(texture_images), lighting,
         );
-        let emission = primary_emission(scene.materials, ids_texel, e, view.emissive_multiplier);
+        let emission = primary_emission(scene.surfaces.materials, ids_texel, e, view.emissive_multiplier);
         out.emissive = if emission.max_element() > 0.0 { 1 } else { 0 };
         let mut base = emission;
         let direct = primary_direct_light(
-            &view, &surface, a.truncate(), scene.instances, scene.meshes, scene.vertices,
-            scene.triangles, scene.materials, scene.textures, &Bindless(texture_images), lights, environment, environment_cdf,
+            &view, &surface, a.truncate(), scene.surfaces, &Bindless(texture_images), lighting.sources,
             &mut rng,
         );
         if direct.radiance.max_element() > 0.0 && !scene.any_hit(&direct.ray, texture_images) {
@@ -120,7 +121,7 @@ pub fn composite(
     #[spirv(descriptor_set = 0, binding = 1)] depth: &DepthImage,
     #[spirv(descriptor_set = 0, binding = 2)] geometric_normal: &HalfImage,
     #[spirv(descriptor_set = 0, binding = 3)] albedo: &UnormImage,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] pixels: &[CacheViewPixel],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] pixels: &[RayRecord],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] accumulation: &mut [[f32; 4]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)]
     history: &mut [gi_shared::radiance_feedback::FeedbackTexel],

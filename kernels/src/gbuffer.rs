@@ -68,8 +68,7 @@ traced_kernel! {
         let ray = primary_ray(camera, pixel, camera.jitter());
         let hit = scene.closest_hit(&ray, texture_images);
         let texel = gbuffer_texel(
-            camera, &ray, &hit, previous_transforms, scene.instances, scene.meshes, scene.vertices,
-            scene.triangles, scene.materials, scene.textures, &Bindless(texture_images),
+            camera, &ray, &hit, previous_transforms, scene.surfaces, &Bindless(texture_images),
         );
         write_texel!(
             pixel,

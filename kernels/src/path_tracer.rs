@@ -12,7 +12,7 @@
 use crate::texture_images::Bindless;
 use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
-use gi_shared::lights::GpuLight;
+use gi_shared::lights::{GpuLight, LightSources, SceneLights};
 use gi_shared::path_tracer::{MAX_BOUNCES, PathTracerParams, begin_path, finite_radiance, shade};
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::spirv;
@@ -43,6 +43,10 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 10)] environment_cdf: &[f32],
     ) {
+        let lighting = SceneLights {
+            sources: LightSources { lights, environment, environment_cdf },
+            light_table,
+        };
         let pixel = UVec2::new(id.x, id.y);
         if !in_image(camera, pixel) {
             return;
@@ -56,17 +60,9 @@ traced_kernel! {
                 &hit,
                 camera,
                 params,
-                scene.instances,
-                scene.meshes,
-                scene.vertices,
-                scene.triangles,
-                scene.materials,
-                scene.textures,
+                scene.surfaces,
                 &Bindless(texture_images),
-                lights,
-                light_table,
-                environment,
-                environment_cdf,
+                lighting,
             );
             if path.shadow_pending && !scene.any_hit(&path.shadow_ray, texture_images) {
                 path.radiance += path.shadow_radiance;

@@ -68,7 +68,7 @@ traced_kernel! {
         }
         let e: Vec4 = emissive.read(pixel);
         let ids_texel: UVec4 = ids.read(pixel);
-        let emission = primary_emission(scene.materials, ids_texel, e, frame.emissive_multiplier);
+        let emission = primary_emission(scene.surfaces.materials, ids_texel, e, frame.emissive_multiplier);
         let mut rng = pass_random(frame.seed, index, PASS_DIRECT, frame.frame_index);
         let tracer = scene.tracer();
         lighting[index as usize] = surface_lighting(

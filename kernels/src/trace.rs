@@ -25,7 +25,9 @@ pub use crate::texture_images::SceneTextures;
 use gi_shared::elements::{ChunkIndex, Elements};
 use gi_shared::layout::SCENE_BUFFER_CHUNKS;
 use gi_shared::ray::{HitRecord, Ray};
-pub use gi_shared::scene_data::{GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex};
+pub use gi_shared::scene_data::{
+    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, SceneSurfaces,
+};
 pub use gi_shared::textures::GpuTexture;
 use spirv_std::{RuntimeArray, TypedBuffer};
 
@@ -105,7 +107,7 @@ pub use spirv_std::ray_tracing::AccelerationStructure;
 ///     #[spirv(compute(threads(64)))]
 ///     pub fn name(scene, images; #[spirv(global_invocation_id)] id: UVec3, ...) {
 ///         let hit = scene.closest_hit(&ray, images);
-///         let mesh = scene.meshes[0];
+///         let mesh = scene.surfaces.meshes[0];
 ///     }
 /// }
 /// ```
@@ -148,12 +150,9 @@ macro_rules! traced_kernel {
         ) {
             let $scene = $crate::trace::Scene {
                 tlas,
-                instances,
-                meshes,
-                vertices: $crate::trace::Chunked::new(vertices),
-                triangles: $crate::trace::Chunked::new(triangles),
-                materials,
-                textures,
+                surfaces: $crate::trace::scene_surfaces(
+                    instances, meshes, vertices, triangles, materials, textures,
+                ),
             };
             $body
         }
@@ -185,16 +184,33 @@ macro_rules! traced_kernel {
         ) {
             let $scene = $crate::trace::Scene {
                 nodes: $crate::trace::Chunked::new(bvh_nodes),
-                instances,
-                meshes,
-                vertices: $crate::trace::Chunked::new(vertices),
-                triangles: $crate::trace::Chunked::new(triangles),
-                materials,
-                textures,
+                surfaces: $crate::trace::scene_surfaces(
+                    instances, meshes, vertices, triangles, materials, textures,
+                ),
             };
             $body
         }
     };
+}
+
+/// Set 2 bindings 0 to 5 as [`SceneSurfaces`], the split arrays read through [`Chunked`].
+#[inline(always)]
+pub fn scene_surfaces<'a>(
+    instances: &'a [GpuInstance],
+    meshes: &'a [GpuMesh],
+    vertices: &'a Chunks<GpuVertex>,
+    triangles: &'a Chunks<GpuTriangle>,
+    materials: &'a [GpuMaterial],
+    textures: &'a [GpuTexture],
+) -> SceneSurfaces<'a, Chunked<'a, GpuVertex>, Chunked<'a, GpuTriangle>> {
+    SceneSurfaces {
+        instances,
+        meshes,
+        vertices: Chunked::new(vertices),
+        triangles: Chunked::new(triangles),
+        materials,
+        textures,
+    }
 }
 
 /// The scene's geometry and materials as a tracing kernel sees it (built by [`traced_kernel!`]).
@@ -205,18 +221,9 @@ pub struct Scene<'a> {
     /// structure itself, kept in this composite, could not be loaded through (SPIR-V's logical
     /// addressing loads only from a variable or an access chain; indexing the array makes one).
     pub tlas: &'a [AccelerationStructure; 1],
-    /// Set 2 binding 0: the instances.
-    pub instances: &'a [GpuInstance],
-    /// Set 2 binding 1: the meshes.
-    pub meshes: &'a [GpuMesh],
-    /// Set 2 binding 2: every mesh's vertices.
-    pub vertices: Chunked<'a, GpuVertex>,
-    /// Set 2 binding 3: every mesh's triangles.
-    pub triangles: Chunked<'a, GpuTriangle>,
-    /// Set 2 binding 4: the materials.
-    pub materials: &'a [GpuMaterial],
-    /// Set 2 binding 5: the texture table.
-    pub textures: &'a [GpuTexture],
+    /// Set 2 bindings 0 to 5: the instances, meshes, vertices, triangles (in the software
+    /// walk, each mesh's in its leaf order), materials and texture table.
+    pub surfaces: SceneSurfaces<'a, Chunked<'a, GpuVertex>, Chunked<'a, GpuTriangle>>,
 }
 
 /// The scene's geometry and materials as a tracing kernel sees it (built by
@@ -226,18 +233,9 @@ pub struct Scene<'a> {
 pub struct Scene<'a> {
     /// The two-level BVH's nodes.
     pub nodes: Chunked<'a, BvhNode>,
-    /// Set 2 binding 0: the instances.
-    pub instances: &'a [GpuInstance],
-    /// Set 2 binding 1: the meshes.
-    pub meshes: &'a [GpuMesh],
-    /// Set 2 binding 2: every mesh's vertices.
-    pub vertices: Chunked<'a, GpuVertex>,
-    /// Set 2 binding 3: every mesh's triangles, each mesh's in its leaf order.
-    pub triangles: Chunked<'a, GpuTriangle>,
-    /// Set 2 binding 4: the materials.
-    pub materials: &'a [GpuMaterial],
-    /// Set 2 binding 5: the texture table.
-    pub textures: &'a [GpuTexture],
+    /// Set 2 bindings 0 to 5: the instances, meshes, vertices, triangles (in the software
+    /// walk, each mesh's in its leaf order), materials and texture table.
+    pub surfaces: SceneSurfaces<'a, Chunked<'a, GpuVertex>, Chunked<'a, GpuTriangle>>,
 }
 
 /// What traces, without the rest of the [`Scene`]: small enough for a closure to capture. With
@@ -247,19 +245,7 @@ pub struct Scene<'a> {
 #[derive(Clone, Copy)]
 pub struct Tracer<'a> {
     tlas: &'a [AccelerationStructure; 1],
-    surfaces: Surfaces<'a>,
-}
-
-/// The buffers the alpha test reads, apart from the acceleration structure.
-#[cfg(feature = "ray-query")]
-#[derive(Clone, Copy)]
-struct Surfaces<'a> {
-    instances: &'a [GpuInstance],
-    meshes: &'a [GpuMesh],
-    vertices: Chunked<'a, GpuVertex>,
-    triangles: Chunked<'a, GpuTriangle>,
-    materials: &'a [GpuMaterial],
-    textures: &'a [GpuTexture],
+    surfaces: SceneSurfaces<'a, Chunked<'a, GpuVertex>, Chunked<'a, GpuTriangle>>,
 }
 
 /// What traces, without the rest of the [`Scene`]: small enough for a closure to capture.
@@ -281,14 +267,7 @@ impl<'a> Scene<'a> {
     pub fn tracer(&self) -> Tracer<'a> {
         Tracer {
             tlas: self.tlas,
-            surfaces: Surfaces {
-                instances: self.instances,
-                meshes: self.meshes,
-                vertices: self.vertices,
-                triangles: self.triangles,
-                materials: self.materials,
-                textures: self.textures,
-            },
+            surfaces: self.surfaces,
         }
     }
 }
@@ -301,12 +280,7 @@ impl<'a> Scene<'a> {
         Tracer {
             bvh: gi_shared::bvh::BvhScene {
                 nodes: self.nodes,
-                instances: self.instances,
-                meshes: self.meshes,
-                vertices: self.vertices,
-                triangles: self.triangles,
-                materials: self.materials,
-                textures: self.textures,
+                surfaces: self.surfaces,
             },
         }
     }
@@ -371,7 +345,7 @@ impl Tracer<'_> {
 #[inline(always)]
 fn run_alpha_tested(
     query: &spirv_std::ray_tracing::RayQuery,
-    surfaces: Surfaces<'_>,
+    surfaces: SceneSurfaces<'_, Chunked<'_, GpuVertex>, Chunked<'_, GpuTriangle>>,
     images: &Bindless<'_>,
 ) {
     use spirv_std::ray_tracing::CandidateIntersection;
@@ -381,12 +355,7 @@ fn run_alpha_tested(
                 query.get_candidate_intersection_type(),
                 CandidateIntersection::Triangle
             ) && gi_shared::scene_data::alpha_visible(
-                surfaces.instances,
-                surfaces.meshes,
-                surfaces.vertices,
-                surfaces.triangles,
-                surfaces.materials,
-                surfaces.textures,
+                surfaces,
                 images,
                 query.get_candidate_intersection_instance_custom_index(),
                 query.get_candidate_intersection_primitive_index(),
@@ -402,7 +371,7 @@ fn run_alpha_tested(
 #[cfg(feature = "ray-query")]
 fn closest_hit(
     tlas: &AccelerationStructure,
-    surfaces: Surfaces<'_>,
+    surfaces: SceneSurfaces<'_, Chunked<'_, GpuVertex>, Chunked<'_, GpuTriangle>>,
     images: &Bindless<'_>,
     ray: &Ray,
 ) -> HitRecord {
@@ -446,7 +415,7 @@ fn closest_hit(
 #[cfg(feature = "ray-query")]
 fn any_hit(
     tlas: &AccelerationStructure,
-    surfaces: Surfaces<'_>,
+    surfaces: SceneSurfaces<'_, Chunked<'_, GpuVertex>, Chunked<'_, GpuTriangle>>,
     images: &Bindless<'_>,
     ray: &Ray,
 ) -> bool {

@@ -27,6 +27,43 @@ pub trait AtomicWords {
     fn fetch_max(&mut self, i: usize, value: u32) -> u32;
 }
 
+/// A borrowed buffer is the buffer: structs that hold their buffers by value
+/// (`hash_cells::layout::HashCellsInsert`) take `&mut [u32]` on the CPU.
+impl<W: AtomicWords + ?Sized> AtomicWords for &mut W {
+    #[inline]
+    fn word_count(&self) -> usize {
+        (**self).word_count()
+    }
+    #[inline]
+    fn load(&self, i: usize) -> u32 {
+        (**self).load(i)
+    }
+    #[inline]
+    fn store(&mut self, i: usize, value: u32) {
+        (**self).store(i, value)
+    }
+    #[inline]
+    fn fetch_add(&mut self, i: usize, value: u32) -> u32 {
+        (**self).fetch_add(i, value)
+    }
+    #[inline]
+    fn swap(&mut self, i: usize, value: u32) -> u32 {
+        (**self).swap(i, value)
+    }
+    #[inline]
+    fn compare_exchange(&mut self, i: usize, current: u32, new: u32) -> u32 {
+        (**self).compare_exchange(i, current, new)
+    }
+    #[inline]
+    fn fetch_min(&mut self, i: usize, value: u32) -> u32 {
+        (**self).fetch_min(i, value)
+    }
+    #[inline]
+    fn fetch_max(&mut self, i: usize, value: u32) -> u32 {
+        (**self).fetch_max(i, value)
+    }
+}
+
 /// Sequential: the CPU model of a pass runs its invocations one after another.
 impl AtomicWords for [u32] {
     #[inline]

@@ -102,9 +102,9 @@ use num_traits::Float;
 use crate::elements::Elements;
 use crate::ray::{HitRecord, Ray};
 use crate::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED, alpha_visible,
+    GpuInstance, GpuMesh, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED, SceneSurfaces, alpha_visible,
 };
-use crate::textures::{GpuTexture, TextureImages};
+use crate::textures::TextureImages;
 
 /// Entries of the long traversal stack: enough for any tree whose leaves are within the depth
 /// limits of both levels.
@@ -268,18 +268,10 @@ impl BvhElement for BvhNodeRows {
 pub struct BvhScene<'a, N, V = &'a [GpuVertex], T = &'a [GpuTriangle]> {
     /// Top level at node 0, then the meshes' bottom levels ([`BvhElement`]s).
     pub nodes: N,
-    /// The instances; a hit's instance indexes them.
-    pub instances: &'a [GpuInstance],
-    /// The meshes, with their bottom-level roots.
-    pub meshes: &'a [GpuMesh],
-    /// Every mesh's vertices.
-    pub vertices: V,
-    /// Every mesh's triangles, each mesh's in its bottom level's leaf order.
-    pub triangles: T,
-    /// The materials, for their alpha cutoffs.
-    pub materials: &'a [GpuMaterial],
-    /// The texture table, for the base colour textures' alpha.
-    pub textures: &'a [GpuTexture],
+    /// The shading data: the instances and meshes (with their bottom-level roots) and their
+    /// vertices and triangles (each mesh's in its bottom level's leaf order) that the walk
+    /// intersects, the materials and texture table for the alpha test.
+    pub surfaces: SceneSurfaces<'a, V, T>,
 }
 
 /// A ray/triangle intersection before it goes into a [`HitRecord`]; `t` is `+∞` on a miss. No
@@ -613,14 +605,19 @@ fn walk<
     // number of its mesh's triangles that exist, and the stack depth when it was entered.
     let mut instance = NO_CHILD;
     let mut mesh = GpuMesh::EMPTY;
-    let mut items = scene.instances.len();
+    let mut items = scene.surfaces.instances.len();
     let mut base = 0usize;
     let mut ray = *world;
     loop {
         // Where to go next, as a stack entry; `NO_CHILD` keeps going with the triangles or pops.
         let mut next = NO_CHILD;
         if tri < tri_end {
-            let v = triangle_vertices(scene.vertices, scene.triangles, &mesh, tri);
+            let v = triangle_vertices(
+                scene.surfaces.vertices,
+                scene.surfaces.triangles,
+                &mesh,
+                tri,
+            );
             let h = ray.intersect(v, t_max);
             // Strictly closer: the first hit tested keeps an exact tie.
             if h.t < best.t && surface_there(scene, images, &mesh, instance, tri, &h) {
@@ -682,7 +679,7 @@ fn walk<
             if instance != NO_CHILD && sp <= base {
                 // The bottom level is exhausted: back to the world ray and the top level.
                 instance = NO_CHILD;
-                items = scene.instances.len();
+                items = scene.surfaces.instances.len();
                 ray = *world;
             }
             if sp == 0 {
@@ -707,15 +704,16 @@ fn walk<
             } else {
                 // A top-level leaf (`child_entry` checked the instance): its mesh's bottom level.
                 // By reference: only the fields used are loaded, not the whole 160 bytes.
-                let inst = &scene.instances[index as usize];
+                let inst = &scene.surfaces.instances[index as usize];
                 let m = inst.mesh as usize;
-                if m < scene.meshes.len() && (scene.meshes[m].bvh_root as usize) < scene.nodes.len()
+                if m < scene.surfaces.meshes.len()
+                    && (scene.surfaces.meshes[m].bvh_root as usize) < scene.nodes.len()
                 {
                     let local = object_ray(world_ray, inst);
                     if local.is_traceable() {
-                        mesh = scene.meshes[m];
+                        mesh = scene.surfaces.meshes[m];
                         instance = index;
-                        items = triangle_limit(&mesh, scene.triangles.len());
+                        items = triangle_limit(&mesh, scene.surfaces.triangles.len());
                         base = sp;
                         ray = TraceRay::new(&local);
                         node = mesh.bvh_root;
@@ -744,12 +742,7 @@ fn surface_there<
 ) -> bool {
     mesh.flags & MESH_ALPHA_TESTED == 0
         || alpha_visible(
-            scene.instances,
-            scene.meshes,
-            scene.vertices,
-            scene.triangles,
-            scene.materials,
-            scene.textures,
+            scene.surfaces,
             images,
             instance,
             primitive,
@@ -836,8 +829,8 @@ pub fn closest_hit_brute_force<
     if !ray.is_traceable() {
         return best;
     }
-    for (instance, inst) in scene.instances.iter().enumerate() {
-        let Some(mesh) = scene.meshes.get(inst.mesh as usize) else {
+    for (instance, inst) in scene.surfaces.instances.iter().enumerate() {
+        let Some(mesh) = scene.surfaces.meshes.get(inst.mesh as usize) else {
             continue;
         };
         let local = object_ray(ray, inst);
@@ -845,8 +838,13 @@ pub fn closest_hit_brute_force<
             continue;
         }
         let local = TraceRay::new(&local);
-        for primitive in 0..triangle_limit(mesh, scene.triangles.len()) as u32 {
-            let v = triangle_vertices(scene.vertices, scene.triangles, mesh, primitive);
+        for primitive in 0..triangle_limit(mesh, scene.surfaces.triangles.len()) as u32 {
+            let v = triangle_vertices(
+                scene.surfaces.vertices,
+                scene.surfaces.triangles,
+                mesh,
+                primitive,
+            );
             let h = local.intersect(v, best.t.min(ray.t_max));
             if h.t < best.t && surface_there(scene, images, mesh, instance as u32, primitive, &h) {
                 best = HitRecord {
@@ -867,6 +865,8 @@ pub fn closest_hit_brute_force<
 mod tests {
     use super::*;
     use crate::random::Random;
+    use crate::scene_data::GpuMaterial;
+    use crate::textures::GpuTexture;
     use core::mem::{offset_of, size_of};
 
     /// The crate's PCG stream, with the draws the tests need.
@@ -979,12 +979,14 @@ mod tests {
         fn view(&self) -> BvhScene<'_, &[BvhNode]> {
             BvhScene {
                 nodes: &self.nodes,
-                instances: &self.instances,
-                meshes: &self.meshes,
-                vertices: &self.vertices,
-                triangles: &self.triangles,
-                materials: &self.materials,
-                textures: &self.textures,
+                surfaces: SceneSurfaces {
+                    instances: &self.instances,
+                    meshes: &self.meshes,
+                    vertices: &self.vertices,
+                    triangles: &self.triangles,
+                    materials: &self.materials,
+                    textures: &self.textures,
+                },
             }
         }
 
@@ -1171,12 +1173,7 @@ mod tests {
         let v = s.view();
         let rows_scene = BvhScene {
             nodes: &node_rows[..],
-            instances: v.instances,
-            meshes: v.meshes,
-            vertices: v.vertices,
-            triangles: v.triangles,
-            materials: v.materials,
-            textures: v.textures,
+            surfaces: v.surfaces,
         };
         let mut hits = 0;
         for _ in 0..2000 {
@@ -1269,12 +1266,14 @@ mod tests {
             }
             let split = BvhScene {
                 nodes: ChunkedSlices::new(&nodes).unwrap(),
-                instances: &s.instances[..],
-                meshes: &s.meshes[..],
-                vertices: ChunkedSlices::new(&vertices).unwrap(),
-                triangles: ChunkedSlices::new(&triangles).unwrap(),
-                materials: &s.materials[..],
-                textures: &s.textures[..],
+                surfaces: SceneSurfaces {
+                    instances: &s.instances[..],
+                    meshes: &s.meshes[..],
+                    vertices: ChunkedSlices::new(&vertices).unwrap(),
+                    triangles: ChunkedSlices::new(&triangles).unwrap(),
+                    materials: &s.materials[..],
+                    textures: &s.textures[..],
+                },
             };
             let mut hits = 0;
             for _ in 0..2000 {

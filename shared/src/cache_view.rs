@@ -6,7 +6,7 @@
 //! of the GI frame ([`crate::world_cache`]).
 
 use crate::elements::Elements;
-use crate::lights::GpuLight;
+use crate::lights::LightSources;
 use crate::math::INV_PI;
 use crate::path_tracer::{
     DirectLightSample, ShadingFrame, sample_direct_light, sample_folded_cosine,
@@ -14,10 +14,11 @@ use crate::path_tracer::{
 use crate::primary_surface::PrimarySurface;
 use crate::random::Random;
 use crate::ray::Ray;
-use crate::scene_data::{GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex};
+use crate::scene_data::SceneSurfaces;
+use crate::scene_data::{GpuTriangle, GpuVertex};
 use crate::secondary_hits::path_params;
-use crate::textures::{GpuTexture, TextureImages};
-use crate::world_cache::{CacheViewParams, CacheViewPixel, finite_sample};
+use crate::textures::TextureImages;
+use crate::world_cache::{CacheFrameParams, RayRecord, finite_sample};
 use glam::{Vec2, Vec3};
 
 /// Workgroup of the per-pixel cache-view kernels: `CACHE_VIEW_TILE × CACHE_VIEW_TILE` pixels.
@@ -40,24 +41,13 @@ pub fn cache_ray(surface: &PrimarySurface, u: Vec2) -> Ray {
 /// The primary hit's next-event estimate of every light (the path tracer's
 /// [`sample_direct_light`]): emissive triangles and the environment MIS-weighted against the
 /// cosine ray, punctual lights in full. Its shadow ray is traced by TraceCacheRays.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 pub fn primary_direct_light<I: TextureImages + ?Sized>(
-    view: &CacheViewParams,
+    view: &CacheFrameParams,
     surface: &PrimarySurface,
     albedo: Vec3,
-    instances: &[GpuInstance],
-    meshes: &[GpuMesh],
-    vertices: impl Elements<Item = GpuVertex>,
-    triangles: impl Elements<Item = GpuTriangle>,
-    materials: &[GpuMaterial],
-    textures: &[GpuTexture],
+    surfaces: SceneSurfaces<'_, impl Elements<Item = GpuVertex>, impl Elements<Item = GpuTriangle>>,
     images: &I,
-    lights: &[GpuLight],
-    environment: &[[f32; 4]],
-    environment_cdf: &[f32],
+    lighting: LightSources<'_>,
     rng: &mut Random,
 ) -> DirectLightSample {
     if !surface.valid {
@@ -77,28 +67,14 @@ pub fn primary_direct_light<I: TextureImages + ?Sized>(
         ng: surface.geometric_normal,
         brdf: albedo * INV_PI,
     };
-    sample_direct_light(
-        &frame,
-        &path_params(view),
-        instances,
-        meshes,
-        vertices,
-        triangles,
-        materials,
-        textures,
-        images,
-        lights,
-        environment,
-        environment_cdf,
-        rng,
-    )
+    sample_direct_light(&frame, &path_params(view), surfaces, images, lighting, rng)
 }
 
 /// This frame's estimate of a pixel: the primary hit's emission and light sample, plus albedo ×
 /// the cosine ray's radiance (a cosine-distributed ray estimates irradiance / π, which the diffuse
 /// BRDF turns into albedo × radiance). Non-finite terms count as black.
 #[inline]
-pub fn composite(pixel: &CacheViewPixel, albedo: Vec3) -> Vec3 {
+pub fn composite(pixel: &RayRecord, albedo: Vec3) -> Vec3 {
     if pixel.surface == 0 {
         return finite_sample(Vec3::from_array(pixel.ray_radiance));
     }
@@ -126,9 +102,11 @@ pub fn running_mean(sum: [f32; 4]) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lights::GpuLight;
+    use crate::lights::SceneLights;
     use crate::primary_surface::tests::{camera, wall};
     use crate::ray::HitRecord;
-    use crate::secondary_hits::shade_cache_hit;
+    use crate::secondary_hits::{TracedRay, shade_cache_hit};
     use crate::world_cache::{
         CacheQuery, FLAG_ENVIRONMENT_LIGHT, NO_TILE, QUERY_BYPASS, QUERY_FED_BACK,
         needs_cache_radiance,
@@ -152,7 +130,7 @@ mod tests {
         }
         // Alias table for (0.6, 0.4) over 2 columns (p·2 = 1.2, 0.8).
         lights[1].alias_threshold = 0.8;
-        let view = CacheViewParams {
+        let view = CacheFrameParams {
             light_count: 2,
             light_candidates: 4,
             ..Default::default()
@@ -167,16 +145,12 @@ mod tests {
                 &view,
                 &s,
                 albedo,
-                &[],
-                &[],
-                &[],
-                &[],
-                &[],
-                &[],
+                SceneSurfaces::EMPTY,
                 &[][..],
-                &lights,
-                &[],
-                &[],
+                LightSources {
+                    lights: &lights,
+                    ..LightSources::EMPTY
+                },
                 &mut rng,
             );
             if p.radiance.x > 0.0 {
@@ -203,12 +177,20 @@ mod tests {
         let lights = [env];
         let environment = [[2.0f32, 2.0, 2.0, 0.0]];
         let cdf = [0.0f32, 1.0, 0.0, 1.0];
-        let view = CacheViewParams {
+        let view = CacheFrameParams {
             light_count: 1,
             light_candidates: 1,
             environment_size: [1, 1],
             flags: FLAG_ENVIRONMENT_LIGHT,
             ..Default::default()
+        };
+        let lighting = SceneLights {
+            sources: LightSources {
+                lights: &lights,
+                environment: &environment,
+                environment_cdf: &cdf,
+            },
+            light_table: &[],
         };
         let albedo = Vec3::splat(0.5);
         let mut rng = Random::new(9, 0);
@@ -219,38 +201,19 @@ mod tests {
                 &view,
                 &s,
                 albedo,
-                &[],
-                &[],
-                &[],
-                &[],
-                &[],
-                &[],
+                SceneSurfaces::EMPTY,
                 &[][..],
-                &lights,
-                &environment,
-                &cdf,
+                lighting.sources,
                 &mut rng,
             );
             nee += f64::from(d.radiance.x);
             let ray = cache_ray(&s, rng.next_vec2());
-            let hit = shade_cache_hit(
-                &view,
-                &ray,
-                &s,
-                &HitRecord::miss(),
-                0,
-                &[],
-                &[],
-                &[],
-                &[],
-                &[],
-                &[],
-                &[][..],
-                &lights,
-                &[],
-                &environment,
-                &cdf,
-            );
+            let traced = TracedRay {
+                ray,
+                hit: HitRecord::miss(),
+                index: 0,
+            };
+            let hit = shade_cache_hit(&view, &s, &traced, SceneSurfaces::EMPTY, &[][..], lighting);
             bsdf += f64::from(albedo.x * hit.radiance.x);
         }
         let (nee, bsdf) = (nee / f64::from(n), bsdf / f64::from(n));
@@ -261,7 +224,7 @@ mod tests {
 
     #[test]
     fn composite_and_accumulation_stay_finite() {
-        let px = CacheViewPixel {
+        let px = RayRecord {
             ray_radiance: [1.0, 2.0, f32::NAN],
             surface: 1,
             base: [0.5, 0.0, 0.0],
@@ -270,7 +233,7 @@ mod tests {
         // A non-finite channel blackens its whole term.
         let c = composite(&px, Vec3::splat(0.5));
         assert_eq!(c, Vec3::new(0.5, 0.0, 0.0));
-        let ok = CacheViewPixel {
+        let ok = RayRecord {
             ray_radiance: [1.0, 2.0, 0.0],
             ..px
         };

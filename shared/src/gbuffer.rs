@@ -35,6 +35,7 @@
 //! The GI passes find a pixel's surface in the previous frame with [`previous_point`]: from the
 //! motion image where the object moved, else by reprojecting the point with the previous camera.
 
+use crate::scene_data::SceneSurfaces;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, UVec2, UVec4, Vec2, Vec3, Vec4};
 
@@ -42,10 +43,8 @@ use crate::camera::{CameraParams, to_clip, uv_of_clip};
 use crate::elements::Elements;
 use crate::ray::{HitRecord, Ray};
 use crate::ray_cone::RayFootprint;
-use crate::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, hit_surface, object_position,
-};
-use crate::textures::{GpuTexture, TextureImages};
+use crate::scene_data::{GpuTriangle, GpuVertex, hit_surface, object_position};
+use crate::textures::TextureImages;
 
 /// One instance's object-to-world transform in the previous frame, as the `gbuffer` kernel reads
 /// it (set 0, binding 8; one per instance, indexed like the instances). An instance without an
@@ -217,6 +216,18 @@ impl PreviousPoint {
     };
 }
 
+/// A pixel's G-buffer as reprojection reads it: linear depth, geometric normal and motion
+/// texels (the images' own encodings).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ReprojectionTexel {
+    /// Linear depth (0: sky).
+    pub depth: f32,
+    /// The geometric normal texel.
+    pub geometric_normal: Vec4,
+    /// The motion texel ([`previous_point`]).
+    pub motion: Vec4,
+}
+
 /// Where the surface point `position` seen through `pixel` (G-buffer motion texel `motion`) was in
 /// the previous frame ([`PreviousPoint::NONE`] when it was behind the previous camera or is not
 /// finite).
@@ -266,38 +277,18 @@ pub fn previous_point(
 /// The G-buffer pixel of `ray` (a primary ray of `camera`) with closest hit `hit`, reading the
 /// scene's shading data (see [`crate::scene_data`]) and the instances' previous transforms
 /// (`previous`, see [`PreviousTransform`]).
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 pub fn gbuffer_texel<I: TextureImages + ?Sized>(
     camera: &CameraParams,
     ray: &Ray,
     hit: &HitRecord,
     previous: &[PreviousTransform],
-    instances: &[GpuInstance],
-    meshes: &[GpuMesh],
-    vertices: impl Elements<Item = GpuVertex>,
-    triangles: impl Elements<Item = GpuTriangle>,
-    materials: &[GpuMaterial],
-    textures: &[GpuTexture],
+    surfaces: SceneSurfaces<'_, impl Elements<Item = GpuVertex>, impl Elements<Item = GpuTriangle>>,
     images: &I,
 ) -> GBufferTexel {
     if !hit.is_hit() {
         return GBufferTexel::SKY;
     }
-    let (surface, material) = hit_surface(
-        instances,
-        meshes,
-        vertices,
-        triangles,
-        materials,
-        textures,
-        images,
-        ray,
-        RayFootprint::pixel(camera),
-        hit,
-    );
+    let (surface, material) = hit_surface(surfaces, images, ray, RayFootprint::pixel(camera), hit);
     let direction = Vec3::from_array(ray.direction);
     // The point on the ray, not the interpolated one: depth and motion then agree with the
     // pixel the ray went through, whatever the rounding of the vertex data.
@@ -316,10 +307,10 @@ pub fn gbuffer_texel<I: TextureImages + ?Sized>(
     let i = hit.instance as usize;
     let previous_position = if i < previous.len() && previous[i].moved != 0 {
         previous[i].transform_point(object_position(
-            instances,
-            meshes,
-            vertices,
-            triangles,
+            surfaces.instances,
+            surfaces.meshes,
+            surfaces.vertices,
+            surfaces.triangles,
             hit.instance,
             hit.primitive,
             Vec2::from_array(hit.barycentrics),
@@ -354,6 +345,7 @@ mod tests {
     use super::*;
     use crate::camera::{primary_ray, view_projection};
     use crate::scene_data::NONE;
+    use crate::scene_data::{GpuInstance, GpuMaterial, GpuMesh};
 
     /// The G-buffer pixel (16, 16) of `camera` for `hit` on a unit quad at z = -2 made of two
     /// triangles with a red, emissive material: facing +z (towards a camera at the origin looking
@@ -412,12 +404,14 @@ mod tests {
             &ray,
             hit,
             &[],
-            &instances,
-            &meshes,
-            &vertices,
-            &triangles,
-            &materials,
-            &[],
+            SceneSurfaces {
+                instances: &instances,
+                meshes: &meshes,
+                vertices: &vertices,
+                triangles: &triangles,
+                materials: &materials,
+                textures: &[],
+            },
             &[][..],
         )
     }

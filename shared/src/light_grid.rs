@@ -65,6 +65,7 @@
 //! [`light_contribution`]). The target uses a triangle's radiance without its emissive texture;
 //! the kernel may shade with the textured radiance (the target only steers the choice).
 
+use crate::lights::LightSources;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec2, UVec3, Vec2, Vec3};
 
@@ -129,6 +130,10 @@ pub struct LightGridParams {
     pub environment_irradiance: f32,
     /// Factor on the radiance of triangle lights.
     pub emissive_multiplier: f32,
+}
+
+impl crate::layout::FloatLayout for LightGridParams {
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 3, 10, 11];
 }
 
 impl LightGridParams {
@@ -280,6 +285,10 @@ pub struct LightGridEntry {
     /// The probability `p(light)` with which any entry of this cell draws it (see the
     /// [module](self)); 0 for an entry of an empty light list.
     pub pmf: f32,
+}
+
+impl crate::layout::FloatLayout for LightGridEntry {
+    const FLOAT_WORDS: &'static [u32] = &[1];
 }
 
 /// Squared distance from `p` to the axis-aligned box `[lo, lo + size]` (0 inside).
@@ -502,20 +511,19 @@ pub struct LightContribution {
 /// Samples light `index` with `u` (see [`sample_light`]) from `hit` and evaluates its unshadowed
 /// diffuse contribution: the target of the light grid's RIS and of world-space ReSTIR. An index
 /// out of range gives nothing.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 #[inline]
 pub fn light_contribution(
     params: &LightGridParams,
-    lights: &[GpuLight],
-    environment: &[[f32; 4]],
-    environment_cdf: &[f32],
+    lighting: LightSources<'_>,
     hit: &DiffuseHit,
     index: u32,
     u: Vec2,
 ) -> LightContribution {
+    let LightSources {
+        lights,
+        environment,
+        environment_cdf,
+    } = lighting;
     let light = if index < min_u32(params.light_count, lights.len() as u32) {
         lights[index as usize]
     } else {
@@ -603,16 +611,10 @@ impl LightGridSample {
 /// lookup, fast merge of the cell's entries into [`LIGHT_GRID_SEGMENTS`] candidates, RIS with the
 /// unshadowed diffuse contribution as target. `entries` holds the grid's
 /// [`LightGridParams::entry_count`] entries, cell after cell.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 pub fn sample_light_grid(
     params: &LightGridParams,
     entries: &[LightGridEntry],
-    lights: &[GpuLight],
-    environment: &[[f32; 4]],
-    environment_cdf: &[f32],
+    lighting: LightSources<'_>,
     hit: &DiffuseHit,
     rng: &mut Random,
 ) -> LightGridSample {
@@ -635,15 +637,7 @@ pub fn sample_light_grid(
             LightGridEntry::default()
         };
         let bits = rng.next_u32();
-        let c = light_contribution(
-            params,
-            lights,
-            environment,
-            environment_cdf,
-            hit,
-            entry.light,
-            sample_params_uv(bits),
-        );
+        let c = light_contribution(params, lighting, hit, entry.light, sample_params_uv(bits));
         // Every candidate counts in M, even an unusable one: it was a draw from p.
         let w = if entry.pmf > 0.0 {
             c.target / entry.pmf
@@ -678,6 +672,20 @@ mod tests {
 
     #[test]
     fn layout() {
+        use crate::layout::{FloatLayout, float_field_words};
+        assert_eq!(
+            LightGridEntry::FLOAT_WORDS,
+            float_field_words(&[(offset_of!(LightGridEntry, pmf), 1)])
+        );
+        assert_eq!(
+            LightGridParams::FLOAT_WORDS,
+            float_field_words(&[
+                (offset_of!(LightGridParams, origin), 3),
+                (offset_of!(LightGridParams, cell_size), 1),
+                (offset_of!(LightGridParams, environment_irradiance), 1),
+                (offset_of!(LightGridParams, emissive_multiplier), 1)
+            ])
+        );
         assert_eq!(size_of::<LightGridParams>(), 48);
         assert_eq!(offset_of!(LightGridParams, origin), 0);
         assert_eq!(offset_of!(LightGridParams, cell_size), 12);
@@ -816,6 +824,16 @@ mod tests {
         size: UVec2,
     }
 
+    impl Scene {
+        fn lighting(&self) -> LightSources<'_> {
+            LightSources {
+                lights: &self.lights,
+                environment: &self.environment,
+                environment_cdf: &self.cdf,
+            }
+        }
+    }
+
     fn scene() -> Scene {
         let mut lights = Vec::new();
         let mut rng = Random::new(3, 0);
@@ -930,15 +948,7 @@ mod tests {
             let n = 20_000;
             let (mut a, mut a2) = (0.0f64, 0.0f64);
             for _ in 0..n {
-                let c = light_contribution(
-                    params,
-                    &s.lights,
-                    &s.environment,
-                    &s.cdf,
-                    hit,
-                    i,
-                    rng.next_vec2(),
-                );
+                let c = light_contribution(params, s.lighting(), hit, i, rng.next_vec2());
                 let v = f64::from(luminance(c.weight * c.sample.radiance));
                 a += v;
                 a2 += v * v;
@@ -1032,15 +1042,7 @@ mod tests {
             let (exact, exact_se) = brute_force(&s, &params, hit);
             let mut rng = Random::new(100 + k as u32, 0);
             let (mean, se, _) = over_builds(&params, &s.lights, 40, 5_000, |entries| {
-                let g = sample_light_grid(
-                    &params,
-                    entries,
-                    &s.lights,
-                    &s.environment,
-                    &s.cdf,
-                    hit,
-                    &mut rng,
-                );
+                let g = sample_light_grid(&params, entries, s.lighting(), hit, &mut rng);
                 assert!(g.radiance.is_finite());
                 luminance(g.radiance)
             });
@@ -1095,7 +1097,16 @@ mod tests {
         let (exact, exact_se) = brute_force(&s, &params, &hit);
         let mut rng = Random::new(5, 0);
         let (grid, grid_se, grid_var) = over_builds(&params, &s.lights, 200, 400, |entries| {
-            let g = sample_light_grid(&params, entries, &s.lights, &[], &[], &hit, &mut rng);
+            let g = sample_light_grid(
+                &params,
+                entries,
+                LightSources {
+                    lights: &s.lights,
+                    ..LightSources::EMPTY
+                },
+                &hit,
+                &mut rng,
+            );
             luminance(g.radiance)
         });
         let n = 40_000;
@@ -1105,7 +1116,16 @@ mod tests {
             let mut value = 0.0;
             for _ in 0..LIGHT_GRID_SEGMENTS {
                 let l = to_u32_clamped(rng.next_f32() * count as f32);
-                let c = light_contribution(&params, &s.lights, &[], &[], &hit, l, rng.next_vec2());
+                let c = light_contribution(
+                    &params,
+                    LightSources {
+                        lights: &s.lights,
+                        ..LightSources::EMPTY
+                    },
+                    &hit,
+                    l,
+                    rng.next_vec2(),
+                );
                 if r.update(l, c.target * count as f32, rng.next_f32()) {
                     value = c.target;
                 }
@@ -1141,7 +1161,7 @@ mod tests {
         let hit = hits()[0];
         let nan = Vec3::splat(f32::NAN);
         for _ in 0..200 {
-            let g = sample_light_grid(&empty, &none, &[], &[], &[], &hit, &mut rng);
+            let g = sample_light_grid(&empty, &none, LightSources::EMPTY, &hit, &mut rng);
             assert_eq!((g.radiance, g.reservoir.ucw), (Vec3::ZERO, 0.0));
             for bad in [
                 DiffuseHit {
@@ -1155,15 +1175,7 @@ mod tests {
                     ..hit
                 },
             ] {
-                let g = sample_light_grid(
-                    &params,
-                    &entries,
-                    &s.lights,
-                    &s.environment,
-                    &s.cdf,
-                    &bad,
-                    &mut rng,
-                );
+                let g = sample_light_grid(&params, &entries, s.lighting(), &bad, &mut rng);
                 assert!(
                     !g.radiance.is_nan() && g.reservoir.ucw.is_finite(),
                     "{bad:?}: {g:?}"

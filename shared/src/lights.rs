@@ -209,6 +209,45 @@ impl GpuLight {
     }
 }
 
+/// The lights that next-event estimation samples: the light buffer, and the environment image
+/// with its sampling CDF (both empty without one).
+#[derive(Clone, Copy)]
+pub struct LightSources<'a> {
+    /// The light buffer.
+    pub lights: &'a [GpuLight],
+    /// The environment image's texels (RGBA32F).
+    pub environment: &'a [[f32; 4]],
+    /// The environment image's sampling CDF (`crate::environment`).
+    pub environment_cdf: &'a [f32],
+}
+
+impl LightSources<'static> {
+    /// No lights and no environment.
+    pub const EMPTY: Self = Self {
+        lights: &[],
+        environment: &[],
+        environment_cdf: &[],
+    };
+}
+
+/// The lights as the passes that shade hits read them: the sources next-event estimation samples,
+/// and the emissive triangles' table that weighs a hit emitter by MIS against them.
+#[derive(Clone, Copy)]
+pub struct SceneLights<'a> {
+    /// The light buffer and the environment.
+    pub sources: LightSources<'a>,
+    /// Light index of each emissive triangle ([`light_of_triangle`]).
+    pub light_table: &'a [u32],
+}
+
+impl SceneLights<'static> {
+    /// No lights, no environment, no emissive triangles.
+    pub const EMPTY: Self = Self {
+        sources: LightSources::EMPTY,
+        light_table: &[],
+    };
+}
+
 /// Power-proportional light selection by the alias method: the index of the light that `u`
 /// (uniform in `[0, 1)²`) picks among the first `count` of `lights`, with probability
 /// [`GpuLight::select_pmf`]. 0 when `count` is 0 (the caller checks the count first); an

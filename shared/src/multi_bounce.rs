@@ -58,7 +58,7 @@
 use glam::{Vec2, Vec3};
 
 use crate::atomics::AtomicWords;
-use crate::hash_cells::layout::HashCellValue;
+use crate::hash_cells::layout::HashCellsRead;
 use crate::hash_cells::purge::tile_age;
 use crate::hash_cells::read::filtered_radiance;
 use crate::hash_cells::storage::find_tile;
@@ -126,21 +126,20 @@ pub struct Bounce {
 /// frame's eye, the ray's direction and, with the short-ray flag, its length), or on a miss the
 /// sky where the light sample does not sample it. `keys`, `last_touch` and `values` are the hash
 /// grid's; the frame's updates have not run yet, so `values` hold the previous frame's blend.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "the hash grid's buffers and the ray"
-)]
 #[inline]
 pub fn bounce_radiance<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
-    keys: &K,
-    last_touch: &T,
-    values: &[HashCellValue],
+    cells: HashCellsRead<'_, K, T>,
     params: &CachePassParams,
     environment: &[[f32; 4]],
     query: &CacheQuery,
     ray: &Ray,
     hit: &HitRecord,
 ) -> Bounce {
+    let HashCellsRead {
+        keys,
+        last_touch,
+        values,
+    } = cells;
     let mut out = Bounce {
         radiance: Vec3::ZERO,
         missed_cell: false,
@@ -225,12 +224,26 @@ pub fn carried_query(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::hash_cells::layout::HashCellValue;
     use crate::hash_cells::layout::HashGridParams;
     use crate::hash_cells::storage::{TileInsert, insert_tile};
     use crate::hash_cells::{CELLS_PER_TILE, TILE_CELL_RATIO, cell_descriptor, cell_index};
     use crate::packing::pack_snorm10x3;
-    use crate::world_cache::{CacheViewParams, NO_TILE};
+    use crate::world_cache::{CacheFrameParams, NO_TILE};
     use glam::Vec4;
+
+    /// The hash grid of slices as a bounce reads it.
+    fn cells<'a>(
+        keys: &'a [u32],
+        touch: &'a [u32],
+        values: &'a [HashCellValue],
+    ) -> HashCellsRead<'a, [u32], [u32]> {
+        HashCellsRead {
+            keys,
+            last_touch: touch,
+            values,
+        }
+    }
 
     fn query(albedo: Vec3) -> CacheQuery {
         CacheQuery {
@@ -254,7 +267,7 @@ mod tests {
         grid.tiles_per_bucket_log2 = 2;
         CachePassParams {
             grid,
-            view: CacheViewParams {
+            view: CacheFrameParams {
                 sky: [0.5, 0.25, 1.0],
                 ..Default::default()
             },
@@ -305,7 +318,7 @@ mod tests {
         // Every tile last touched this frame (frame 4).
         let mut touch = vec![4u32; tiles];
         // No tile: a cell miss that adds nothing and is carried over.
-        let b = bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit);
+        let b = bounce_radiance(cells(&keys, &touch, &values), &p, &[], &q, &ray, &hit);
         assert_eq!(b.radiance, Vec3::ZERO);
         assert!(b.missed_cell && b.carry);
         // The tile exists but its cell holds no sample: still a miss.
@@ -320,13 +333,13 @@ mod tests {
             panic!("insert failed");
         };
         assert!(
-            bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit).missed_cell
+            bounce_radiance(cells(&keys, &touch, &values), &p, &[], &q, &ray, &hit).missed_cell
         );
         // Sixteen samples of 3: the cell answers 3, times the albedo clamped to 0.95.
         let c = cell_index(tile, 0, desc.cell[0], desc.cell[1]) as usize;
         assert!(desc.cell[0] < TILE_CELL_RATIO);
         values[c] = HashCellValue::new(Vec3::splat(48.0), 16.0);
-        let b = bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit);
+        let b = bounce_radiance(cells(&keys, &touch, &values), &p, &[], &q, &ray, &hit);
         assert!(!b.missed_cell && !b.carry);
         assert_eq!(
             b.radiance,
@@ -335,19 +348,19 @@ mod tests {
         // Touched 3 frames ago it is still fresh; 4 frames ago it is carried to be refreshed,
         // its value still read.
         touch[tile as usize] = 1;
-        assert!(!bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit).carry);
+        assert!(!bounce_radiance(cells(&keys, &touch, &values), &p, &[], &q, &ray, &hit).carry);
         touch[tile as usize] = 0;
-        let b = bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit);
+        let b = bounce_radiance(cells(&keys, &touch, &values), &p, &[], &q, &ray, &hit);
         assert!(b.carry && !b.missed_cell && b.radiance.x == 1.5);
         touch[tile as usize] = 4;
         // A non-finite cell value adds nothing.
         values[c] = HashCellValue::new(Vec3::splat(f32::INFINITY), 16.0);
-        let b = bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &q, &ray, &hit);
+        let b = bounce_radiance(cells(&keys, &touch, &values), &p, &[], &q, &ray, &hit);
         assert_eq!(b.radiance, Vec3::ZERO);
         // A NaN albedo adds nothing either.
         values[c] = HashCellValue::new(Vec3::splat(48.0), 16.0);
         let bad = query(Vec3::new(f32::NAN, 0.5, 0.5));
-        let b = bounce_radiance(&keys[..], &touch[..], &values, &p, &[], &bad, &ray, &hit);
+        let b = bounce_radiance(cells(&keys, &touch, &values), &p, &[], &bad, &ray, &hit);
         assert!(b.radiance.is_finite());
     }
 
@@ -358,18 +371,18 @@ mod tests {
         let ray = bounce_ray(&q, Vec2::splat(0.5));
         let keys = vec![0u32; 256];
         let touch = vec![0u32; 256];
-        let b = bounce_radiance(&keys[..], &touch[..], &[], &p, &[], &q, &ray, &MISS);
+        let b = bounce_radiance(cells(&keys, &touch, &[]), &p, &[], &q, &ray, &MISS);
         assert_eq!(b.radiance, Vec3::new(0.25, 0.125, 0.5));
         assert!(!b.missed_cell && !b.carry);
         p.view.flags |= FLAG_ENVIRONMENT_LIGHT;
-        let b = bounce_radiance(&keys[..], &touch[..], &[], &p, &[], &q, &ray, &MISS);
+        let b = bounce_radiance(cells(&keys, &touch, &[]), &p, &[], &q, &ray, &MISS);
         assert_eq!(b.radiance, Vec3::ZERO);
         // An untraceable ray brings nothing.
         let mut dead = ray;
         dead.t_max = -1.0;
         p.view.flags = 0;
         assert_eq!(
-            bounce_radiance(&keys[..], &touch[..], &[], &p, &[], &q, &dead, &MISS).radiance,
+            bounce_radiance(cells(&keys, &touch, &[]), &p, &[], &q, &dead, &MISS).radiance,
             Vec3::ZERO
         );
     }

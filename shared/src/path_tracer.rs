@@ -1,14 +1,14 @@
 //! The reference path tracer's per-path function, shared by the kernels and the CPU.
 //!
-//! rust-gpu cannot keep storage-buffer slices (nor an acceleration structure) in a struct, so the
-//! path is not generic over a tracer object: it is a state machine. The caller owns the loop and
+//! The path is not generic over a tracer object (a ray query's acceleration structure cannot be
+//! held in a struct the path would carry): it is a state machine. The caller owns the loop and
 //! the tracing (ray queries, the software BVH on the GPU, or the host's BVH on the CPU):
 //!
 //! ```text
 //! let mut path = begin_path(camera, params, pixel);
 //! while path.active {
 //!     let hit = closest_hit(&path.ray);
-//!     shade(&mut path, &hit, camera, params, <scene buffers>, lights, environment);
+//!     shade(&mut path, &hit, camera, params, surfaces, images, lights);
 //!     if path.shadow_pending && !any_hit(&path.shadow_ray) {
 //!         path.radiance += path.shadow_radiance;
 //!     }
@@ -50,14 +50,16 @@
 //!
 //! # Self-intersection
 //!
-//! Hit points come from the barycentrics, relative to a vertex ([`Surface::position`]); rays
-//! leave them by [`offset_ray_origin`], a few ULPs along the geometric normal, and shadow rays to
-//! an emissive triangle end at the sampled point offset the same way toward the shading point.
+//! Hit points come from the barycentrics, relative to a vertex
+//! ([`Surface::position`](crate::scene_data::Surface::position)); rays leave them by
+//! [`offset_ray_origin`], a few ULPs along the geometric normal, and shadow rays to an emissive
+//! triangle end at the sampled point offset the same way toward the shading point.
 //! Neither depends on the scene's scale.
 //!
 //! `max_bounces` counts reflections: 0 shows only what the camera sees emit, 1 adds direct
 //! lighting, and so on.
 
+use crate::scene_data::SceneSurfaces;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec2, Vec2, Vec3};
 
@@ -67,8 +69,9 @@ use crate::elements::Elements;
 use crate::environment::environment_pdf;
 use crate::hash::pcg_chain;
 use crate::lights::{
-    self, GpuLight, LIGHT_ENVIRONMENT, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, light_of_triangle,
-    power_heuristic, russian_roulette_survival, sample_light, select_light, triangle_light_pdf,
+    self, GpuLight, LIGHT_ENVIRONMENT, LIGHT_TRIANGLE, LightSources, MAX_LIGHT_CANDIDATES,
+    SceneLights, light_of_triangle, power_heuristic, russian_roulette_survival, sample_light,
+    select_light, triangle_light_pdf,
 };
 use crate::math::{INV_PI, max, min_u32};
 use crate::random::Random;
@@ -76,11 +79,8 @@ use crate::ray::{HitRecord, Ray, offset_ray_origin};
 use crate::ray_cone::RayFootprint;
 use crate::reservoir::Reservoir;
 use crate::sampling::{sample_cosine_hemisphere, tangent_to_world};
-use crate::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, Surface, fetch_surface, hit_surface,
-    sample_material,
-};
-use crate::textures::{GpuTexture, TextureImages, UvFootprint};
+use crate::scene_data::{GpuMaterial, GpuTriangle, GpuVertex, hit_surface};
+use crate::textures::{TextureImages, UvFootprint};
 
 /// The largest bounce count a path may take, whatever the parameters ask.
 pub const MAX_BOUNCES: u32 = 64;
@@ -340,10 +340,6 @@ pub struct ShadingFrame {
 }
 
 /// Samples light `index` from `frame` (`u` uniform in `[0, 1)²`).
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 #[inline]
 fn light_candidate(
     frame: &ShadingFrame,
@@ -437,10 +433,6 @@ pub fn environment_light_pdf(
 /// area `area` (selection probability × solid-angle density); `cos_light` the cosine between the
 /// ray and the triangle's normal, `direction_length` the length of the ray's direction (`hit.t`
 /// is in its units). 0 when the triangle is not a light.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 #[inline]
 pub fn emitter_light_pdf(
     params: &PathTracerParams,
@@ -463,29 +455,20 @@ pub fn emitter_light_pdf(
 /// Shades the hit `hit` of `path.ray`: adds emission (MIS-weighted) or sky, prepares a shadow ray
 /// for next-event estimation, and samples the next ray, or ends the path.
 ///
-/// `light_table` is the triangle→light table ([`light_of_triangle`]); `environment_cdf` the
-/// environment's distribution ([`crate::environment`]).
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
+/// `lighting` holds the lights next-event estimation samples and the triangle→light table
+/// ([`light_of_triangle`]) that weighs a hit emitter against them.
 pub fn shade<I: TextureImages + ?Sized>(
     path: &mut PathState,
     hit: &HitRecord,
     camera: &CameraParams,
     params: &PathTracerParams,
-    instances: &[GpuInstance],
-    meshes: &[GpuMesh],
-    vertices: impl Elements<Item = GpuVertex>,
-    triangles: impl Elements<Item = GpuTriangle>,
-    materials: &[GpuMaterial],
-    textures: &[GpuTexture],
+    surfaces: SceneSurfaces<'_, impl Elements<Item = GpuVertex>, impl Elements<Item = GpuTriangle>>,
     images: &I,
-    lights: &[GpuLight],
-    light_table: &[u32],
-    environment: &[[f32; 4]],
-    environment_cdf: &[f32],
+    lighting: SceneLights<'_>,
 ) {
+    let (sources, light_table) = (lighting.sources, lighting.light_table);
+    let (lights, environment) = (sources.lights, sources.environment);
+    let environment_cdf = sources.environment_cdf;
     path.shadow_pending = false;
     let light_count = min_u32(params.light_count, lights.len() as u32);
     let bsdf_pdf = path.bsdf_pdf;
@@ -502,12 +485,7 @@ pub fn shade<I: TextureImages + ?Sized>(
         return;
     }
     let (surface, material) = hit_surface(
-        instances,
-        meshes,
-        vertices,
-        triangles,
-        materials,
-        textures,
+        surfaces,
         images,
         &path.ray,
         hit_footprint(camera, params, path),
@@ -531,7 +509,7 @@ pub fn shade<I: TextureImages + ?Sized>(
     let emission = material.emissive * params.emissive_multiplier;
     if emission.max_element() > 0.0
         && emits_toward(
-            materials,
+            surfaces.materials,
             surface.material,
             surface.geometric_normal,
             -direction,
@@ -562,21 +540,7 @@ pub fn shade<I: TextureImages + ?Sized>(
     };
 
     if light_count > 0 && params.strategy != STRATEGY_BSDF_ONLY {
-        let s = sample_direct_light(
-            &frame,
-            params,
-            instances,
-            meshes,
-            vertices,
-            triangles,
-            materials,
-            textures,
-            images,
-            lights,
-            environment,
-            environment_cdf,
-            &mut path.rng,
-        );
+        let s = sample_direct_light(&frame, params, surfaces, images, sources, &mut path.rng);
         path.shadow_radiance = path.throughput * s.radiance;
         path.shadow_ray = s.ray;
         path.shadow_pending = path.shadow_radiance.max_element() > 0.0;
@@ -622,25 +586,19 @@ pub struct DirectLightSample {
 /// `params.light_candidates` power-proportional candidates, emissive triangles and the
 /// environment MIS-weighted against the folded cosine lobe (the weight that BSDF-sampled rays
 /// complete with [`environment_light_pdf`] and [`emitter_light_pdf`]), punctual lights in full.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 pub fn sample_direct_light<I: TextureImages + ?Sized>(
     frame: &ShadingFrame,
     params: &PathTracerParams,
-    instances: &[GpuInstance],
-    meshes: &[GpuMesh],
-    vertices: impl Elements<Item = GpuVertex>,
-    triangles: impl Elements<Item = GpuTriangle>,
-    materials: &[GpuMaterial],
-    textures: &[GpuTexture],
+    surfaces: SceneSurfaces<'_, impl Elements<Item = GpuVertex>, impl Elements<Item = GpuTriangle>>,
     images: &I,
-    lights: &[GpuLight],
-    environment: &[[f32; 4]],
-    environment_cdf: &[f32],
+    lighting: LightSources<'_>,
     rng: &mut Random,
 ) -> DirectLightSample {
+    let LightSources {
+        lights,
+        environment,
+        environment_cdf,
+    } = lighting;
     let mut out = DirectLightSample {
         ray: LightCandidate::NONE.ray,
         radiance: Vec3::ZERO,
@@ -686,24 +644,10 @@ pub fn sample_direct_light<I: TextureImages + ?Sized>(
     let mut radiance = chosen.radiance;
     let light = lights[chosen.light as usize];
     if light.kind == LIGHT_TRIANGLE {
-        let s: Surface = fetch_surface(
-            instances,
-            meshes,
-            vertices,
-            triangles,
-            light.instance,
-            light.primitive,
-            chosen.barycentrics,
-        );
-        radiance = sample_material(
-            materials,
-            textures,
-            images,
-            s.material,
-            s.uv,
-            UvFootprint::POINT,
-        )
-        .emissive
+        let s = surfaces.surface(light.instance, light.primitive, chosen.barycentrics);
+        radiance = surfaces
+            .material(images, s.material, s.uv, UvFootprint::POINT)
+            .emissive
             * params.emissive_multiplier;
     }
     out.radiance = chosen.weight * radiance * reservoir.ucw;
@@ -841,17 +785,9 @@ mod tests {
             &HitRecord::miss(),
             &camera,
             &params,
-            &[],
-            &[],
-            &[],
-            &[],
-            &[],
-            &[],
+            SceneSurfaces::EMPTY,
             &[][..],
-            &[],
-            &[],
-            &[],
-            &[],
+            SceneLights::EMPTY,
         );
         assert!(!path.active && !path.shadow_pending);
         assert_eq!(path.radiance, Vec3::new(0.5, 1.0, 2.0));

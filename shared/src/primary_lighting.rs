@@ -74,6 +74,10 @@ pub struct PrimaryLighting {
     pub emissive: u32,
 }
 
+impl crate::layout::FloatLayout for PrimaryLighting {
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 4, 5, 6];
+}
+
 impl PrimaryLighting {
     /// Emission (or sky) radiance.
     #[inline]
@@ -383,6 +387,14 @@ mod tests {
 
     #[test]
     fn layout() {
+        use crate::layout::{FloatLayout, float_field_words};
+        assert_eq!(
+            PrimaryLighting::FLOAT_WORDS,
+            float_field_words(&[
+                (offset_of!(PrimaryLighting, emission), 3),
+                (offset_of!(PrimaryLighting, direct), 3)
+            ])
+        );
         assert_eq!(size_of::<PrimaryLighting>(), 32);
         assert_eq!(offset_of!(PrimaryLighting, surface), 12);
         assert_eq!(offset_of!(PrimaryLighting, direct), 16);

@@ -20,7 +20,7 @@ use crate::cache_view::running_mean;
 use crate::camera::{CameraParams, to_clip, uv_of_clip};
 use crate::math::{abs, to_u32_clamped};
 use crate::packing::unpack_snorm10x3;
-use crate::world_cache::{CacheQuery, CacheViewPixel};
+use crate::world_cache::{CacheQuery, RayRecord};
 use bytemuck::{Pod, Zeroable};
 
 /// Largest relative difference between the previous frame's depth and the hit's depth there.
@@ -97,6 +97,10 @@ pub struct FeedbackTexel {
     pub valid: u32,
 }
 
+impl crate::layout::FloatLayout for FeedbackTexel {
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 3, 4, 5, 6];
+}
+
 /// What temporal radiance feedback found for a query.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FeedbackLookup {
@@ -146,12 +150,7 @@ pub fn feedback_lookup(
 /// image, its G-buffer depth and geometric normal; no source where it saw no surface or an
 /// emitter.
 #[inline]
-pub fn feedback_texel(
-    pixel: &CacheViewPixel,
-    sum: [f32; 4],
-    depth: f32,
-    normal: Vec3,
-) -> FeedbackTexel {
+pub fn feedback_texel(pixel: &RayRecord, sum: [f32; 4], depth: f32, normal: Vec3) -> FeedbackTexel {
     FeedbackTexel {
         radiance: running_mean(sum).to_array(),
         depth,
@@ -280,6 +279,16 @@ mod tests {
 
     #[test]
     fn feedback_texel_layout() {
+        use crate::layout::{FloatLayout, float_field_words};
+        use core::mem::offset_of;
+        assert_eq!(
+            FeedbackTexel::FLOAT_WORDS,
+            float_field_words(&[
+                (offset_of!(FeedbackTexel, radiance), 3),
+                (offset_of!(FeedbackTexel, depth), 1),
+                (offset_of!(FeedbackTexel, normal), 3)
+            ])
+        );
         assert_eq!(core::mem::size_of::<FeedbackTexel>(), 32);
     }
 }

@@ -417,32 +417,92 @@ pub fn fetch_surface(
     }
 }
 
+/// The shading data's buffers that every pass shading a hit reads (the texture images stay
+/// beside it: a composite holding the kernels' bindless array fails SPIR-V validation unless
+/// every function that sees it is inlined). The arrays that scale with the triangle count are
+/// read through [`Elements`]: slices on the CPU, split bindings in the kernels.
+#[derive(Clone, Copy)]
+pub struct SceneSurfaces<'a, V = &'a [GpuVertex], T = &'a [GpuTriangle]> {
+    /// The instances; a hit's instance indexes them.
+    pub instances: &'a [GpuInstance],
+    /// The meshes.
+    pub meshes: &'a [GpuMesh],
+    /// Every mesh's vertices.
+    pub vertices: V,
+    /// Every mesh's triangles.
+    pub triangles: T,
+    /// The materials.
+    pub materials: &'a [GpuMaterial],
+    /// The texture table.
+    pub textures: &'a [GpuTexture],
+}
+
+impl SceneSurfaces<'static> {
+    /// No instances, meshes, vertices, triangles, materials or textures.
+    pub const EMPTY: Self = Self {
+        instances: &[],
+        meshes: &[],
+        vertices: &[],
+        triangles: &[],
+        materials: &[],
+        textures: &[],
+    };
+}
+
+impl<V: Elements<Item = GpuVertex>, T: Elements<Item = GpuTriangle>> SceneSurfaces<'_, V, T> {
+    /// Triangle `primitive` of `instance` at `barycentrics` ([`fetch_surface`]).
+    #[inline]
+    pub fn surface(&self, instance: u32, primitive: u32, barycentrics: Vec2) -> Surface {
+        fetch_surface(
+            self.instances,
+            self.meshes,
+            self.vertices,
+            self.triangles,
+            instance,
+            primitive,
+            barycentrics,
+        )
+    }
+
+    /// Material `material` at `uv`, its textures filtered over `footprint`
+    /// ([`sample_material`]).
+    #[inline]
+    pub fn material<I: TextureImages + ?Sized>(
+        &self,
+        images: &I,
+        material: u32,
+        uv: Vec2,
+        footprint: UvFootprint,
+    ) -> MaterialSample {
+        sample_material(
+            self.materials,
+            self.textures,
+            images,
+            material,
+            uv,
+            footprint,
+        )
+    }
+}
+
 /// Whether the surface of triangle `primitive` of `instance` exists at `barycentrics`: false only
 /// where its material is alpha-masked and the base colour's alpha (factor × texture at level 0,
 /// the exact coverage: no mip level erodes it) is below the cutoff. Meant for the triangles of
 /// meshes flagged [`MESH_ALPHA_TESTED`]: both traversals call it on their hits.
-#[allow(clippy::too_many_arguments, reason = "one argument per scene buffer")]
-pub fn alpha_visible<I: TextureImages + ?Sized>(
-    instances: &[GpuInstance],
-    meshes: &[GpuMesh],
-    vertices: impl Elements<Item = GpuVertex>,
-    triangles: impl Elements<Item = GpuTriangle>,
-    materials: &[GpuMaterial],
-    textures: &[GpuTexture],
+pub fn alpha_visible<V, T, I>(
+    surfaces: SceneSurfaces<'_, V, T>,
     images: &I,
     instance: u32,
     primitive: u32,
     barycentrics: Vec2,
-) -> bool {
-    let s = fetch_surface(
-        instances,
-        meshes,
-        vertices,
-        triangles,
-        instance,
-        primitive,
-        barycentrics,
-    );
+) -> bool
+where
+    V: Elements<Item = GpuVertex>,
+    T: Elements<Item = GpuTriangle>,
+    I: TextureImages + ?Sized,
+{
+    let s = surfaces.surface(instance, primitive, barycentrics);
+    let materials = surfaces.materials;
     let cutoff = if (s.material as usize) < materials.len() {
         materials[s.material as usize].alpha_cutoff
     } else {
@@ -452,14 +512,7 @@ pub fn alpha_visible<I: TextureImages + ?Sized>(
     if cutoff.is_nan() || cutoff <= 0.0 {
         return true;
     }
-    let m = sample_material(
-        materials,
-        textures,
-        images,
-        s.material,
-        s.uv,
-        UvFootprint::POINT,
-    );
+    let m = surfaces.material(images, s.material, s.uv, UvFootprint::POINT);
     m.base_color.w >= cutoff
 }
 
@@ -474,25 +527,20 @@ pub struct MaterialSample {
 
 /// The surface `hit` (of `ray`) landed on and its material there, its textures filtered over the
 /// ray's `footprint` there: what every pass that shades a hit needs.
-#[allow(clippy::too_many_arguments, reason = "one argument per scene buffer")]
 #[inline]
-pub fn hit_surface<I: TextureImages + ?Sized>(
-    instances: &[GpuInstance],
-    meshes: &[GpuMesh],
-    vertices: impl Elements<Item = GpuVertex>,
-    triangles: impl Elements<Item = GpuTriangle>,
-    materials: &[GpuMaterial],
-    textures: &[GpuTexture],
+pub fn hit_surface<V, T, I>(
+    surfaces: SceneSurfaces<'_, V, T>,
     images: &I,
     ray: &Ray,
     footprint: RayFootprint,
     hit: &HitRecord,
-) -> (Surface, MaterialSample) {
-    let surface = fetch_surface(
-        instances,
-        meshes,
-        vertices,
-        triangles,
+) -> (Surface, MaterialSample)
+where
+    V: Elements<Item = GpuVertex>,
+    T: Elements<Item = GpuTriangle>,
+    I: TextureImages + ?Sized,
+{
+    let surface = surfaces.surface(
         hit.instance,
         hit.primitive,
         Vec2::from_array(hit.barycentrics),
@@ -505,14 +553,7 @@ pub fn hit_surface<I: TextureImages + ?Sized>(
         surface.uv_area,
         surface.uv_gradients,
     );
-    let material = sample_material(
-        materials,
-        textures,
-        images,
-        surface.material,
-        surface.uv,
-        uv_footprint,
-    );
+    let material = surfaces.material(images, surface.material, surface.uv, uv_footprint);
     (surface, material)
 }
 
@@ -671,12 +712,14 @@ mod tests {
         let visible = |material: GpuMaterial, uv: Vec2| {
             // Barycentrics of (u, v) on this triangle: (u, v) themselves.
             alpha_visible(
-                &instances,
-                &meshes,
-                &vertices,
-                &triangles,
-                &[material],
-                &textures,
+                SceneSurfaces {
+                    instances: &instances,
+                    meshes: &meshes,
+                    vertices: &vertices,
+                    triangles: &triangles,
+                    materials: &[material],
+                    textures: &textures,
+                },
                 &texels[..],
                 0,
                 0,

@@ -9,7 +9,8 @@ use crate::elements::Elements;
 use crate::light_grid::{
     DiffuseHit, LightGridEntry, LightGridParams, LightGridSample, sample_light_grid,
 };
-use crate::lights::{GpuLight, sky_radiance};
+use crate::lights::sky_radiance;
+use crate::lights::{LightSources, SceneLights};
 use crate::math::INV_PI;
 use crate::packing::pack_snorm10x3;
 use crate::path_tracer::{
@@ -20,14 +21,12 @@ use crate::primary_surface::PrimarySurface;
 use crate::random::Random;
 use crate::ray::{HitRecord, Ray, offset_ray_origin};
 use crate::ray_cone::{RayCone, RayFootprint};
-use crate::scene_data::{
-    GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, MaterialSample, NONE, Surface,
-    hit_surface,
-};
+use crate::scene_data::SceneSurfaces;
+use crate::scene_data::{GpuTriangle, GpuVertex, MaterialSample, NONE, Surface, hit_surface};
 use crate::screen_probes::PROBE_CELLS;
-use crate::textures::{GpuTexture, TextureImages};
+use crate::textures::TextureImages;
 use crate::world_cache::{
-    CacheQuery, CacheViewParams, FLAG_EMITTERS_SAMPLED, FLAG_ENVIRONMENT_LIGHT, FLAG_PROBE_RAYS,
+    CacheFrameParams, CacheQuery, FLAG_EMITTERS_SAMPLED, FLAG_ENVIRONMENT_LIGHT, FLAG_PROBE_RAYS,
     NO_TILE, SHADOW_BYPASS, ShadowRay, finite_sample,
 };
 use glam::Vec3;
@@ -44,35 +43,36 @@ pub struct CacheHit {
     pub has_query: bool,
 }
 
-/// Shades the cosine ray `ray` of `primary`, pixel `ray_index`, with closest hit `hit`: a miss
+/// A ray a pass traced from a primary hit: the ray, its closest hit, and its index among the
+/// frame's rays (the key that orders its query, `CacheQuery::ray_index`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TracedRay {
+    /// The cosine ray.
+    pub ray: Ray,
+    /// Its closest hit, or [`HitRecord::miss`].
+    pub hit: HitRecord,
+    /// Its index among the frame's rays (a pixel or a probe cell).
+    pub index: u32,
+}
+
+/// Shades the cosine ray `traced` of `primary`: a miss
 /// sees the sky; a hit on a side that emits takes its emission (× the multiplier) straight into
 /// the ray, never into a cell ("adding emissive to cells enlarges the light and leaks"); both are
 /// MIS-weighted against [`primary_direct_light`](crate::cache_view::primary_direct_light) as the path tracer weighs them. Every hit,
 /// emitter or not, also becomes a query of a diffuse surface (normals facing the ray's origin):
 /// an emitter reflects light too, and dropping it darkened every emissive surface's
 /// surroundings (a closed furnace whose walls all emit got no reflected light at all).
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 pub fn shade_cache_hit<I: TextureImages + ?Sized>(
-    view: &CacheViewParams,
-    ray: &Ray,
+    view: &CacheFrameParams,
     primary: &PrimarySurface,
-    hit: &HitRecord,
-    ray_index: u32,
-    instances: &[GpuInstance],
-    meshes: &[GpuMesh],
-    vertices: impl Elements<Item = GpuVertex>,
-    triangles: impl Elements<Item = GpuTriangle>,
-    materials: &[GpuMaterial],
-    textures: &[GpuTexture],
+    traced: &TracedRay,
+    surfaces: SceneSurfaces<'_, impl Elements<Item = GpuVertex>, impl Elements<Item = GpuTriangle>>,
     images: &I,
-    lights: &[GpuLight],
-    light_table: &[u32],
-    environment: &[[f32; 4]],
-    environment_cdf: &[f32],
+    lighting: SceneLights<'_>,
 ) -> CacheHit {
+    let (ray, hit, ray_index) = (&traced.ray, &traced.hit, traced.index);
+    let sources = lighting.sources;
+    let (lights, environment) = (sources.lights, sources.environment);
     let mut out = CacheHit {
         radiance: Vec3::ZERO,
         query: CacheQuery::default(),
@@ -91,29 +91,18 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
     let bsdf_pdf =
         folded_cosine(primary.shading_normal, primary.geometric_normal, direction) * INV_PI;
     if !hit.is_hit() {
-        let light_pdf = environment_light_pdf(&params, lights, environment_cdf, direction);
+        let light_pdf = environment_light_pdf(&params, lights, sources.environment_cdf, direction);
         out.radiance = sky_radiance(view.environment_size, view.sky, environment, direction)
             * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);
         return out;
     }
-    let (surface, material) = hit_surface(
-        instances,
-        meshes,
-        vertices,
-        triangles,
-        materials,
-        textures,
-        images,
-        ray,
-        secondary_hit_footprint(),
-        hit,
-    );
+    let (surface, material) = hit_surface(surfaces, images, ray, secondary_hit_footprint(), hit);
     let emission = material.emissive * view.emissive_multiplier;
     // With emitter sampling the primary hit has taken a probe ray's emitter already.
     if emission.max_element() > 0.0
         && !view.has(FLAG_PROBE_RAYS | FLAG_EMITTERS_SAMPLED)
         && emits_toward(
-            materials,
+            surfaces.materials,
             surface.material,
             surface.geometric_normal,
             -direction,
@@ -122,7 +111,7 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
         let light_pdf = emitter_light_pdf(
             &params,
             lights,
-            light_table,
+            lighting.light_table,
             hit,
             surface.area,
             surface.geometric_normal.dot(direction),
@@ -187,7 +176,7 @@ pub fn surface_query(
 /// The path tracer's parameters that its light sampling and MIS read, from the view's: the
 /// primary hit is lit exactly as the path tracer lights its first hit.
 #[inline]
-pub fn path_params(view: &CacheViewParams) -> PathTracerParams {
+pub fn path_params(view: &CacheFrameParams) -> PathTracerParams {
     PathTracerParams {
         sky: view.sky,
         emissive_multiplier: view.emissive_multiplier,
@@ -255,29 +244,15 @@ pub fn shadow_ray_radiance(shadow: &ShadowRay, occluded: bool) -> Vec3 {
 
 /// Light sampling at a query's hit through the light grid (RIS over its candidates, one shadow
 /// ray: [`shadow_ray`]).
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 #[inline]
 pub fn sample_query_light(
     grid: &LightGridParams,
     entries: &[LightGridEntry],
-    lights: &[GpuLight],
-    environment: &[[f32; 4]],
-    environment_cdf: &[f32],
+    lighting: LightSources<'_>,
     query: &CacheQuery,
     rng: &mut Random,
 ) -> LightGridSample {
-    sample_light_grid(
-        grid,
-        entries,
-        lights,
-        environment,
-        environment_cdf,
-        &diffuse_hit(query),
-        rng,
-    )
+    sample_light_grid(grid, entries, lighting, &diffuse_hit(query), rng)
 }
 
 /// The footprint a secondary hit's textures are filtered for: a probe traces one ray per

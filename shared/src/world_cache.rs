@@ -1,5 +1,5 @@
 //! The world-space radiance cache's records and flags: what every cache pass reads and writes
-//! ([`CacheQuery`], [`ShadowRay`], the ray records [`CacheViewPixel`], the push constants
+//! ([`CacheQuery`], [`ShadowRay`], the ray records [`RayRecord`], the push constants
 //! [`CachePassParams`] and the counter words), the random streams of its passes
 //! ([`pass_random`]), and the per-query steps of InsertRadianceCache and ResolveRadianceCache,
 //! so that the CPU runs (and tests) them too. The host strings the passes together in
@@ -47,7 +47,7 @@
 //! RIS samples every light of the light buffer through the light grid and the hit's own emission
 //! is never added. `gi` turns a constant `--sky` into a
 //! uniform environment image (`Environment::constant` on the host), so both hits sample it; a
-//! constant [`CacheViewParams::sky`] alone is not in the light buffer: the cosine ray alone finds
+//! constant [`CacheFrameParams::sky`] alone is not in the light buffer: the cosine ray alone finds
 //! it at the primary hit, and secondary hits only through feedback.
 //!
 //! With temporal feedback, a secondary hit that reprojects into the previous frame's image takes
@@ -70,7 +70,7 @@ use crate::atomics::AtomicWords;
 use crate::hash::pcg_chain;
 use crate::hash_cells::accumulate::accumulate_sample as accumulate_cell_sample;
 use crate::hash_cells::full_buckets::{is_admitted, is_new_tile, note_new_key, settle_tile};
-use crate::hash_cells::layout::{HashCellValue, HashGridParams};
+use crate::hash_cells::layout::{HashCellValue, HashCellsInsert, HashGridParams};
 use crate::hash_cells::lists::{
     FAILED_INSERTS, UPDATE_TILES, begin_frame, count, live_list, push_tile,
 };
@@ -111,40 +111,40 @@ pub const CARRIED_QUERY_BIT: u32 = 1 << 31;
 /// [`QUERY_BYPASS`]).
 pub const SHADOW_BYPASS: u32 = 1;
 
-/// [`CacheViewParams::flags`]: temporal radiance feedback on.
+/// [`CacheFrameParams::flags`]: temporal radiance feedback on.
 pub const FLAG_FEEDBACK: u32 = 1;
 
-/// [`CacheViewParams::flags`]: the previous frame's image exists (feedback needs it).
+/// [`CacheFrameParams::flags`]: the previous frame's image exists (feedback needs it).
 pub const FLAG_HISTORY: u32 = 2;
 
-/// [`CacheViewParams::flags`]: the descriptor's short-ray flag on (light-leak fix 1). Off, every
+/// [`CacheFrameParams::flags`]: the descriptor's short-ray flag on (light-leak fix 1). Off, every
 /// query is keyed as a long ray.
 pub const FLAG_SHORT_RAY: u32 = 4;
 
-/// [`CacheViewParams::flags`]: short queries bypass the cell's filtered radiance (light-leak
+/// [`CacheFrameParams::flags`]: short queries bypass the cell's filtered radiance (light-leak
 /// fix 2).
 pub const FLAG_BYPASS: u32 = 8;
 
-/// [`CacheViewParams::flags`]: world-space ReSTIR temporal reuse on.
+/// [`CacheFrameParams::flags`]: world-space ReSTIR temporal reuse on.
 pub const FLAG_RESTIR: u32 = 16;
 
-/// [`CacheViewParams::flags`]: the previous frame's reservoir grid exists (ReSTIR was on then).
+/// [`CacheFrameParams::flags`]: the previous frame's reservoir grid exists (ReSTIR was on then).
 pub const FLAG_RESTIR_HISTORY: u32 = 32;
 
-/// [`CacheViewParams::flags`]: the light buffer's last light is the environment (the path
+/// [`CacheFrameParams::flags`]: the light buffer's last light is the environment (the path
 /// tracer's `environment_light`), which MIS weighs misses against.
 pub const FLAG_ENVIRONMENT_LIGHT: u32 = 64;
 
-/// [`CacheViewParams::flags`]: the rays are screen-probe rays: their origin samples no emitter
+/// [`CacheFrameParams::flags`]: the rays are screen-probe rays: their origin samples no emitter
 /// and no environment (the GI frame's primary hit samples punctual lights alone), so a miss and
 /// an emissive hit count in full rather than MIS-weighted.
 pub const FLAG_PROBE_RAYS: u32 = 128;
 
-/// [`CacheViewParams::flags`]: multi-bounce through the world cache (`crate::multi_bounce`):
+/// [`CacheFrameParams::flags`]: multi-bounce through the world cache (`crate::multi_bounce`):
 /// every query that takes a light sample also traces a bounce ray and adds the cell it hits.
 pub const FLAG_MULTI_BOUNCE: u32 = 256;
 
-/// [`CacheViewParams::flags`], with [`FLAG_PROBE_RAYS`]: the GI frame's primary hit samples the
+/// [`CacheFrameParams::flags`], with [`FLAG_PROBE_RAYS`]: the GI frame's primary hit samples the
 /// emissive triangles (`FLAG_EMITTER_SAMPLING`), so a probe ray's emissive hit adds nothing (a
 /// miss still brings the sky in full).
 pub const FLAG_EMITTERS_SAMPLED: u32 = 512;
@@ -245,7 +245,8 @@ pub fn carry_query<C: AtomicWords + ?Sized>(
     }
 }
 
-/// The view's settings as the kernels see them (80 bytes).
+/// The frame's settings of the world-cache passes (the GI frame's and the cache view's), as the
+/// kernels see them (80 bytes).
 ///
 /// | offset | field                    |
 /// |--------|--------------------------|
@@ -265,7 +266,7 @@ pub fn carry_query<C: AtomicWords + ?Sized>(
 /// | 76     | `reservoir_buckets`      |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct CacheViewParams {
+pub struct CacheFrameParams {
     /// Constant sky radiance for misses without an environment image.
     pub sky: [f32; 3],
     /// Frame counter: random streams differ per frame.
@@ -301,7 +302,7 @@ pub struct CacheViewParams {
     pub reservoir_buckets: u32,
 }
 
-impl CacheViewParams {
+impl CacheFrameParams {
     /// Whether every bit of `flag` is set.
     #[inline]
     pub fn has(&self, flag: u32) -> bool {
@@ -316,7 +317,7 @@ pub struct CachePassParams {
     /// The hash grid's parameters (eye, LOD constants, sizes, frame).
     pub grid: HashGridParams,
     /// The view's.
-    pub view: CacheViewParams,
+    pub view: CacheFrameParams,
 }
 
 /// One secondary hit that queries the cache (80 bytes), appended by TraceCacheRays.
@@ -361,6 +362,10 @@ pub struct CacheQuery {
     pub flags: u32,
     /// Explicit padding.
     pub _pad: [u32; 2],
+}
+
+impl crate::layout::FloatLayout for CacheQuery {
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 4, 5, 6, 7, 8, 9, 10, 12, 13, 14];
 }
 
 impl CacheQuery {
@@ -416,6 +421,10 @@ pub struct ShadowRay {
     pub flags: u32,
 }
 
+impl crate::layout::FloatLayout for ShadowRay {
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 4, 5, 6, 7, 8, 9, 10];
+}
+
 impl ShadowRay {
     /// The ray to trace.
     #[inline]
@@ -433,7 +442,7 @@ impl ShadowRay {
 /// completed by the cache passes and read by the composite.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct CacheViewPixel {
+pub struct RayRecord {
     /// Radiance arriving along the cosine ray (sky, emission, feedback, light sample or cache).
     pub ray_radiance: [f32; 3],
     /// 1 when the pixel sees a surface.
@@ -444,6 +453,10 @@ pub struct CacheViewPixel {
     /// hit that is not an emitter and reprojects there lies on another surface, next to the
     /// emitter, and would take its emission).
     pub emissive: u32,
+}
+
+impl crate::layout::FloatLayout for RayRecord {
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 4, 5, 6];
 }
 
 /// [`pass_random`]'s stream of TraceCacheRays.
@@ -475,26 +488,17 @@ pub fn pass_random(seed: u32, pixel_or_item: u32, pass: u32, frame: u32) -> Rand
 /// update; a full bucket leaves [`NO_TILE`] and [`QUERY_REFUSED`] for [`admit_query`]. New keys
 /// are noted in `marks`. The query's [`QUERY_BYPASS`] flag is set here too (it needs the cell
 /// size).
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 #[inline]
 pub fn insert_query<K, T, L, C, M>(
-    keys: &mut K,
-    last_touch: &mut T,
-    values: &mut [HashCellValue],
-    lists: &mut L,
-    counters: &mut C,
-    marks: &mut M,
+    mut cells: HashCellsInsert<'_, K, T, L, C, M>,
     params: &CachePassParams,
     query: &mut CacheQuery,
 ) where
-    K: AtomicWords + ?Sized,
-    T: AtomicWords + ?Sized,
-    L: AtomicWords + ?Sized,
-    C: AtomicWords + ?Sized,
-    M: AtomicWords + ?Sized,
+    K: AtomicWords,
+    T: AtomicWords,
+    L: AtomicWords,
+    C: AtomicWords,
+    M: AtomicWords,
 {
     query.tile = NO_TILE;
     let desc = query_cell(params, query);
@@ -503,11 +507,9 @@ pub fn insert_query<K, T, L, C, M>(
     }
     if is_bypass(&params.view, query.hit_distance, desc.cell_size()) {
         query.flags |= QUERY_BYPASS;
-        counters.fetch_add(BYPASS_COUNT, 1);
+        cells.counters.fetch_add(BYPASS_COUNT, 1);
     }
-    place_query(
-        keys, last_touch, values, lists, counters, marks, params, query, &desc,
-    );
+    place_query(&mut cells, params, query, &desc);
 }
 
 /// The cell a query's hit falls into, as InsertRadianceCache keys it.
@@ -524,28 +526,27 @@ fn query_cell(params: &CachePassParams, query: &CacheQuery) -> CellDescriptor {
 /// Finds or inserts the tile of `desc` for `query` (see [`insert_query`]). A tile inserted into a
 /// slot a full bucket took back this frame is on the frame's lists already: it is neither listed
 /// nor counted again.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 #[inline]
 fn place_query<K, T, L, C, M>(
-    keys: &mut K,
-    last_touch: &mut T,
-    values: &mut [HashCellValue],
-    lists: &mut L,
-    counters: &mut C,
-    marks: &mut M,
+    cells: &mut HashCellsInsert<'_, K, T, L, C, M>,
     params: &CachePassParams,
     query: &mut CacheQuery,
     desc: &CellDescriptor,
 ) where
-    K: AtomicWords + ?Sized,
-    T: AtomicWords + ?Sized,
-    L: AtomicWords + ?Sized,
-    C: AtomicWords + ?Sized,
-    M: AtomicWords + ?Sized,
+    K: AtomicWords,
+    T: AtomicWords,
+    L: AtomicWords,
+    C: AtomicWords,
+    M: AtomicWords,
 {
+    let HashCellsInsert {
+        keys,
+        last_touch,
+        values,
+        lists,
+        counters,
+        marks,
+    } = cells;
     let grid = &params.grid;
     let tile_count = grid.tile_count();
     let tile = match insert_tile(keys, desc, grid) {
@@ -598,40 +599,29 @@ pub fn settle_query<K, L, M>(
 
 /// InsertRadianceCache's third step for one query: a refused query whose key is its bucket's
 /// smallest new one inserts it again; every other refused query counts a failed insert.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 #[inline]
 pub fn admit_query<K, T, L, C, M>(
-    keys: &mut K,
-    last_touch: &mut T,
-    values: &mut [HashCellValue],
-    lists: &mut L,
-    counters: &mut C,
-    marks: &mut M,
+    mut cells: HashCellsInsert<'_, K, T, L, C, M>,
     params: &CachePassParams,
     query: &mut CacheQuery,
 ) where
-    K: AtomicWords + ?Sized,
-    T: AtomicWords + ?Sized,
-    L: AtomicWords + ?Sized,
-    C: AtomicWords + ?Sized,
-    M: AtomicWords + ?Sized,
+    K: AtomicWords,
+    T: AtomicWords,
+    L: AtomicWords,
+    C: AtomicWords,
+    M: AtomicWords,
 {
     if query.flags & QUERY_REFUSED == 0 {
         return;
     }
     let desc = query_cell(params, query);
-    if is_admitted(marks, &desc, &params.grid) {
-        place_query(
-            keys, last_touch, values, lists, counters, marks, params, query, &desc,
-        );
+    if is_admitted(&cells.marks, &desc, &params.grid) {
+        place_query(&mut cells, params, query, &desc);
     }
     // Refused again only where the bucket was full of older keys.
     query.flags &= !QUERY_REFUSED;
     if query.tile == NO_TILE {
-        count(lists, FAILED_INSERTS);
+        count(&mut cells.lists, FAILED_INSERTS);
     }
 }
 
@@ -665,14 +655,14 @@ pub fn cache_radiance(values: &[HashCellValue], query: &CacheQuery, min_samples:
 /// Light-leak fix 2: whether a hit `hit_distance` from its ray's origin bypasses its cell's
 /// filtered radiance, being closer than `cell_size` (the hit's cell size).
 #[inline]
-pub fn is_bypass(view: &CacheViewParams, hit_distance: f32, cell_size: f32) -> bool {
+pub fn is_bypass(view: &CacheFrameParams, hit_distance: f32, cell_size: f32) -> bool {
     view.has(FLAG_BYPASS) && hit_distance < cell_size
 }
 
 /// The hit distance the descriptor keys a hit by: its own, or (short-ray flag off) the largest
 /// finite distance, so that no hit counts as short.
 #[inline]
-pub fn keyed_hit_distance(view: &CacheViewParams, hit_distance: f32) -> f32 {
+pub fn keyed_hit_distance(view: &CacheFrameParams, hit_distance: f32) -> f32 {
     if view.has(FLAG_SHORT_RAY) {
         hit_distance
     } else {
@@ -718,19 +708,49 @@ pub fn finite_sample(v: Vec3) -> Vec3 {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    /// A buffer of words the CPU model inserts into.
+    type Words<'a> = &'a mut [u32];
     use crate::packing::pack_snorm10x3;
     use core::mem::{offset_of, size_of};
 
     #[test]
     fn layouts() {
-        assert_eq!(size_of::<CacheViewParams>(), 80);
-        assert_eq!(offset_of!(CacheViewParams, flags), 28);
-        assert_eq!(offset_of!(CacheViewParams, environment_size), 32);
-        assert_eq!(offset_of!(CacheViewParams, environment_irradiance), 40);
-        assert_eq!(offset_of!(CacheViewParams, image_size), 48);
-        assert_eq!(offset_of!(CacheViewParams, reservoir_cell_const), 60);
-        assert_eq!(offset_of!(CacheViewParams, previous_eye), 64);
-        assert_eq!(offset_of!(CacheViewParams, reservoir_buckets), 76);
+        use crate::layout::{FloatLayout, float_field_words};
+        assert_eq!(
+            RayRecord::FLOAT_WORDS,
+            float_field_words(&[
+                (offset_of!(RayRecord, ray_radiance), 3),
+                (offset_of!(RayRecord, base), 3)
+            ])
+        );
+        assert_eq!(
+            ShadowRay::FLOAT_WORDS,
+            float_field_words(&[
+                (offset_of!(ShadowRay, origin), 3),
+                (offset_of!(ShadowRay, direction), 3),
+                (offset_of!(ShadowRay, t_max), 1),
+                (offset_of!(ShadowRay, contribution), 3)
+            ])
+        );
+        assert_eq!(
+            CacheQuery::FLOAT_WORDS,
+            float_field_words(&[
+                (offset_of!(CacheQuery, hit_position), 3),
+                (offset_of!(CacheQuery, direction), 3),
+                (offset_of!(CacheQuery, hit_distance), 1),
+                (offset_of!(CacheQuery, normal), 3),
+                (offset_of!(CacheQuery, albedo), 3)
+            ])
+        );
+        assert_eq!(size_of::<CacheFrameParams>(), 80);
+        assert_eq!(offset_of!(CacheFrameParams, flags), 28);
+        assert_eq!(offset_of!(CacheFrameParams, environment_size), 32);
+        assert_eq!(offset_of!(CacheFrameParams, environment_irradiance), 40);
+        assert_eq!(offset_of!(CacheFrameParams, image_size), 48);
+        assert_eq!(offset_of!(CacheFrameParams, reservoir_cell_const), 60);
+        assert_eq!(offset_of!(CacheFrameParams, previous_eye), 64);
+        assert_eq!(offset_of!(CacheFrameParams, reservoir_buckets), 76);
         assert_eq!(size_of::<CachePassParams>(), 128);
         assert!(size_of::<CachePassParams>() <= crate::layout::MAX_PUSH_CONSTANT_BYTES);
         assert_eq!(offset_of!(CachePassParams, view), 48);
@@ -746,7 +766,7 @@ pub(crate) mod tests {
         assert_eq!(offset_of!(ShadowRay, query), 12);
         assert_eq!(offset_of!(ShadowRay, t_max), 28);
         assert_eq!(offset_of!(ShadowRay, flags), 44);
-        assert_eq!(size_of::<CacheViewPixel>(), 32);
+        assert_eq!(size_of::<RayRecord>(), 32);
     }
 
     #[test]
@@ -831,6 +851,20 @@ pub(crate) mod tests {
             }
         }
 
+        /// The buffers an insert writes.
+        fn cells(
+            &mut self,
+        ) -> HashCellsInsert<'_, Words<'_>, Words<'_>, Words<'_>, Words<'_>, Words<'_>> {
+            HashCellsInsert {
+                keys: &mut self.keys[..],
+                last_touch: &mut self.touch[..],
+                values: &mut self.values,
+                lists: &mut self.lists[..],
+                counters: &mut self.counters[..],
+                marks: &mut self.marks[..],
+            }
+        }
+
         /// A new frame's counters and lists (the hash grid kept).
         fn next_frame(&mut self) {
             self.counters = [0; CACHE_COUNTER_WORDS];
@@ -841,16 +875,7 @@ pub(crate) mod tests {
             use crate::hash_cells::full_buckets::MARKS_CLEAR;
             self.marks.fill(MARKS_CLEAR);
             for q in queries.iter_mut() {
-                insert_query(
-                    &mut self.keys[..],
-                    &mut self.touch[..],
-                    &mut self.values,
-                    &mut self.lists[..],
-                    &mut self.counters[..],
-                    &mut self.marks[..],
-                    params,
-                    q,
-                );
+                insert_query(self.cells(), params, q);
             }
             for q in queries.iter_mut() {
                 settle_query(
@@ -862,16 +887,7 @@ pub(crate) mod tests {
                 );
             }
             for q in queries.iter_mut() {
-                admit_query(
-                    &mut self.keys[..],
-                    &mut self.touch[..],
-                    &mut self.values,
-                    &mut self.lists[..],
-                    &mut self.counters[..],
-                    &mut self.marks[..],
-                    params,
-                    q,
-                );
+                admit_query(self.cells(), params, q);
             }
         }
     }
@@ -883,7 +899,7 @@ pub(crate) mod tests {
         use crate::hash_cells::lists::list_len;
         let mut params = CachePassParams {
             grid: HashGridParams::new(Vec3::ZERO, 0.01, 5),
-            view: CacheViewParams {
+            view: CacheFrameParams {
                 flags: FLAG_SHORT_RAY | FLAG_BYPASS,
                 ..Default::default()
             },
@@ -930,7 +946,7 @@ pub(crate) mod tests {
         use itertools::Itertools;
         let mut params = CachePassParams {
             grid: HashGridParams::new(Vec3::ZERO, 0.01, 9),
-            view: CacheViewParams::default(),
+            view: CacheFrameParams::default(),
         };
         params.grid.num_buckets_log2 = 0;
         params.grid.tiles_per_bucket_log2 = 1;

@@ -37,6 +37,7 @@
 //! history length; the shadow ray is traced every frame, and occluded samples have their `W`
 //! zeroed ("invalidate the stored reservoir").
 
+use crate::lights::LightSources;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
 
@@ -46,14 +47,13 @@ use crate::light_grid::{
     DiffuseHit, LightContribution, LightGridParams, LightGridSample, light_contribution,
     sample_params_uv,
 };
-use crate::lights::GpuLight;
 use crate::math::{floor, max, min_u32, tan, to_i32_clamped, to_u32_clamped};
 use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
 use crate::random::Random;
 use crate::reservoir::Reservoir;
 use crate::sampling::orthonormal_basis;
 use crate::secondary_hits::diffuse_hit;
-use crate::world_cache::{CacheQuery, CacheViewParams, FLAG_RESTIR_HISTORY, ShadowRay};
+use crate::world_cache::{CacheFrameParams, CacheQuery, FLAG_RESTIR_HISTORY, ShadowRay};
 
 /// Buckets of the reservoir grid (the `mod` of the bucket hash).
 pub const RESERVOIR_GRID_BUCKETS: u32 = 262_144;
@@ -233,6 +233,10 @@ pub struct PackedReservoir {
     pub m: f32,
 }
 
+impl crate::layout::FloatLayout for PackedReservoir {
+    const FLOAT_WORDS: &'static [u32] = &[2, 3];
+}
+
 impl PackedReservoir {
     /// The stored form of `reservoir` (sample = light index) with sample bits `params`.
     #[inline]
@@ -270,6 +274,10 @@ pub struct ReservoirHit {
     pub position: [f32; 3],
     /// Unit normal, [`pack_snorm10x3`].
     pub normal: u32,
+}
+
+impl crate::layout::FloatLayout for ReservoirHit {
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2];
 }
 
 impl ReservoirHit {
@@ -327,17 +335,11 @@ impl TemporalResampling {
     /// normals disagree ([`accepts_neighbour`]); else its sample is re-evaluated at `hit` and
     /// streamed with `M` clamped to [`TEMPORAL_M_CAP`] (`u` uniform in `[0, 1)`). Returns
     /// whether the neighbour's sample was kept.
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-    )]
     #[inline]
     pub fn merge_neighbour(
         &mut self,
         params: &LightGridParams,
-        lights: &[GpuLight],
-        environment: &[[f32; 4]],
-        environment_cdf: &[f32],
+        lighting: LightSources<'_>,
         hit: &DiffuseHit,
         neighbour: &PackedReservoir,
         neighbour_normal: Vec3,
@@ -348,9 +350,7 @@ impl TemporalResampling {
         }
         let c = light_contribution(
             params,
-            lights,
-            environment,
-            environment_cdf,
+            lighting,
             hit,
             neighbour.light,
             sample_params_uv(neighbour.params),
@@ -401,7 +401,7 @@ pub fn reservoir_grid_buckets(pixels: u32) -> u32 {
 /// reservoirs.
 #[inline]
 pub fn reservoir_grid_cell(
-    view: &CacheViewParams,
+    view: &CacheFrameParams,
     eye: Vec3,
     query: &CacheQuery,
     rng: &mut Random,
@@ -425,7 +425,7 @@ pub fn reservoir_grid_cell(
 pub fn insert_reservoir<K: AtomicWords + ?Sized, C: AtomicWords + ?Sized>(
     keys: &mut K,
     counts: &mut C,
-    view: &CacheViewParams,
+    view: &CacheFrameParams,
     eye: Vec3,
     query: &CacheQuery,
     rng: &mut Random,
@@ -506,40 +506,52 @@ pub fn ordered_reservoir_entry(
     Some(first + rank)
 }
 
+/// The previous frame's reservoir grid, as ResampleReservoirs reads it: the cells' keys, each
+/// cell's run of entries (`offsets`, ordered by `ordered_reservoir_entry`), and the reservoirs
+/// and hit records the entries index.
+#[derive(Clone, Copy)]
+pub struct PreviousReservoirGrid<'a> {
+    /// The grid's cell keys ([`find_reservoir_cell`]).
+    pub keys: &'a [u32],
+    /// Each cell's first entry, and the end of the last.
+    pub offsets: &'a [u32],
+    /// The reservoirs' indices, cell after cell.
+    pub entries: &'a [u32],
+    /// The previous frame's reservoirs.
+    pub reservoirs: &'a [PackedReservoir],
+    /// The previous frame's hit records, one per reservoir.
+    pub hits: &'a [ReservoirHit],
+}
+
 /// ResampleReservoirs for one query: its reservoir this frame (`current`, the light grid's) merged
 /// with at most four reservoirs of the previous frame's cell (looked up from the previous eye,
 /// normals checked, `M` capped at 20: [`TemporalResampling`]). The previous grid: slot checksums
 /// `keys`, exclusive prefix sums of its slot counts `offsets` (`slots + 1` words, the last the
 /// total), the compacted list `entries` of previous shadow-ray indices, slot after slot, and per
 /// previous shadow ray its reservoir and hit. Returns the combined sample.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 pub fn resample_reservoir(
     grid: &LightGridParams,
-    lights: &[GpuLight],
-    environment: &[[f32; 4]],
-    environment_cdf: &[f32],
-    view: &CacheViewParams,
+    lighting: LightSources<'_>,
+    view: &CacheFrameParams,
     query: &CacheQuery,
     current: &PackedReservoir,
-    keys: &[u32],
-    offsets: &[u32],
-    entries: &[u32],
-    reservoirs: &[PackedReservoir],
-    hits: &[ReservoirHit],
+    previous: PreviousReservoirGrid<'_>,
     rng: &mut Random,
 ) -> LightGridSample {
+    let PreviousReservoirGrid {
+        keys,
+        offsets,
+        entries,
+        reservoirs,
+        hits,
+    } = previous;
     let hit = diffuse_hit(query);
     let mut sample = LightGridSample::NONE;
     sample.reservoir = current.reservoir();
     sample.params = current.params;
     sample.contribution = light_contribution(
         grid,
-        lights,
-        environment,
-        environment_cdf,
+        lighting,
         &hit,
         current.light,
         sample_params_uv(current.params),
@@ -563,9 +575,7 @@ pub fn resample_reservoir(
                         let normal = hits[r].normal();
                         resampling.merge_neighbour(
                             grid,
-                            lights,
-                            environment,
-                            environment_cdf,
+                            lighting,
                             &hit,
                             &neighbour,
                             normal,
@@ -594,6 +604,18 @@ mod tests {
 
     #[test]
     fn layout() {
+        use crate::layout::{FloatLayout, float_field_words};
+        assert_eq!(
+            ReservoirHit::FLOAT_WORDS,
+            float_field_words(&[(offset_of!(ReservoirHit, position), 3)])
+        );
+        assert_eq!(
+            PackedReservoir::FLOAT_WORDS,
+            float_field_words(&[
+                (offset_of!(PackedReservoir, ucw), 1),
+                (offset_of!(PackedReservoir, m), 1)
+            ])
+        );
         assert_eq!(size_of::<PackedReservoir>(), 16);
         assert_eq!(offset_of!(PackedReservoir, light), 0);
         assert_eq!(offset_of!(PackedReservoir, params), 4);
@@ -828,7 +850,16 @@ mod tests {
         for _ in 0..2 {
             let l = to_u32_clamped(rng.next_f32() * n as f32);
             let bits = rng.next_u32();
-            let c = light_contribution(params, lights, &[], &[], &HIT, l, sample_params_uv(bits));
+            let c = light_contribution(
+                params,
+                LightSources {
+                    lights,
+                    ..LightSources::EMPTY
+                },
+                &HIT,
+                l,
+                sample_params_uv(bits),
+            );
             if r.update(l, c.target * n as f32, rng.next_f32()) {
                 chosen.params = bits;
                 chosen.contribution = c;
@@ -853,7 +884,16 @@ mod tests {
             let n = 100_000;
             let mut sum = 0.0f64;
             for _ in 0..n {
-                let c = light_contribution(&params, &lights, &[], &[], &HIT, l, rng.next_vec2());
+                let c = light_contribution(
+                    &params,
+                    LightSources {
+                        lights: &lights,
+                        ..LightSources::EMPTY
+                    },
+                    &HIT,
+                    l,
+                    rng.next_vec2(),
+                );
                 sum += f64::from(luminance(c.weight * c.sample.radiance));
             }
             exact += sum / n as f64;
@@ -870,9 +910,10 @@ mod tests {
                 if let Some(prev) = stored {
                     t.merge_neighbour(
                         &params,
-                        &lights,
-                        &[],
-                        &[],
+                        LightSources {
+                            lights: &lights,
+                            ..LightSources::EMPTY
+                        },
                         &HIT,
                         &prev,
                         normal,
@@ -919,11 +960,15 @@ mod tests {
             ucw: 1.0,
             m: 50.0,
         };
-        assert!(!t.merge_neighbour(&params, &lights, &[], &[], &HIT, &prev, Vec3::X, 0.0));
+        let sources = LightSources {
+            lights: &lights,
+            ..LightSources::EMPTY
+        };
+        assert!(!t.merge_neighbour(&params, sources, &HIT, &prev, Vec3::X, 0.0));
         assert_eq!(t.reservoir.m, 1.0);
         // An agreeing one counts 20 at most, and a zero W never wins.
         let dead = PackedReservoir { ucw: 0.0, ..prev };
-        assert!(!t.merge_neighbour(&params, &lights, &[], &[], &HIT, &dead, Vec3::Y, 0.0));
+        assert!(!t.merge_neighbour(&params, sources, &HIT, &dead, Vec3::Y, 0.0));
         assert_eq!(t.reservoir.m, 21.0);
         assert_eq!(PackedReservoir::pack(&t.reservoir, 9).reservoir().m, 21.0);
     }

@@ -37,14 +37,11 @@ use gi_shared::hash_cells::model::{HashGridModel, Snapshot};
 use gi_shared::hash_cells::{
     CELLS_PER_TILE, MAX_SAMPLE_COUNT, MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_DECAY_FRAMES, cell_index,
 };
-use gi_shared::light_grid::{LightGridEntry, LightGridParams};
-use gi_shared::radiance_feedback::FeedbackTexel;
 use gi_shared::random::Random;
 use gi_shared::world_cache::{
-    CACHE_COUNTER_WORDS, CachePassParams, CacheQuery, CacheViewPixel, FLAG_SHORT_RAY, NO_TILE,
-    QUERY_COUNT, SHADOW_RAY_COUNT, ShadowRay, keyed_hit_distance,
+    CACHE_COUNTER_WORDS, CachePassParams, CacheQuery, FLAG_SHORT_RAY, NO_TILE, QUERY_COUNT,
+    RayRecord, SHADOW_RAY_COUNT, ShadowRay, keyed_hit_distance,
 };
-use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
 use gi_tests::{
     context, fastest_variant, finish_without_validation_messages, load_scene, variants,
 };
@@ -529,7 +526,7 @@ impl Replay {
         drop(staged);
         let mut inserted: Vec<CacheQuery> = res.queries.read_back(ctx).unwrap();
         inserted.truncate(n);
-        let pixels: Vec<CacheViewPixel> = res.ray_records.read_back(ctx).unwrap();
+        let pixels: Vec<RayRecord> = res.ray_records.read_back(ctx).unwrap();
         let resolved = inserted
             .iter()
             .map(|q| Vec3::from_array(pixels[q.ray_index as usize].ray_radiance))
@@ -949,44 +946,6 @@ fn tiles_expire_after_exactly_50_untouched_frames() {
 // ---------------------------------------------------------------------------------------------
 // 5. No NaN or infinity on the GPU
 
-/// Which words of each cache buffer are floats (the others hold indices, flags, packed normals
-/// or `NO_TILE`), from the layouts documented on the types.
-fn float_words() -> Vec<(&'static str, FloatWords)> {
-    assert_eq!(std::mem::size_of::<CacheQuery>(), 80);
-    assert_eq!(std::mem::size_of::<ShadowRay>(), 48);
-    assert_eq!(std::mem::size_of::<CacheViewPixel>(), 32);
-    assert_eq!(std::mem::size_of::<FeedbackTexel>(), 32);
-    assert_eq!(std::mem::size_of::<LightGridParams>(), 48);
-    assert_eq!(std::mem::size_of::<LightGridEntry>(), 8);
-    assert_eq!(std::mem::size_of::<PackedReservoir>(), 16);
-    assert_eq!(std::mem::size_of::<ReservoirHit>(), 16);
-    let f = |words, floats: &[u32]| FloatWords::new(words, floats).unwrap();
-    vec![
-        ("hash grid values", FloatWords::ALL),
-        ("cache-view accumulation", FloatWords::ALL),
-        // hit_position, direction, hit_distance, normal, albedo.
-        (
-            "cache queries",
-            f(20, &[0, 1, 2, 4, 5, 6, 7, 8, 9, 10, 12, 13, 14]),
-        ),
-        // origin, direction, t_max, contribution.
-        ("shadow rays", f(12, &[0, 1, 2, 4, 5, 6, 7, 8, 9, 10])),
-        // ray_radiance, base.
-        ("ray records", f(8, &[0, 1, 2, 4, 5, 6])),
-        // radiance, depth, normal.
-        ("feedback history", f(8, &[0, 1, 2, 3, 4, 5, 6])),
-        // origin, cell_size, environment_irradiance, emissive_multiplier.
-        ("light grid", f(12, &[0, 1, 2, 3, 10, 11])),
-        // pmf.
-        ("light grid entries", f(2, &[1])),
-        // World-space ReSTIR's two grids: ucw and m of each reservoir, each hit's position.
-        ("reservoirs (a)", f(4, &[2, 3])),
-        ("reservoirs (b)", f(4, &[2, 3])),
-        ("reservoir hits (a)", f(4, &[0, 1, 2])),
-        ("reservoir hits (b)", f(4, &[0, 1, 2])),
-    ]
-}
-
 /// The counting kernel finds every planted NaN and infinity, and nothing in non-float words.
 fn check_the_check(ctx: &Context, check: &FiniteCheck) {
     // 2^20 floats: 16 words per invocation of the (at most 1024) workgroups.
@@ -1049,7 +1008,6 @@ fn no_cache_buffer_holds_nan_or_inf_after_1000_moving_frames() {
         CameraParams::new(eye, target - eye, Vec3::Y, 0.7, side, side)
     };
     assert_eq!(home.image_size, camera_at(0).image_size);
-    let layouts = float_words();
     for variant in variants() {
         let gpu = Gpu::new(variant, &scene, None);
         let check = FiniteCheck::new(&gpu.ctx, &KernelModule::new(&gpu.ctx).unwrap()).unwrap();
@@ -1071,16 +1029,8 @@ fn no_cache_buffer_holds_nan_or_inf_after_1000_moving_frames() {
                 if (f + 1) % FINITE_CHECK_EVERY != 0 {
                     continue;
                 }
-                let (a, b) = view.restir_resources().grids.pair();
-                let mut all: Vec<&Buffer> = view.resources().buffers().to_vec();
-                all.extend([&a.reservoirs, &a.hits, &b.reservoirs, &b.hits]);
-                let buffers: Vec<(&Buffer, FloatWords)> = layouts
-                    .iter()
-                    .map(|&(name, words)| {
-                        let found = all.iter().find(|b| b.name() == name);
-                        (*found.unwrap_or_else(|| panic!("no buffer {name}")), words)
-                    })
-                    .collect();
+                let mut buffers = view.resources().float_buffers().unwrap();
+                buffers.extend(view.restir_resources().float_buffers().unwrap());
                 checked_words += buffers.iter().map(|(b, _)| b.size / 4).sum::<u64>();
                 let counts = check.count(&gpu.ctx, &buffers).unwrap();
                 assert!(
@@ -1094,7 +1044,8 @@ fn no_cache_buffer_holds_nan_or_inf_after_1000_moving_frames() {
                  {checked_words} words checked ({} buffers every {FINITE_CHECK_EVERY} frames)",
                 if restir { "on" } else { "off" },
                 started.elapsed().as_secs_f64(),
-                layouts.len()
+                view.resources().float_buffers().unwrap().len()
+                    + view.restir_resources().float_buffers().unwrap().len()
             );
             assert!(evicted > 0);
         }

@@ -8,6 +8,7 @@ use crate::vulkan::{
 };
 use ash::vk;
 use gi_shared::finite_check::{FINITE_CHECK_GROUP, FiniteCheckPush, MAX_RECORD_WORDS};
+use gi_shared::layout::FloatLayout;
 
 /// Most workgroups one dispatch runs (65 536 invocations, enough to fill any GPU): a larger
 /// buffer is covered by each invocation looping over several words.
@@ -61,6 +62,13 @@ impl FloatWords {
             record_words,
             float_mask,
         })
+    }
+}
+
+impl FloatWords {
+    /// The float words of records of type `T`, as `T` declares them.
+    pub fn of<T: FloatLayout>() -> Result<Self> {
+        Self::new((std::mem::size_of::<T>() / 4) as u32, T::FLOAT_WORDS)
     }
 }
 

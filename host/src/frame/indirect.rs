@@ -39,10 +39,6 @@ impl DispatchFromCounter {
     /// Records the kernel writing `args[args_index]` (a [`DispatchIndirect`]) for the count in
     /// word `counter_index` of `counters`, clamped to `capacity` items. Dispatch with
     /// `Recorder::dispatch_indirect(.., args, indirect_offset(args_index))`, which waits for it.
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "the counter and the arguments are each a buffer and an index"
-    )]
     pub fn record(
         &self,
         rec: &mut Recorder<'_>,

@@ -315,10 +315,6 @@ impl<'a> Recorder<'a> {
     }
 
     /// [`Self::dispatch_indirect`] of a kernel that traces, in `scene`.
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "dispatch_indirect's arguments and the scene"
-    )]
     pub fn dispatch_indirect_traced<B: Bindings>(
         &mut self,
         kernel: &Kernel,

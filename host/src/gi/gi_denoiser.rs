@@ -10,6 +10,7 @@ use super::settings::GiSettings;
 use crate::error::Result;
 use crate::frame::Recorder;
 use crate::gbuffer::GBufferImages;
+use crate::gi::pass_inputs::PrimaryView;
 use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong};
 
 /// The per-pixel buffers of interpolation and the denoiser.
@@ -187,9 +188,9 @@ impl DenoiserPasses {
         rec: &mut Recorder<'_>,
         probes: &ScreenProbeResources,
         res: &DenoiserResources,
-        camera: &Buffer,
-        gbuffer: &GBufferImages,
+        view: PrimaryView<'_>,
     ) -> Result<()> {
+        let PrimaryView { camera, gbuffer } = view;
         let g = gbuffer;
         rec.dispatch(
             &self.interpolate,
@@ -217,9 +218,9 @@ impl DenoiserPasses {
         rec: &mut Recorder<'_>,
         probes: &ScreenProbeResources,
         res: &DenoiserResources,
-        camera: &Buffer,
-        gbuffer: &GBufferImages,
+        view: PrimaryView<'_>,
     ) -> Result<()> {
+        let PrimaryView { camera, gbuffer } = view;
         let g = gbuffer;
         rec.dispatch(
             &self.reproject,

@@ -301,7 +301,6 @@ impl HashCellPasses {
     /// reservoirs, whose occluded samples it invalidates) and, with multi-bounce, each one's
     /// bounce ray (which reads the cells and, on a miss, the environment of `lights`), one
     /// invocation per shadow ray from the arguments [`Self::record_shadow_ray_args`] wrote.
-    #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_populate(
         &self,
         rec: &mut Recorder<'_>,

@@ -7,6 +7,7 @@
 use crate::error::{Error, Result};
 use crate::gbuffer::GBufferImages;
 use crate::scene::lights::LightSet;
+use crate::vulkan::Buffer;
 use gi_shared::camera::CameraParams;
 use gi_shared::color::luminance;
 use gi_shared::scene_data::NONE;
@@ -49,6 +50,16 @@ impl ViewOptions {
         }
         Ok(())
     }
+}
+
+/// What the screen-space passes read of the view: the camera buffer (`CameraParams`) and the
+/// G-buffer.
+#[derive(Clone, Copy)]
+pub struct PrimaryView<'a> {
+    /// The camera buffer.
+    pub camera: &'a Buffer,
+    /// The G-buffer images.
+    pub gbuffer: &'a GBufferImages,
 }
 
 /// An error unless `camera` renders `width × height` images.

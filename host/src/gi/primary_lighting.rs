@@ -8,7 +8,7 @@ use super::pass_inputs::pixel_groups;
 use super::screen_probes::ScreenProbeResources;
 use crate::error::Result;
 use crate::frame::Recorder;
-use crate::gbuffer::GBufferImages;
+use crate::gi::pass_inputs::PrimaryView;
 use crate::scene::upload::GpuScene;
 use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule};
 use gi_shared::primary_lighting::PrimaryLighting;
@@ -76,16 +76,15 @@ impl PrimaryPasses {
     }
 
     /// DirectLight: emission, the sky and punctual lights at every pixel.
-    #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_direct(
         &self,
         rec: &mut Recorder<'_>,
         scene: &GpuScene,
         probes: &ScreenProbeResources,
         res: &PrimaryResources,
-        camera: &Buffer,
-        gbuffer: &GBufferImages,
+        view: PrimaryView<'_>,
     ) -> Result<()> {
+        let PrimaryView { camera, gbuffer } = view;
         let g = gbuffer;
         rec.dispatch_traced(
             &self.direct,
@@ -109,17 +108,16 @@ impl PrimaryPasses {
     /// ResolveGI: the final image from `irradiance` (the denoiser's output), and the feedback
     /// image (`feedback`, one `FeedbackTexel` per pixel) the next frame's secondary hits read,
     /// from `undenoised` (the interpolated irradiance before the denoiser).
-    #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_resolve(
         &self,
         rec: &mut Recorder<'_>,
         res: &PrimaryResources,
-        camera: &Buffer,
-        gbuffer: &GBufferImages,
+        view: PrimaryView<'_>,
         irradiance: &Buffer,
         feedback: &Buffer,
         undenoised: &Buffer,
     ) -> Result<()> {
+        let PrimaryView { camera, gbuffer } = view;
         let g = gbuffer;
         rec.dispatch(
             &self.resolve,

@@ -11,7 +11,7 @@
 //! spatial denoiser) and are flags the kernels read otherwise (`GiFrameParams::flags`).
 
 use super::gi_denoiser::{DenoiserPasses, DenoiserResources, DenoiserStage};
-use super::pass_inputs::{SceneLighting, ViewOptions, check_image_size};
+use super::pass_inputs::{PrimaryView, SceneLighting, ViewOptions, check_image_size};
 use super::primary_lighting::{PrimaryPasses, PrimaryResources};
 use super::resources::{CacheResources, Occupancy, RestirResources};
 use super::screen_probes::{ProbeLayout, ScreenProbePasses, ScreenProbeResources, technique_flags};
@@ -27,19 +27,15 @@ use crate::scene::upload::GpuScene;
 use crate::vulkan::{Buffer, Context, FrameTimings, Image, KernelModule};
 use ash::vk;
 use gi_shared::camera::CameraParams;
+use gi_shared::gi_denoiser::reproject_gi::SURFACE_RECORD_FLOAT_WORDS;
 use gi_shared::hash_cells::cell_size_const;
-use gi_shared::light_grid::{LightGridEntry, LightGridParams};
 use gi_shared::primary_lighting::{EXACT_DIRECT_LIGHTS, PrimaryLighting};
-use gi_shared::radiance_feedback::FeedbackTexel;
 use gi_shared::screen_probes::{
     BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_SAMPLED_DIRECT, GiFrameParams, OVERRIDE_COUNT,
     PATCHED_COUNT, PROBE_CELL_PIXELS, ProbeRay, ProbeRecord, RELAXED_COUNT, REPROJECTED_COUNT,
     SPAWN_COUNT,
 };
-use gi_shared::world_cache::{
-    CachePassParams, CacheQuery, CacheViewPixel, FLAG_EMITTERS_SAMPLED, FLAG_PROBE_RAYS, ShadowRay,
-};
-use gi_shared::world_restir::{PackedReservoir, ReservoirHit};
+use gi_shared::world_cache::{CachePassParams, FLAG_EMITTERS_SAMPLED, FLAG_PROBE_RAYS};
 
 /// Timestamp spans per frame: one per pass.
 const PASSES_PER_FRAME: u32 = 32;
@@ -498,6 +494,7 @@ impl GiRenderer {
         let (pp, dp) = (&self.probe_passes, &self.denoiser_passes);
         let camera = &cache.camera;
         let gbuffer = &self.gbuffer;
+        let view = PrimaryView { camera, gbuffer };
         rec.fill(&probes.counters, 0);
         rec.pass("PurgeRadianceCache", |rec| {
             self.cache.hash_cells.record_purge(rec, cache, params)
@@ -506,26 +503,26 @@ impl GiRenderer {
             self.gbuffer_kernel.record(rec, scene, camera, gbuffer)?;
         }
         rec.pass("ReprojectScreenProbes", |rec| {
-            pp.record_reproject(rec, probes, camera, gbuffer)
+            pp.record_reproject(rec, probes, view)
         })?;
         rec.pass("SpawnScreenProbes", |rec| {
-            pp.record_spawn(rec, probes, camera, gbuffer)
+            pp.record_spawn(rec, probes, view)
         })?;
         if s.patching {
             rec.pass("PatchScreenProbes", |rec| {
-                pp.record_patch(rec, probes, camera, gbuffer)
+                pp.record_patch(rec, probes, view)
             })?;
         }
         rec.pass("SampleScreenProbes", |rec| {
-            pp.record_sample(rec, probes, camera, gbuffer)
+            pp.record_sample(rec, probes, view)
         })?;
         rec.pass("PopulateScreenProbes", |rec| {
-            pp.record_populate(rec, scene.sets(), probes, cache, camera, gbuffer, params)
+            pp.record_populate(rec, scene.sets(), probes, cache, view, params)
         })?;
         self.cache
             .record_after_trace(rec, scene, cache, &self.restir, s, params)?;
         rec.pass("BlendScreenProbes", |rec| {
-            pp.record_blend(rec, probes, cache, camera, gbuffer)
+            pp.record_blend(rec, probes, cache, view)
         })?;
         rec.pass("FilterProbeMask", |rec| pp.record_probe_mask(rec, probes))?;
         if s.probe_filter {
@@ -536,13 +533,13 @@ impl GiRenderer {
         })?;
         rec.pass("DirectLight", |rec| {
             self.primary_passes
-                .record_direct(rec, scene, probes, primary, camera, gbuffer)
+                .record_direct(rec, scene, probes, primary, view)
         })?;
         rec.pass("InterpolateScreenProbes", |rec| {
-            dp.record_interpolate(rec, probes, denoiser, camera, gbuffer)
+            dp.record_interpolate(rec, probes, denoiser, view)
         })?;
         rec.pass("ReprojectGI", |rec| {
-            dp.record_reproject(rec, probes, denoiser, camera, gbuffer)
+            dp.record_reproject(rec, probes, denoiser, view)
         })?;
         let temporal_out = denoiser.output(DenoiserStage::Temporal);
         if s.denoiser_spatial {
@@ -555,8 +552,7 @@ impl GiRenderer {
             self.primary_passes.record_resolve(
                 rec,
                 primary,
-                camera,
-                gbuffer,
+                view,
                 irradiance,
                 &cache.history,
                 denoiser.output(DenoiserStage::Interpolated),
@@ -568,28 +564,11 @@ impl GiRenderer {
     /// [`FiniteCheck`](crate::frame::FiniteCheck) reads to prove a frame clean. Parameters the
     /// host writes, counters, keys, lists and packed integers are left out.
     pub fn float_buffers(&self) -> Result<Vec<(&Buffer, FloatWords)>> {
-        // The float words of a `gi_shared` record `T`, by index.
-        fn f<T>(floats: &[u32]) -> Result<FloatWords> {
-            FloatWords::new((std::mem::size_of::<T>() / 4) as u32, floats)
-        }
         let all = FloatWords::ALL;
-        let (p, d, c) = (&self.probes, &self.denoiser, &self.cache_res);
-        // Word layouts of the `gi_shared` records, floats by index.
-        let probe_record = f::<ProbeRecord>(&[0, 1, 2, 5])?; // position, depth
-        let probe_ray = f::<ProbeRay>(&[0, 1, 2, 4])?; // direction, hit distance
-        let surface = f::<[f32; 4]>(&[0, 1, 2])?; // position, packed normal
-        let primary = f::<PrimaryLighting>(&[0, 1, 2, 4, 5, 6])?; // emission, direct
-        // Hit position, direction, hit distance, normal, albedo.
-        let query = f::<CacheQuery>(&[0, 1, 2, 4, 5, 6, 7, 8, 9, 10, 12, 13, 14])?;
-        // Origin, direction, t_max, contribution.
-        let shadow_ray = f::<ShadowRay>(&[0, 1, 2, 4, 5, 6, 7, 8, 9, 10])?;
-        let ray_record = f::<CacheViewPixel>(&[0, 1, 2, 4, 5, 6])?; // ray_radiance, base
-        let feedback = f::<FeedbackTexel>(&[0, 1, 2, 3, 4, 5, 6])?; // radiance, depth, normal
-        // Origin, cell size, environment irradiance, emissive multiplier.
-        let light_grid = f::<LightGridParams>(&[0, 1, 2, 3, 10, 11])?;
-        let light_entry = f::<LightGridEntry>(&[1])?; // pmf
-        let reservoir = f::<PackedReservoir>(&[2, 3])?; // W, M
-        let hit = f::<ReservoirHit>(&[0, 1, 2])?; // position
+        let (p, d) = (&self.probes, &self.denoiser);
+        let probe_record = FloatWords::of::<ProbeRecord>()?;
+        let probe_ray = FloatWords::of::<ProbeRay>()?;
+        let surface = FloatWords::new(4, SURFACE_RECORD_FLOAT_WORDS)?;
         let mut buffers = vec![
             (p.atlas.current(), all),
             (p.atlas.previous(), all),
@@ -611,21 +590,11 @@ impl GiRenderer {
             (&d.blur_radius, all),
             (&d.filtered[0], all),
             (&d.filtered[1], all),
-            (&self.primary.primary, primary),
+            (&self.primary.primary, FloatWords::of::<PrimaryLighting>()?),
             (&self.primary.color, all),
-            (&c.values, all),
-            (&c.queries, query),
-            (&c.shadow_rays, shadow_ray),
-            (&c.ray_records, ray_record),
-            (&c.history, feedback),
-            (&c.accumulation, all),
-            (&c.light_grid, light_grid),
-            (&c.light_grid_entries, light_entry),
         ];
-        for grid in [self.restir.grids.current(), self.restir.grids.previous()] {
-            buffers.push((&grid.reservoirs, reservoir));
-            buffers.push((&grid.hits, hit));
-        }
+        buffers.extend(self.cache_res.float_buffers()?);
+        buffers.extend(self.restir.float_buffers()?);
         Ok(buffers)
     }
 

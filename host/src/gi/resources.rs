@@ -9,7 +9,7 @@
 
 use super::settings::GiSettings;
 use crate::error::Result;
-use crate::frame::indirect_args;
+use crate::frame::{FloatWords, indirect_args};
 use crate::vulkan::{Buffer, Context, PingPong};
 use ash::vk;
 use gi_shared::camera::CameraParams;
@@ -29,7 +29,7 @@ use gi_shared::multi_bounce::carried_capacity;
 use gi_shared::radiance_feedback::FeedbackTexel;
 use gi_shared::world_cache::{
     ARGS_COUNT, BOUNCE_MISSES, BYPASS_COUNT, CACHE_COUNTER_WORDS, CARRIED_QUERIES, CacheQuery,
-    CacheViewPixel, FEEDBACK_COUNT, INSERTED_TILES, QUERY_COUNT, SHADOW_RAY_COUNT, ShadowRay,
+    FEEDBACK_COUNT, INSERTED_TILES, QUERY_COUNT, RayRecord, SHADOW_RAY_COUNT, ShadowRay,
 };
 use gi_shared::world_restir::reservoir_grid_buckets;
 use gi_shared::world_restir::{PackedReservoir, RESERVOIR_GRID_SLOTS_PER_BUCKET, ReservoirHit};
@@ -55,7 +55,7 @@ pub struct CacheResources {
     pub queries: Buffer,
     /// One [`ShadowRay`] per ray at most.
     pub shadow_rays: Buffer,
-    /// One [`CacheViewPixel`] per ray: the cache passes complete its `ray_radiance` (the cache
+    /// One [`RayRecord`] per ray: the cache passes complete its `ray_radiance` (the cache
     /// view traces one ray per pixel, the GI frame one per probe cell it spawns).
     pub ray_records: Buffer,
     /// One [`FeedbackTexel`] per pixel: the previous frame's image for temporal feedback.
@@ -102,28 +102,6 @@ pub fn query_capacity(multi_bounce: bool, rays: u32) -> u32 {
     (rays + carried_queries(multi_bounce, rays)) as u32
 }
 
-/// Each resource's name, in the order [`CacheResources::buffers`] lists them.
-pub const RESOURCE_NAMES: [&str; 18] = [
-    "camera",
-    "hash grid keys",
-    "hash grid last touch",
-    "hash grid values",
-    "hash grid accumulators",
-    "hash grid lists",
-    "cache counters",
-    "cache queries",
-    "shadow rays",
-    "ray records",
-    "feedback history",
-    "cache-view accumulation",
-    "light grid bounds",
-    "light grid",
-    "light grid entries",
-    "indirect arguments",
-    "carried queries",
-    "hash grid insert marks",
-];
-
 impl CacheResources {
     /// Allocates the resources of a `width × height` frame that traces at most `rays` rays into
     /// the cache per frame, with `settings` (validated first: a bad setting is an error naming
@@ -146,33 +124,52 @@ impl CacheResources {
         let accumulator_words = tiles * TILE_ACCUMULATOR_WORDS;
         debug_assert!(accumulator_words * 4 <= MAX_STORAGE_BUFFER_BYTES);
         let entries = (LIGHT_GRID_MAX_CELLS * LIGHT_GRID_RESERVOIRS_PER_CELL) as usize;
-        let n = &RESOURCE_NAMES;
         Ok(Self {
-            camera: Buffer::parameters(ctx, n[0], &[CameraParams::default()])?,
-            keys: Buffer::device_zeroed::<u32>(ctx, n[1], tiles)?,
+            camera: Buffer::parameters(ctx, "camera", &[CameraParams::default()])?,
+            keys: Buffer::device_zeroed::<u32>(ctx, "hash grid keys", tiles)?,
             last_touch: Buffer::device_local(
                 ctx,
-                n[2],
+                "hash grid last touch",
                 &vec![initial_last_touch(first_frame); tiles],
                 vk::BufferUsageFlags::empty(),
             )?,
-            values: Buffer::device_zeroed::<HashCellValue>(ctx, n[3], cells)?,
-            accumulators: Buffer::device_zeroed::<u32>(ctx, n[4], accumulator_words)?,
-            lists: Buffer::device_zeroed::<u32>(ctx, n[5], list_buffer_words(tiles as u32))?,
-            counters: Buffer::device_zeroed::<u32>(ctx, n[6], CACHE_COUNTER_WORDS)?,
-            queries: Buffer::device_zeroed::<CacheQuery>(ctx, n[7], queries)?,
-            shadow_rays: Buffer::device_zeroed::<ShadowRay>(ctx, n[8], queries)?,
-            ray_records: Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], rays)?,
-            history: Buffer::device_zeroed::<FeedbackTexel>(ctx, n[10], pixels)?,
-            accumulation: Buffer::device_zeroed::<[f32; 4]>(ctx, n[11], pixels)?,
-            bounds: Buffer::device_zeroed::<u32>(ctx, n[12], LIGHT_GRID_BOUNDS_WORDS)?,
-            light_grid: Buffer::device_zeroed::<LightGridParams>(ctx, n[13], 1)?,
-            light_grid_entries: Buffer::device_zeroed::<LightGridEntry>(ctx, n[14], entries)?,
-            args: indirect_args(ctx, n[15], ARGS_COUNT as usize)?,
-            carried: Buffer::device_zeroed::<CacheQuery>(ctx, n[16], carried.max(1))?,
+            values: Buffer::device_zeroed::<HashCellValue>(ctx, "hash grid values", cells)?,
+            accumulators: Buffer::device_zeroed::<u32>(
+                ctx,
+                "hash grid accumulators",
+                accumulator_words,
+            )?,
+            lists: Buffer::device_zeroed::<u32>(
+                ctx,
+                "hash grid lists",
+                list_buffer_words(tiles as u32),
+            )?,
+            counters: Buffer::device_zeroed::<u32>(ctx, "cache counters", CACHE_COUNTER_WORDS)?,
+            queries: Buffer::device_zeroed::<CacheQuery>(ctx, "cache queries", queries)?,
+            shadow_rays: Buffer::device_zeroed::<ShadowRay>(ctx, "shadow rays", queries)?,
+            ray_records: Buffer::device_zeroed::<RayRecord>(ctx, "ray records", rays)?,
+            history: Buffer::device_zeroed::<FeedbackTexel>(ctx, "feedback history", pixels)?,
+            accumulation: Buffer::device_zeroed::<[f32; 4]>(
+                ctx,
+                "cache-view accumulation",
+                pixels,
+            )?,
+            bounds: Buffer::device_zeroed::<u32>(
+                ctx,
+                "light grid bounds",
+                LIGHT_GRID_BOUNDS_WORDS,
+            )?,
+            light_grid: Buffer::device_zeroed::<LightGridParams>(ctx, "light grid", 1)?,
+            light_grid_entries: Buffer::device_zeroed::<LightGridEntry>(
+                ctx,
+                "light grid entries",
+                entries,
+            )?,
+            args: indirect_args(ctx, "indirect arguments", ARGS_COUNT as usize)?,
+            carried: Buffer::device_zeroed::<CacheQuery>(ctx, "carried queries", carried.max(1))?,
             insert_marks: Buffer::device_zeroed::<u32>(
                 ctx,
-                n[17],
+                "hash grid insert marks",
                 marks_words(settings.buckets_log2, settings.tiles_per_bucket_log2),
             )?,
             tile_count: tiles as u32,
@@ -193,14 +190,18 @@ impl CacheResources {
         let multi_bounce = self.carried_capacity > 0;
         let carried = carried_queries(multi_bounce, rays);
         let capacity = query_capacity(multi_bounce, rays as u32) as usize;
-        let n = &RESOURCE_NAMES;
-        let counters = Buffer::device_zeroed::<u32>(ctx, n[6], CACHE_COUNTER_WORDS)?;
-        let queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[7], capacity)?;
-        let shadow_rays = Buffer::device_zeroed::<ShadowRay>(ctx, n[8], capacity)?;
-        let ray_records = Buffer::device_zeroed::<CacheViewPixel>(ctx, n[9], rays)?;
-        let history = Buffer::device_zeroed::<FeedbackTexel>(ctx, n[10], pixels)?;
-        let accumulation = Buffer::device_zeroed::<[f32; 4]>(ctx, n[11], pixels)?;
-        let carried_queries = Buffer::device_zeroed::<CacheQuery>(ctx, n[16], carried.max(1))?;
+        // Each new buffer takes the name of the field it replaces.
+        let counters =
+            Buffer::device_zeroed::<u32>(ctx, self.counters.name(), CACHE_COUNTER_WORDS)?;
+        let queries = Buffer::device_zeroed::<CacheQuery>(ctx, self.queries.name(), capacity)?;
+        let shadow_rays =
+            Buffer::device_zeroed::<ShadowRay>(ctx, self.shadow_rays.name(), capacity)?;
+        let ray_records = Buffer::device_zeroed::<RayRecord>(ctx, self.ray_records.name(), rays)?;
+        let history = Buffer::device_zeroed::<FeedbackTexel>(ctx, self.history.name(), pixels)?;
+        let accumulation =
+            Buffer::device_zeroed::<[f32; 4]>(ctx, self.accumulation.name(), pixels)?;
+        let carried_queries =
+            Buffer::device_zeroed::<CacheQuery>(ctx, self.carried.name(), carried.max(1))?;
         self.counters = counters;
         self.queries = queries;
         self.shadow_rays = shadow_rays;
@@ -241,7 +242,7 @@ impl CacheResources {
         self.carried_capacity
     }
 
-    /// Every buffer, in [`RESOURCE_NAMES`] order.
+    /// Every buffer.
     pub fn buffers(&self) -> [&Buffer; 18] {
         [
             &self.camera,
@@ -292,6 +293,25 @@ impl CacheResources {
     /// Total bytes of the buffers.
     pub fn bytes(&self) -> u64 {
         self.buffers().iter().map(|b| b.size).sum()
+    }
+
+    /// The buffers that hold floats, with which of their words are floats (each record's
+    /// [`FloatLayout`](gi_shared::layout::FloatLayout)): what a NaN check reads. Keys, lists,
+    /// counters, marks and the host's parameters are left out.
+    pub fn float_buffers(&self) -> Result<Vec<(&Buffer, FloatWords)>> {
+        Ok(vec![
+            (&self.values, FloatWords::ALL),
+            (&self.queries, FloatWords::of::<CacheQuery>()?),
+            (&self.shadow_rays, FloatWords::of::<ShadowRay>()?),
+            (&self.ray_records, FloatWords::of::<RayRecord>()?),
+            (&self.history, FloatWords::of::<FeedbackTexel>()?),
+            (&self.accumulation, FloatWords::ALL),
+            (&self.light_grid, FloatWords::of::<LightGridParams>()?),
+            (
+                &self.light_grid_entries,
+                FloatWords::of::<LightGridEntry>()?,
+            ),
+        ])
     }
 }
 
@@ -417,5 +437,21 @@ impl RestirResources {
             slots,
             buckets,
         })
+    }
+
+    /// Both grids' reservoirs and hits, with their float words (as
+    /// [`CacheResources::float_buffers`]).
+    pub fn float_buffers(&self) -> Result<Vec<(&Buffer, FloatWords)>> {
+        let (reservoir, hit) = (
+            FloatWords::of::<PackedReservoir>()?,
+            FloatWords::of::<ReservoirHit>()?,
+        );
+        let (a, b) = self.grids.pair();
+        Ok(vec![
+            (&a.reservoirs, reservoir),
+            (&a.hits, hit),
+            (&b.reservoirs, reservoir),
+            (&b.hits, hit),
+        ])
     }
 }

@@ -10,7 +10,7 @@ use super::resources::CacheResources;
 use super::settings::GiSettings;
 use crate::error::Result;
 use crate::frame::Recorder;
-use crate::gbuffer::GBufferImages;
+use crate::gi::pass_inputs::PrimaryView;
 use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong, SceneSets};
 use ash::vk;
 use gi_shared::screen_probes::{
@@ -387,9 +387,9 @@ impl ScreenProbePasses {
         &self,
         rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
-        camera: &Buffer,
-        gbuffer: &GBufferImages,
+        view: PrimaryView<'_>,
     ) -> Result<()> {
+        let PrimaryView { camera, gbuffer } = view;
         let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         let g = res.layout.probe_grid;
         rec.dispatch(
@@ -420,9 +420,9 @@ impl ScreenProbePasses {
         &self,
         rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
-        camera: &Buffer,
-        gbuffer: &GBufferImages,
+        view: PrimaryView<'_>,
     ) -> Result<()> {
+        let PrimaryView { camera, gbuffer } = view;
         let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         rec.dispatch(
             &self.spawn,
@@ -448,9 +448,9 @@ impl ScreenProbePasses {
         &self,
         rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
-        camera: &Buffer,
-        gbuffer: &GBufferImages,
+        view: PrimaryView<'_>,
     ) -> Result<()> {
+        let PrimaryView { camera, gbuffer } = view;
         let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         let patch = PatchScreenProbes {
             frame: &res.frame,
@@ -482,9 +482,9 @@ impl ScreenProbePasses {
         &self,
         rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
-        camera: &Buffer,
-        gbuffer: &GBufferImages,
+        view: PrimaryView<'_>,
     ) -> Result<()> {
+        let PrimaryView { camera, gbuffer } = view;
         let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         let s = res.layout.spawn_grid;
         rec.dispatch(
@@ -507,17 +507,16 @@ impl ScreenProbePasses {
     }
 
     /// PopulateScreenProbes: one ray per cell of every spawned probe.
-    #[allow(clippy::too_many_arguments, reason = "the pass's inputs")]
     pub fn record_populate(
         &self,
         rec: &mut Recorder<'_>,
         scene: SceneSets<'_>,
         res: &ScreenProbeResources,
         cache: &CacheResources,
-        camera: &Buffer,
-        gbuffer: &GBufferImages,
+        view: PrimaryView<'_>,
         params: &CachePassParams,
     ) -> Result<()> {
+        let PrimaryView { camera, gbuffer } = view;
         let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         let s = res.layout.spawn_grid;
         rec.dispatch_traced(
@@ -547,9 +546,9 @@ impl ScreenProbePasses {
         rec: &mut Recorder<'_>,
         res: &ScreenProbeResources,
         cache: &CacheResources,
-        camera: &Buffer,
-        gbuffer: &GBufferImages,
+        view: PrimaryView<'_>,
     ) -> Result<()> {
+        let PrimaryView { camera, gbuffer } = view;
         let (depth, normal) = (&gbuffer.depth, &gbuffer.geometric_normal);
         let s = res.layout.spawn_grid;
         rec.dispatch(

@@ -17,7 +17,7 @@ use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::cell_size_const;
 use gi_shared::hash_cells::layout::HashGridParams;
 use gi_shared::world_cache::{
-    CachePassParams, CacheViewParams, FLAG_BYPASS, FLAG_ENVIRONMENT_LIGHT, FLAG_FEEDBACK,
+    CacheFrameParams, CachePassParams, FLAG_BYPASS, FLAG_ENVIRONMENT_LIGHT, FLAG_FEEDBACK,
     FLAG_HISTORY, FLAG_MULTI_BOUNCE, FLAG_RESTIR, FLAG_RESTIR_HISTORY, FLAG_SHORT_RAY,
 };
 use gi_shared::world_restir::reservoir_cell_const;
@@ -41,7 +41,7 @@ pub struct CacheFrame<'a> {
     pub previous: Option<&'a CameraParams>,
     /// The previous frame filled a reservoir grid.
     pub restir_history: bool,
-    /// Extra `CacheViewParams::flags`.
+    /// Extra `CacheFrameParams::flags`.
     pub extra_flags: u32,
 }
 
@@ -94,7 +94,7 @@ impl WorldCache {
         }
         CachePassParams {
             grid,
-            view: CacheViewParams {
+            view: CacheFrameParams {
                 sky: options.sky.to_array(),
                 frame_index: frame.frame,
                 emissive_multiplier: options.emissive_multiplier,
@@ -116,7 +116,6 @@ impl WorldCache {
     /// Records the cache passes that complete the queries a tracing pass appended: from
     /// InsertRadianceCache to ResolveRadianceCache, which adds each query's cache radiance to
     /// its ray's record.
-    #[allow(clippy::too_many_arguments, reason = "the passes' inputs")]
     pub fn record_after_trace(
         &self,
         rec: &mut Recorder<'_>,

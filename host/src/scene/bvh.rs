@@ -321,12 +321,7 @@ impl Bvh {
     pub fn scene<'a>(&'a self, shading: &'a ShadingData) -> BvhScene<'a, &'a [BvhNode]> {
         BvhScene {
             nodes: &self.nodes,
-            instances: &shading.instances,
-            meshes: &shading.meshes,
-            vertices: &shading.vertices,
-            triangles: &shading.triangles,
-            materials: &shading.materials,
-            textures: &shading.textures,
+            surfaces: shading.surfaces(),
         }
     }
 
@@ -994,8 +989,10 @@ mod tests {
         assert_eq!(tlas_node_count(1000), 999);
         assert_eq!(mesh_roots(&scene), vec![999]);
         assert!(bvh.tlas.max_depth <= BVH_TLAS_MAX_DEPTH);
-        let hits = assert_agrees_with_brute_force(&scene, &mut rng, 4000);
-        assert!(hits > 1500, "{hits}");
+        // 1200 rays: each tests 320 000 triangles brute force (4000 took 35 s of the test
+        // command's 8 minutes).
+        let hits = assert_agrees_with_brute_force(&scene, &mut rng, 1200);
+        assert!(hits > 450, "{hits}");
     }
 
     /// 10k items along a line, each gap 1.5% wider than the last: a binned SAH split can only

@@ -20,6 +20,7 @@ use ash::vk;
 use gi_shared::layout::{MAX_STORAGE_BUFFER_BYTES, SCENE_BUFFER_CHUNKS};
 use gi_shared::scene_data::{
     GpuInstance, GpuMaterial, GpuMesh, GpuTriangle, GpuVertex, MESH_ALPHA_TESTED, NONE,
+    SceneSurfaces,
 };
 use gi_shared::textures::{
     GpuTexture, WRAP_CLAMP_TO_EDGE, WRAP_MIRRORED_REPEAT, WRAP_REPEAT, level_offset, level_size,
@@ -44,6 +45,20 @@ pub struct ShadingData {
     /// another (`gi_shared::textures`); empty without textures. The CPU reference reads them; the
     /// device gets one image per texture.
     pub texels: Vec<u32>,
+}
+
+impl ShadingData {
+    /// The buffers that shading a hit reads, as the shared code takes them.
+    pub fn surfaces(&self) -> SceneSurfaces<'_> {
+        SceneSurfaces {
+            instances: &self.instances,
+            meshes: &self.meshes,
+            vertices: &self.vertices,
+            triangles: &self.triangles,
+            materials: &self.materials,
+            textures: &self.textures,
+        }
+    }
 }
 
 fn wrap_code(w: Wrap) -> u32 {

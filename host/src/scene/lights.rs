@@ -22,7 +22,7 @@ use ash::vk;
 use gi_shared::color::luminance;
 use gi_shared::environment::distribution_len;
 use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
-use gi_shared::lights::{EMIT_BACK, EMIT_FRONT, GpuLight};
+use gi_shared::lights::{EMIT_BACK, EMIT_FRONT, GpuLight, LightSources, SceneLights};
 use gi_shared::scene_data::NONE;
 use glam::Vec3;
 use std::f64::consts::PI;
@@ -213,6 +213,22 @@ pub struct LightSet {
 }
 
 impl LightSet {
+    /// The lights as the shared shading code takes them.
+    pub fn scene_lights(&self) -> SceneLights<'_> {
+        let (environment, environment_cdf) = self
+            .environment
+            .as_ref()
+            .map_or((&[][..], &[][..]), |e| (e.texels(), e.distribution()));
+        SceneLights {
+            sources: LightSources {
+                lights: &self.lights,
+                environment,
+                environment_cdf,
+            },
+            light_table: &self.triangle_table,
+        }
+    }
+
     /// The emitters of `scene`, and `environment` as the sky; the environment is importance-
     /// sampled (a light of its own) when `sample_environment` is set.
     pub fn new(scene: &Scene, environment: Option<Environment>, sample_environment: bool) -> Self {

@@ -321,33 +321,6 @@ impl Kernel {
         self.record(ctx, cmd, None, &set0, push, Groups::Indirect(args, offset))
     }
 
-    /// [`Kernel::dispatch_indirect`] for a kernel that traces, in `scene` (bound as sets 1 and
-    /// up, as [`Kernel::dispatch_traced`] binds it).
-    #[allow(
-        clippy::too_many_arguments,
-        reason = "dispatch_indirect's arguments and the scene"
-    )]
-    pub fn dispatch_indirect_traced<B: Bindings>(
-        &self,
-        ctx: &Context,
-        cmd: vk::CommandBuffer,
-        scene: SceneSets<'_>,
-        bindings: &B,
-        push: &[u8],
-        args: &Buffer,
-        offset: u64,
-    ) -> Result<()> {
-        let set0 = SetZero::of(bindings);
-        self.record(
-            ctx,
-            cmd,
-            Some(scene),
-            &set0,
-            push,
-            Groups::Indirect(args, offset),
-        )
-    }
-
     /// Records the dispatch of every `dispatch*` method (and of `frame::Recorder`, which reads
     /// `set0` first to place its barriers): checks the workgroup counts or the arguments' place,
     /// binds, dispatches.

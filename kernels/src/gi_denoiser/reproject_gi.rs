@@ -10,9 +10,10 @@
 
 use crate::gbuffer::{DepthImage, FloatImage, HalfImage};
 use gi_shared::camera::CameraParams;
-use gi_shared::gi_denoiser::reproject_gi::reproject_gi_pixel;
+use gi_shared::gbuffer::ReprojectionTexel;
+use gi_shared::gi_denoiser::reproject_gi::{PreviousGiHistory, reproject_gi_pixel};
 use gi_shared::screen_probes::GiFrameParams;
-use spirv_std::glam::{UVec2, UVec3, Vec4};
+use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::spirv;
 
 /// The temporal history of pixel `id`.
@@ -50,21 +51,17 @@ pub fn reproject_gi(
     {
         return;
     }
-    let d: f32 = depth.read(pixel);
-    let gn: Vec4 = geometric_normal.read(pixel);
-    let m: Vec4 = motion.read(pixel);
-    let r = reproject_gi_pixel(
-        frame,
-        camera,
-        pixel,
-        d,
-        gn,
-        m,
-        irradiance[i],
-        previous_history,
-        previous_surface,
-        previous_luma_delta,
-    );
+    let texel = ReprojectionTexel {
+        depth: depth.read(pixel),
+        geometric_normal: geometric_normal.read(pixel),
+        motion: motion.read(pixel),
+    };
+    let previous = PreviousGiHistory {
+        history: previous_history,
+        surface: previous_surface,
+        luma_delta: previous_luma_delta,
+    };
+    let r = reproject_gi_pixel(frame, camera, pixel, texel, irradiance[i], previous);
     history[i] = r.history;
     surface[i] = r.surface;
     luma_delta[i] = r.luma_delta;

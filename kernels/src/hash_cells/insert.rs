@@ -10,7 +10,7 @@
 
 use crate::atomics::DeviceWords;
 use gi_shared::atomics::AtomicWords;
-use gi_shared::hash_cells::layout::HashCellValue;
+use gi_shared::hash_cells::layout::{HashCellValue, HashCellsInsert};
 use gi_shared::math::min_u32;
 use gi_shared::world_cache::{
     CachePassParams, CacheQuery, QUERY_COUNT, admit_query, insert_query, settle_query,
@@ -35,9 +35,8 @@ pub fn insert_radiance_cache(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] queries: &mut [CacheQuery],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] marks: &mut [u32],
 ) {
-    place::<false>(
-        id, params, keys, last_touch, values, lists, counters, queries, marks,
-    );
+    let cells = device_cells(keys, last_touch, values, lists, counters, marks);
+    place::<false>(id, params, cells, queries);
 }
 
 /// Takes back query `id.x`'s tile where a full bucket does not keep it.
@@ -89,44 +88,56 @@ pub fn admit_to_full_buckets(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] queries: &mut [CacheQuery],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] marks: &mut [u32],
 ) {
-    place::<true>(
-        id, params, keys, last_touch, values, lists, counters, queries, marks,
-    );
+    let cells = device_cells(keys, last_touch, values, lists, counters, marks);
+    place::<true>(id, params, cells, queries);
+}
+
+/// The insert's buffers under device-scope atomics, held by value (`HashCellsInsert`).
+type DeviceCells<'a> = HashCellsInsert<
+    'a,
+    DeviceWords<'a>,
+    DeviceWords<'a>,
+    DeviceWords<'a>,
+    DeviceWords<'a>,
+    DeviceWords<'a>,
+>;
+
+/// The insert's bindings as [`DeviceCells`].
+fn device_cells<'a>(
+    keys: &'a mut [u32],
+    last_touch: &'a mut [u32],
+    values: &'a mut [HashCellValue],
+    lists: &'a mut [u32],
+    counters: &'a mut [u32],
+    marks: &'a mut [u32],
+) -> DeviceCells<'a> {
+    HashCellsInsert {
+        keys: DeviceWords(keys),
+        last_touch: DeviceWords(last_touch),
+        values,
+        lists: DeviceWords(lists),
+        counters: DeviceWords(counters),
+        marks: DeviceWords(marks),
+    }
 }
 
 /// Inserts query `id.x` (`insert_query`), or with `ADMIT` inserts it again where its full bucket
 /// admits its key (`admit_query`): the two steps take the same buffers.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "one argument per binding of the entry points"
-)]
 fn place<const ADMIT: bool>(
     id: UVec3,
     params: &CachePassParams,
-    keys: &mut [u32],
-    last_touch: &mut [u32],
-    values: &mut [HashCellValue],
-    lists: &mut [u32],
-    counters: &mut [u32],
+    cells: DeviceCells<'_>,
     queries: &mut [CacheQuery],
-    marks: &mut [u32],
 ) {
-    let mut counters = DeviceWords(counters);
-    let Some(i) = query_index(&counters, queries, id.x) else {
+    let Some(i) = query_index(&cells.counters, queries, id.x) else {
         return;
     };
     let mut query = queries[i];
-    let (k, t, l, m) = (
-        &mut DeviceWords(keys),
-        &mut DeviceWords(last_touch),
-        &mut DeviceWords(lists),
-        &mut DeviceWords(marks),
-    );
     // Both steps are generic: a function pointer would not compile for the GPU.
     if ADMIT {
-        admit_query(k, t, values, l, &mut counters, m, params, &mut query);
+        admit_query(cells, params, &mut query);
     } else {
-        insert_query(k, t, values, l, &mut counters, m, params, &mut query);
+        insert_query(cells, params, &mut query);
     }
     queries[i] = query;
 }

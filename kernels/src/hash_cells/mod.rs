@@ -8,7 +8,7 @@
 //! `values` (85 `HashCellValue`s per tile), `accumulators` (`ACCUMULATOR_WORDS` `u32`s per mip-0
 //! cell), `lists` (the hash grid's counters and tile lists, `gi_shared::hash_cells::lists`), the
 //! cache view's `counters`, `queries` (`CacheQuery`), `shadow_rays` (`ShadowRay`) and `pixels`
-//! (`CacheViewPixel`). Push constants: `CachePassParams`. One-dimensional kernels run
+//! (`RayRecord`). Push constants: `CachePassParams`. One-dimensional kernels run
 //! `WORKGROUP_SIZE` (64) invocations per workgroup, dispatched indirectly over their list.
 
 #[cfg(not(feature = "ray-query"))]

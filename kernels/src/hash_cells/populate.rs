@@ -15,15 +15,15 @@ use crate::atomics::DeviceWords;
 use crate::texture_images::Bindless;
 use gi_shared::append_list::append;
 use gi_shared::atomics::AtomicWords;
-use gi_shared::hash_cells::layout::HashCellValue;
+use gi_shared::hash_cells::layout::{HashCellValue, HashCellsRead};
 use gi_shared::hash_cells::lists::{DROPPED_SAMPLES, count};
 use gi_shared::math::min_u32;
 use gi_shared::multi_bounce::{bounce_radiance, bounce_ray, carried_query};
 use gi_shared::scene_data::hit_surface;
 use gi_shared::secondary_hits::{secondary_hit_footprint, shadow_ray_radiance};
 use gi_shared::world_cache::{
-    BOUNCE_MISSES, CARRIED_NEXT, CachePassParams, CacheQuery, CacheViewPixel, FLAG_MULTI_BOUNCE,
-    PASS_BOUNCE, QUERY_CARRIED, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay, accumulate_into_cell,
+    BOUNCE_MISSES, CARRIED_NEXT, CachePassParams, CacheQuery, FLAG_MULTI_BOUNCE, PASS_BOUNCE,
+    QUERY_CARRIED, RayRecord, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay, accumulate_into_cell,
     pass_random,
 };
 use gi_shared::world_restir::PackedReservoir;
@@ -41,7 +41,7 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] shadow_rays: &[ShadowRay],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] queries: &[CacheQuery],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] accumulators: &mut [u32],
-        #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] pixels: &mut [CacheViewPixel],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] pixels: &mut [RayRecord],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] lists: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] reservoirs: &mut [PackedReservoir],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] keys: &[u32],
@@ -75,10 +75,9 @@ traced_kernel! {
             let ray = bounce_ray(&query, rng.next_vec2());
             let hit = scene.closest_hit(&ray, texture_images);
             // Inserts and touches finished in an earlier dispatch: plain loads see them.
+            let cells = HashCellsRead { keys, last_touch, values };
             let bounce = bounce_radiance(
-                keys,
-                last_touch,
-                values,
+                cells,
                 params,
                 environment,
                 &query,
@@ -93,8 +92,7 @@ traced_kernel! {
             // overflows and no frame depends on which appends came first.
             if bounce.carry && hit.is_hit() && query.flags & QUERY_CARRIED == 0 {
                 let (surface, material) = hit_surface(
-                    scene.instances, scene.meshes, scene.vertices, scene.triangles,
-                    scene.materials, scene.textures, &Bindless(texture_images), &ray,
+                    scene.surfaces, &Bindless(texture_images), &ray,
                     secondary_hit_footprint(), &hit,
                 );
                 if let Some(next) = carried_query(&query, &ray, &hit, &surface, &material)

@@ -6,9 +6,7 @@
 
 use gi_shared::hash_cells::layout::HashCellValue;
 use gi_shared::math::min_u32;
-use gi_shared::world_cache::{
-    CachePassParams, CacheQuery, CacheViewPixel, QUERY_COUNT, cache_radiance,
-};
+use gi_shared::world_cache::{CachePassParams, CacheQuery, QUERY_COUNT, RayRecord, cache_radiance};
 use spirv_std::glam::{UVec3, Vec3};
 use spirv_std::spirv;
 
@@ -20,7 +18,7 @@ pub fn resolve_radiance_cache(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] counters: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] queries: &[CacheQuery],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] values: &[HashCellValue],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] pixels: &mut [CacheViewPixel],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] pixels: &mut [RayRecord],
 ) {
     let count = min_u32(counters[QUERY_COUNT], queries.len() as u32);
     if id.x >= count {

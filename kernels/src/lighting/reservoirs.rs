@@ -20,13 +20,13 @@ use gi_shared::atomics::AtomicWords;
 use gi_shared::camera::CameraParams;
 use gi_shared::hash_cells::lists::{DROPPED_SAMPLES, count};
 use gi_shared::light_grid::{LightGridEntry, LightGridParams};
-use gi_shared::lights::GpuLight;
+use gi_shared::lights::{GpuLight, LightSources};
 use gi_shared::math::min_u32;
 use gi_shared::radiance_feedback::{FeedbackTexel, feedback_lookup};
 use gi_shared::secondary_hits::{sample_query_light, shadow_ray};
 use gi_shared::world_cache::{
-    CachePassParams, CacheQuery, CacheViewPixel, FEEDBACK_COUNT, FLAG_FEEDBACK, FLAG_HISTORY,
-    FLAG_RESTIR, PASS_GENERATE, QUERY_BYPASS, QUERY_COUNT, QUERY_FED_BACK, SHADOW_RAY_COUNT,
+    CachePassParams, CacheQuery, FEEDBACK_COUNT, FLAG_FEEDBACK, FLAG_HISTORY, FLAG_RESTIR,
+    PASS_GENERATE, QUERY_BYPASS, QUERY_COUNT, QUERY_FED_BACK, RayRecord, SHADOW_RAY_COUNT,
     ShadowRay, accumulate_into_cell, pass_random,
 };
 use gi_shared::world_restir::insert_reservoir;
@@ -46,7 +46,7 @@ pub fn generate_reservoirs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] camera: &CameraParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] queries: &mut [CacheQuery],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] counters: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] pixels: &mut [CacheViewPixel],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] pixels: &mut [RayRecord],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] history: &[FeedbackTexel],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] accumulators: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] grid: &[LightGridParams],
@@ -88,15 +88,12 @@ pub fn generate_reservoirs(
         }
     }
     let mut rng = pass_random(view.seed, query.ray_index, PASS_GENERATE, view.frame_index);
-    let sample = sample_query_light(
-        &grid[0],
-        entries,
+    let lighting = LightSources {
         lights,
         environment,
         environment_cdf,
-        &query,
-        &mut rng,
-    );
+    };
+    let sample = sample_query_light(&grid[0], entries, lighting, &query, &mut rng);
     let capacity = shadow_rays.len() as u32;
     let Some(slot) = append(&mut counters, SHADOW_RAY_COUNT, capacity) else {
         return;

@@ -17,7 +17,7 @@
 #![cfg(not(feature = "ray-query"))]
 
 use gi_shared::light_grid::LightGridParams;
-use gi_shared::lights::GpuLight;
+use gi_shared::lights::{GpuLight, LightSources};
 use gi_shared::math::min_u32;
 use gi_shared::secondary_hits::shadow_ray;
 use gi_shared::world_cache::{
@@ -25,8 +25,8 @@ use gi_shared::world_cache::{
     pass_random,
 };
 use gi_shared::world_restir::{
-    PackedReservoir, ReservoirHit, ordered_reservoir_entry, resample_reservoir, reservoir_entry,
-    reservoir_order_key,
+    PackedReservoir, PreviousReservoirGrid, ReservoirHit, ordered_reservoir_entry,
+    resample_reservoir, reservoir_entry, reservoir_order_key,
 };
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
@@ -111,19 +111,24 @@ pub fn resample_reservoirs(
     let view = params.view;
     let current = reservoirs[i];
     let mut rng = pass_random(view.seed, query.ray_index, PASS_RESTIR, view.frame_index);
-    let sample = resample_reservoir(
-        &grid[0],
+    let lighting = LightSources {
         lights,
         environment,
         environment_cdf,
+    };
+    let sample = resample_reservoir(
+        &grid[0],
+        lighting,
         &view,
         &query,
         &current,
-        previous_keys,
-        previous_offsets,
-        previous_entries,
-        previous_reservoirs,
-        previous_hits,
+        PreviousReservoirGrid {
+            keys: previous_keys,
+            offsets: previous_offsets,
+            entries: previous_entries,
+            reservoirs: previous_reservoirs,
+            hits: previous_hits,
+        },
         &mut rng,
     );
     reservoirs[i] = PackedReservoir::pack(&sample.reservoir, sample.params);

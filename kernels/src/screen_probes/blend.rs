@@ -5,7 +5,7 @@
 //! writes the probe tile's cells, record and mask texel.
 //!
 //! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns (packed
-//! seeds), probe rays, ray records (`CacheViewPixel`, the rays' radiance), probe
+//! seeds), probe rays, ray records (`RayRecord`, the rays' radiance), probe
 //! history, current records (written), current mask (mip 0 written), current atlas (written).
 //! `[spawn_grid.x, spawn_grid.y, 1]` workgroups of 8 × 8; spawn index =
 //! `workgroup.y × spawn_grid.x + workgroup.x`.
@@ -22,7 +22,7 @@ use gi_shared::screen_probes::hemisphere::UNMAPPED;
 use gi_shared::screen_probes::hysteresis::{cell_change, other_cells};
 use gi_shared::screen_probes::spawn::spawned_seed;
 use gi_shared::screen_probes::{EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord};
-use gi_shared::world_cache::CacheViewPixel;
+use gi_shared::world_cache::RayRecord;
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::{UVec3, Vec4};
 use spirv_std::spirv;
@@ -43,7 +43,7 @@ pub fn blend_screen_probes(
     #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spawns: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] probe_rays: &[ProbeRay],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] ray_records: &[CacheViewPixel],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] ray_records: &[RayRecord],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] probe_history: &[[f32; 4]],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] records: &mut [ProbeRecord],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] mask: &mut [u32],

@@ -13,7 +13,7 @@ use gi_shared::atomics::AtomicWords;
 use gi_shared::camera::CameraParams;
 use gi_shared::primary_surface::primary_surface;
 use gi_shared::screen_probes::interpolate::{
-    SKY_IRRADIANCE, accepts_jitter, interpolate_pixel, jitter_candidate,
+    InterpolationProbes, SKY_IRRADIANCE, accepts_jitter, interpolate_pixel, jitter_candidate,
 };
 use gi_shared::screen_probes::{GiFrameParams, ProbeRecord, RELAXED_COUNT};
 use spirv_std::glam::{UVec2, UVec3, Vec4};
@@ -63,7 +63,8 @@ pub fn interpolate_screen_probes(
             lookup = c;
         }
     }
-    let r = interpolate_pixel(frame, &surface, d, lookup, records, mask, sh);
+    let probes = InterpolationProbes { records, mask, sh };
+    let r = interpolate_pixel(frame, &surface, d, lookup, probes);
     irradiance[i] = r.irradiance;
     if r.relaxed && RELAXED_COUNT < counters.len() {
         DeviceWords(counters).fetch_add(RELAXED_COUNT, 1);

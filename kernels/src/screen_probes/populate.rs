@@ -5,7 +5,7 @@
 //! into the ray's record.
 //!
 //! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns, probe
-//! rays, ray records (`CacheViewPixel`), queries, cache counters, light-grid
+//! rays, ray records (`RayRecord`), queries, cache counters, light-grid
 //! bounds. Set 1: the scene's geometry. Set 2: its shading data and lights. Push constants:
 //! `CachePassParams`. One workgroup of 64 invocations per spawn slot, `[spawn_grid.x,
 //! spawn_grid.y]` groups.
@@ -15,14 +15,14 @@ use crate::texture_images::Bindless;
 use gi_shared::append_list::append;
 use gi_shared::camera::CameraParams;
 use gi_shared::light_grid::report_hit_bounds;
-use gi_shared::lights::GpuLight;
+use gi_shared::lights::{GpuLight, LightSources, SceneLights};
 use gi_shared::packing::unpack_seed;
 use gi_shared::primary_surface::primary_surface;
 use gi_shared::ray::Ray;
 use gi_shared::screen_probes::spawn::spawned_seed;
 use gi_shared::screen_probes::{GiFrameParams, MISS_DISTANCE, PROBE_CELLS, ProbeRay};
-use gi_shared::secondary_hits::shade_cache_hit;
-use gi_shared::world_cache::{CachePassParams, CacheQuery, CacheViewPixel, QUERY_COUNT};
+use gi_shared::secondary_hits::{TracedRay, shade_cache_hit};
+use gi_shared::world_cache::{CachePassParams, CacheQuery, QUERY_COUNT, RayRecord};
 use spirv_std::glam::{UVec3, Vec3, Vec4};
 use spirv_std::spirv;
 
@@ -40,7 +40,7 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spawns: &[u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] probe_rays: &mut [ProbeRay],
-        #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] ray_records: &mut [CacheViewPixel],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] ray_records: &mut [RayRecord],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] queries: &mut [CacheQuery],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] counters: &mut [u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] bounds: &mut [u32],
@@ -49,6 +49,10 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 10)] environment_cdf: &[f32],
     ) {
+        let lighting = SceneLights {
+            sources: LightSources { lights, environment, environment_cdf },
+            light_table,
+        };
         let spawn = group.y * frame.spawn_grid[0] + group.x;
         if spawned_seed(spawns, spawn).is_none() {
             return;
@@ -64,7 +68,7 @@ traced_kernel! {
         let surface = primary_surface(camera, seed, d, gn, gn);
         let mut record = probe_rays[i];
         let direction = Vec3::from_array(record.direction);
-        let mut out = CacheViewPixel::default();
+        let mut out = RayRecord::default();
         record.hit_distance = MISS_DISTANCE;
         if surface.valid && direction != Vec3::ZERO {
             let ray = Ray {
@@ -75,9 +79,7 @@ traced_kernel! {
             };
             let hit = scene.closest_hit(&ray, texture_images);
             let shaded = shade_cache_hit(
-                &params.view, &ray, &surface, &hit, index, scene.instances, scene.meshes,
-                scene.vertices, scene.triangles, scene.materials, scene.textures, &Bindless(texture_images), lights, light_table,
-                environment, environment_cdf,
+                &params.view, &surface, &TracedRay { ray, hit, index }, scene.surfaces, &Bindless(texture_images), lighting,
             );
             if hit.is_hit() {
                 record.hit_distance = hit.t * direction.length();

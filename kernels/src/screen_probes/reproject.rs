@@ -13,10 +13,11 @@ use crate::atomics::{DeviceWords, WorkgroupWords};
 use crate::gbuffer::{DepthImage, FloatImage, HalfImage};
 use gi_shared::atomics::AtomicWords;
 use gi_shared::camera::CameraParams;
+use gi_shared::gbuffer::ReprojectionTexel;
 use gi_shared::screen_probes::hemisphere::gather_mapped;
 use gi_shared::screen_probes::reproject::{
-    NO_WINNER, Reprojection, finish_tile, lane_pixel, map_source_cell, output_cell, reprojection,
-    reuse_candidate, source_cell, spawn_fills, winner_lane,
+    NO_WINNER, PreviousProbes, Reprojection, finish_tile, lane_pixel, map_source_cell, output_cell,
+    reprojection, reuse_candidate, source_cell, spawn_fills, winner_lane,
 };
 use gi_shared::screen_probes::spawn::probe_tile_spawn_seed;
 use gi_shared::screen_probes::{GiFrameParams, LANES, PROBE_CELLS, ProbeRecord};
@@ -94,17 +95,17 @@ pub fn reproject_screen_probes(
     // Phase 1: this lane's pixel offers the previous probe it may reuse.
     let pixel = lane_pixel(tile, lane);
     let (d, gn) = texel(camera, depth, geometric_normal, pixel);
-    let candidate = reuse_candidate(
-        frame,
-        camera,
-        pixel,
-        lane,
-        d,
-        gn,
-        motion_texel(camera, motion, pixel),
-        previous_records,
-        previous_mask,
-    );
+    let own = ReprojectionTexel {
+        depth: d,
+        geometric_normal: gn,
+        motion: motion_texel(camera, motion, pixel),
+    };
+    let previous = PreviousProbes {
+        records: previous_records,
+        mask: previous_mask,
+        atlas: previous_atlas,
+    };
+    let candidate = reuse_candidate(frame, camera, pixel, lane, own, &previous);
     sources[l] = candidate.source;
     if candidate.key != NO_WINNER {
         key.fetch_min(0, candidate.key);

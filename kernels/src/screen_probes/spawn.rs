@@ -8,9 +8,9 @@
 use crate::atomics::DeviceWords;
 use crate::gbuffer::{DepthImage, HalfImage};
 use gi_shared::camera::CameraParams;
-use gi_shared::screen_probes::spawn::{spawn_probe, spawn_seed_of};
+use gi_shared::screen_probes::spawn::{SpawnSeed, spawn_probe, spawn_seed_of};
 use gi_shared::screen_probes::{GiFrameParams, ProbeRecord};
-use spirv_std::glam::{UVec3, Vec4};
+use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 
 /// Spawns the probe of spawn tile `id.x`.
@@ -32,20 +32,18 @@ pub fn spawn_screen_probes(
 ) {
     let seed = spawn_seed_of(frame, id.x)
         .filter(|seed| seed.x < camera.image_size[0] && seed.y < camera.image_size[1]);
-    let (d, gn) = match seed {
-        Some(seed) => {
-            let d: f32 = depth.read(seed);
-            let gn: Vec4 = geometric_normal.read(seed);
-            (d, gn)
-        }
-        None => (0.0, Vec4::ZERO),
+    let seed = match seed {
+        Some(pixel) => SpawnSeed {
+            pixel,
+            depth: depth.read(pixel),
+            geometric_normal: geometric_normal.read(pixel),
+        },
+        None => SpawnSeed::NONE,
     };
     spawn_probe(
         frame,
         id.x,
         seed,
-        d,
-        gn,
         records,
         spawns,
         overrides,

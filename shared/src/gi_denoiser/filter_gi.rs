@@ -162,23 +162,36 @@ pub fn filters(frame: &GiFrameParams, depth: f32, normal: Vec4, radius: f32) -> 
     frame.has(FLAG_DENOISER_SPATIAL) && is_surface(depth, normal) && tap_count(radius) > 0
 }
 
-/// One pass for `pixel` on the CPU, the kernel's loop over slices (`depth`, `normal`, `radius`,
-/// `input`, `history` row by row).
-#[allow(
-    clippy::too_many_arguments,
-    reason = "the kernel's bindings, one argument each"
-)]
+/// What steers FilterGI on the CPU, per pixel row by row: the G-buffer's depth and normal, the
+/// blur radius, and the denoiser's history (its sample count, `w`).
+#[derive(Clone, Copy, Debug)]
+pub struct FilterGuides<'a> {
+    /// Linear depth.
+    pub depth: &'a [f32],
+    /// Geometric normal texels.
+    pub normal: &'a [Vec4],
+    /// Blur radius, pixels.
+    pub radius: &'a [f32],
+    /// `[r, g, b, count]`.
+    pub history: &'a [[f32; 4]],
+}
+
+/// One pass for `pixel` on the CPU, the kernel's loop over slices (`guides` and `input`, row by
+/// row).
 #[inline]
 pub fn filter_gi_pixel(
     frame: &GiFrameParams,
     pixel: UVec2,
     direction: u32,
-    depth: &[f32],
-    normal: &[Vec4],
-    radius: &[f32],
+    guides: FilterGuides<'_>,
     input: &[[f32; 4]],
-    history: &[[f32; 4]],
 ) -> [f32; 4] {
+    let FilterGuides {
+        depth,
+        normal,
+        radius,
+        history,
+    } = guides;
     let size = frame.image_size;
     let i = (pixel.y * size[0] + pixel.x) as usize;
     let centre = input[i];
@@ -203,47 +216,24 @@ pub fn filter_gi_pixel(
 
 /// Both passes over the whole image on the CPU (horizontal into `scratch`, vertical into
 /// `output`).
-#[allow(
-    clippy::too_many_arguments,
-    reason = "the kernel's bindings, one argument each"
-)]
 pub fn filter_gi_image(
     frame: &GiFrameParams,
-    depth: &[f32],
-    normal: &[Vec4],
-    radius: &[f32],
+    guides: FilterGuides<'_>,
     input: &[[f32; 4]],
-    history: &[[f32; 4]],
     scratch: &mut [[f32; 4]],
     output: &mut [[f32; 4]],
 ) {
     let [w, h] = frame.image_size;
     for y in 0..h {
         for x in 0..w {
-            scratch[(y * w + x) as usize] = filter_gi_pixel(
-                frame,
-                UVec2::new(x, y),
-                FILTER_HORIZONTAL,
-                depth,
-                normal,
-                radius,
-                input,
-                history,
-            );
+            scratch[(y * w + x) as usize] =
+                filter_gi_pixel(frame, UVec2::new(x, y), FILTER_HORIZONTAL, guides, input);
         }
     }
     for y in 0..h {
         for x in 0..w {
-            output[(y * w + x) as usize] = filter_gi_pixel(
-                frame,
-                UVec2::new(x, y),
-                FILTER_VERTICAL,
-                depth,
-                normal,
-                radius,
-                scratch,
-                history,
-            );
+            output[(y * w + x) as usize] =
+                filter_gi_pixel(frame, UVec2::new(x, y), FILTER_VERTICAL, guides, scratch);
         }
     }
 }
@@ -276,16 +266,13 @@ mod tests {
         let history = vec![[0.0, 0.0, 0.0, count]; N];
         let mut scratch = vec![[0.0; 4]; N];
         let mut out = vec![[0.0; 4]; N];
-        filter_gi_image(
-            f,
+        let guides = FilterGuides {
             depth,
             normal,
             radius,
-            input,
-            &history,
-            &mut scratch,
-            &mut out,
-        );
+            history: &history,
+        };
+        filter_gi_image(f, guides, input, &mut scratch, &mut out);
         out
     }
 

@@ -39,7 +39,7 @@ use glam::{UVec2, Vec2, Vec3, Vec4};
 
 use crate::camera::CameraParams;
 use crate::color::luminance;
-use crate::gbuffer::{PreviousPoint, previous_point};
+use crate::gbuffer::{PreviousPoint, ReprojectionTexel, previous_point};
 use crate::math::{abs, floor, max, min, saturate, sqrt, to_i32_clamped};
 use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
 use crate::primary_surface::primary_surface;
@@ -116,6 +116,9 @@ pub fn accepts_history(
     let close = (previous_position - position).length() < tolerance;
     close && normal.dot(previous_normal) > HISTORY_MIN_NORMAL_DOT
 }
+
+/// The float words of a [`surface_record`]: the position (the normal's bits are not a float).
+pub const SURFACE_RECORD_FLOAT_WORDS: &[u32] = &[0, 1, 2];
 
 /// The surface record a pixel leaves for the next frame: position and packed normal.
 #[inline]
@@ -206,19 +209,18 @@ pub struct ReprojectedHistory {
 /// continuous pixel position `p` of the previous image, in the previous frame's buffers: the
 /// accepted 3 × 3 taps around `p`, blended by [`history_tap_weight`].
 #[inline]
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
 pub fn gather_history(
     frame: &GiFrameParams,
     p: Vec2,
     previous_position: Vec3,
     normal: Vec3,
-    previous_history: &[[f32; 4]],
-    previous_surface: &[[f32; 4]],
-    previous_luma_delta: &[f32],
+    previous: PreviousGiHistory<'_>,
 ) -> ReprojectedHistory {
+    let PreviousGiHistory {
+        history: previous_history,
+        surface: previous_surface,
+        luma_delta: previous_luma_delta,
+    } = previous;
     let mut out = ReprojectedHistory {
         mean: Vec3::ZERO,
         count: 0.0,
@@ -307,32 +309,40 @@ pub fn accumulate(
     }
 }
 
-/// ReprojectGI for one pixel: `depth`, `geometric_normal` and `motion` are its G-buffer texels, `current`
-/// this frame's interpolated `[r, g, b, hint]`, then the previous frame's buffers.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
+/// The previous frame's denoiser history, as ReprojectGI reads it.
+#[derive(Clone, Copy, Debug)]
+pub struct PreviousGiHistory<'a> {
+    /// `[r, g, b, count]` per pixel.
+    pub history: &'a [[f32; 4]],
+    /// The pixels' surface records ([`surface_record`]).
+    pub surface: &'a [[f32; 4]],
+    /// The pixels' smoothed luminance change.
+    pub luma_delta: &'a [f32],
+}
+
+/// ReprojectGI for one pixel: `texel` is its G-buffer, `current` this frame's interpolated
+/// `[r, g, b, hint]`, `previous` the previous frame's history.
 #[inline]
 pub fn reproject_gi_pixel(
     frame: &GiFrameParams,
     camera: &CameraParams,
     pixel: UVec2,
-    depth: f32,
-    geometric_normal: Vec4,
-    motion: Vec4,
+    texel: ReprojectionTexel,
     current: [f32; 4],
-    previous_history: &[[f32; 4]],
-    previous_surface: &[[f32; 4]],
-    previous_luma_delta: &[f32],
+    previous: PreviousGiHistory<'_>,
 ) -> GiHistory {
+    let ReprojectionTexel {
+        depth,
+        geometric_normal,
+        motion,
+    } = texel;
     let surface = primary_surface(camera, pixel, depth, geometric_normal, geometric_normal);
     if !surface.valid {
         return GiHistory::SKY;
     }
     let n = surface.geometric_normal;
     let record = surface_record(surface.position, n);
-    let previous = if frame.has(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY) {
+    let point = if frame.has(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY) {
         previous_point(
             camera,
             pixel,
@@ -343,16 +353,8 @@ pub fn reproject_gi_pixel(
     } else {
         PreviousPoint::NONE
     };
-    let history = if previous.valid {
-        gather_history(
-            frame,
-            previous.pixel_position,
-            previous.position,
-            n,
-            previous_history,
-            previous_surface,
-            previous_luma_delta,
-        )
+    let history = if point.valid {
+        gather_history(frame, point.pixel_position, point.position, n, previous)
     } else {
         ReprojectedHistory {
             mean: Vec3::ZERO,
@@ -370,47 +372,28 @@ pub fn reproject_gi_pixel(
     )
 }
 
-/// The whole pass on the CPU: every pixel of the G-buffer (`depth`, `geometric_normal`,
-/// `motion`, row by row) reprojected into the current buffers.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "the kernel's bindings, one argument each"
-)]
+/// The whole pass on the CPU: every pixel of the G-buffer (`gbuffer(i)` for pixel `i`, row by
+/// row) reprojected from `previous` into `out`.
 pub fn reproject_gi_image(
     frame: &GiFrameParams,
     camera: &CameraParams,
-    depth: &[f32],
-    geometric_normal: &[Vec4],
-    motion: &[Vec4],
+    gbuffer: impl Fn(usize) -> ReprojectionTexel,
     irradiance: &[[f32; 4]],
-    previous_history: &[[f32; 4]],
-    history: &mut [[f32; 4]],
-    previous_surface: &[[f32; 4]],
-    surface: &mut [[f32; 4]],
-    previous_luma_delta: &[f32],
-    luma_delta: &mut [f32],
-    blur_mask: &mut [f32],
+    previous: PreviousGiHistory<'_>,
+    out: &mut [GiHistory],
 ) {
     let [w, h] = frame.image_size;
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
-            let r = reproject_gi_pixel(
+            out[i] = reproject_gi_pixel(
                 frame,
                 camera,
                 UVec2::new(x, y),
-                depth[i],
-                geometric_normal[i],
-                motion[i],
+                gbuffer(i),
                 irradiance[i],
-                previous_history,
-                previous_surface,
-                previous_luma_delta,
+                previous,
             );
-            history[i] = r.history;
-            surface[i] = r.surface;
-            luma_delta[i] = r.luma_delta;
-            blur_mask[i] = r.blur_mask;
         }
     }
 }
@@ -488,23 +471,26 @@ mod tests {
         input: &[[f32; 4]],
         prev: &Buffers,
     ) -> Buffers {
+        let mut out = vec![GiHistory::SKY; input.len()];
+        // No motion texels: the camera reprojects.
+        let gbuffer = |i: usize| ReprojectionTexel {
+            depth: g.0[i],
+            geometric_normal: g.1[i],
+            motion: Vec4::ZERO,
+        };
+        let previous = PreviousGiHistory {
+            history: &prev.history,
+            surface: &prev.surface,
+            luma_delta: &prev.delta,
+        };
+        reproject_gi_image(f, c, gbuffer, input, previous, &mut out);
         let mut next = Buffers::new();
-        reproject_gi_image(
-            f,
-            c,
-            &g.0,
-            &g.1,
-            // No motion texels: the camera reprojects.
-            &vec![Vec4::ZERO; g.0.len()],
-            input,
-            &prev.history,
-            &mut next.history,
-            &prev.surface,
-            &mut next.surface,
-            &prev.delta,
-            &mut next.delta,
-            &mut next.mask,
-        );
+        for (i, r) in out.iter().enumerate() {
+            next.history[i] = r.history;
+            next.surface[i] = r.surface;
+            next.delta[i] = r.luma_delta;
+            next.mask[i] = r.blur_mask;
+        }
         next
     }
 

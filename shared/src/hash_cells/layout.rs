@@ -291,6 +291,38 @@ const _: () = assert!(core::mem::size_of::<HashCellAccumulator>() == ACCUMULATOR
 const _: () = assert!(MAX_HASH_GRID_TILES * 4 <= MAX_STORAGE_BUFFER_BYTES);
 const _: () = assert!(core::mem::size_of::<HashGridParams>() <= MAX_PUSH_CONSTANT_BYTES);
 
+/// The hash grid as a lookup reads it: each slot's key and last touch (atomic words on the GPU,
+/// any [`AtomicWords`](crate::atomics::AtomicWords) on the CPU) and the cells' values.
+#[derive(Clone, Copy)]
+pub struct HashCellsRead<'a, K: ?Sized, T: ?Sized> {
+    /// The slots' keys (`storage`).
+    pub keys: &'a K,
+    /// The slots' last-touch frames (`touch`).
+    pub last_touch: &'a T,
+    /// The cells' blended values, [`CELLS_PER_TILE`] per tile.
+    pub values: &'a [HashCellValue],
+}
+
+/// The buffers InsertRadianceCache writes for a query: the slots' keys and last touch, the cells'
+/// values (cleared for a new tile), the frame's tile lists, the pass counters and the insert
+/// marks that settle full buckets (`full_buckets`). The word buffers are held by value (`&mut
+/// [u32]` on the CPU, the kernels' device words on the GPU): a struct of pointers to the kernels'
+/// wrappers miscompiled (every insert failed).
+pub struct HashCellsInsert<'a, K, T, L, C, M> {
+    /// The slots' keys.
+    pub keys: K,
+    /// The slots' last-touch frames.
+    pub last_touch: T,
+    /// The cells' values.
+    pub values: &'a mut [HashCellValue],
+    /// The frame's tile lists (`lists`).
+    pub lists: L,
+    /// The world cache's counters.
+    pub counters: C,
+    /// The insert marks.
+    pub marks: M,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -38,7 +38,7 @@ use super::{
 use crate::camera::CameraParams;
 use crate::packing::{pack_seed, pack_snorm10x3, unpack_seed};
 use crate::primary_surface::primary_surface;
-use crate::world_cache::CacheViewPixel;
+use crate::world_cache::RayRecord;
 
 /// The record of the probe spawned at packed seed `seed`, from the seed pixel's G-buffer linear
 /// `depth` and geometric normal (also used as the shading normal): its surface point (offset off
@@ -79,7 +79,7 @@ fn usable_radiance(r: Vec3) -> bool {
 /// ([`UNMAPPED`], [`EMPTY`]) for a ray to drop: not traced (zero direction), a cell out of range,
 /// non-finite or negative radiance, or a negative or NaN hit distance.
 #[inline]
-pub fn ray_source(ray: ProbeRay, record: CacheViewPixel) -> (u32, [f32; 4]) {
+pub fn ray_source(ray: ProbeRay, record: RayRecord) -> (u32, [f32; 4]) {
     let radiance = Vec3::from_array(record.ray_radiance);
     let traced = Vec3::from_array(ray.direction) != Vec3::ZERO;
     if traced && ray.cell < PROBE_CELLS && usable_radiance(radiance) && ray.hit_distance >= 0.0 {
@@ -193,7 +193,7 @@ pub fn finish_cell(
 pub fn blend_workgroup(
     params: &GiFrameParams,
     rays: &[ProbeRay],
-    ray_records: &[CacheViewPixel],
+    ray_records: &[RayRecord],
     history: &[[f32; 4]],
 ) -> [[f32; 4]; LANES] {
     let mut mapped = [UNMAPPED; LANES];
@@ -241,8 +241,8 @@ mod tests {
         }
     }
 
-    fn radiance(r: f32) -> CacheViewPixel {
-        CacheViewPixel {
+    fn radiance(r: f32) -> RayRecord {
+        RayRecord {
             ray_radiance: [r, r * 0.5, r * 0.25],
             ..Default::default()
         }

@@ -243,23 +243,40 @@ pub struct Interpolated {
     pub relaxed: bool,
 }
 
+/// The current frame's probes as InterpolateScreenProbes reads them.
+#[derive(Clone, Copy, Debug)]
+pub struct InterpolationProbes<'a> {
+    /// Records, one per probe tile.
+    pub records: &'a [ProbeRecord],
+    /// The probe mask with its mip chain.
+    pub mask: &'a [u32],
+    /// The probes' irradiance SH.
+    pub sh: &'a [[f32; 4]],
+}
+
+/// The G-buffer's depth and normal images as slices, row by row: what the CPU model of
+/// InterpolateScreenProbes reads (the images' own texel encodings).
+#[derive(Clone, Copy, Debug)]
+pub struct GBufferSlices<'a> {
+    /// Linear depth.
+    pub depth: &'a [f32],
+    /// Geometric normal texels.
+    pub geometric_normal: &'a [Vec4],
+    /// Shading normal texels.
+    pub shading_normal: &'a [Vec4],
+}
+
 /// The interpolated irradiance of a surface pixel: `surface` (its primary surface), `depth` (its
-/// linear depth), `lookup` (the lookup pixel, jittered or itself), the current probe `records`,
-/// `mask` (mip chain) and `sh`.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "rust-gpu cannot keep storage-buffer slices in a struct: one argument per buffer"
-)]
+/// linear depth), `lookup` (the lookup pixel, jittered or itself), the current `probes`.
 #[inline]
 pub fn interpolate_pixel(
     frame: &GiFrameParams,
     surface: &PrimarySurface,
     depth: f32,
     lookup: UVec2,
-    records: &[ProbeRecord],
-    mask: &[u32],
-    sh: &[[f32; 4]],
+    probes: InterpolationProbes<'_>,
 ) -> Interpolated {
+    let InterpolationProbes { records, mask, sh } = probes;
     if !surface.valid {
         return Interpolated {
             irradiance: SKY_IRRADIANCE,
@@ -312,25 +329,21 @@ pub fn interpolate_pixel(
     out
 }
 
-/// The whole pass on the CPU, in the kernel's steps: every pixel of the G-buffer (`depth`, the
-/// normals as the images hold them, row by row) interpolated into `irradiance`, relaxed pixels
-/// counted in `counters`.
-#[allow(
-    clippy::too_many_arguments,
-    reason = "the kernel's bindings, one argument each"
-)]
+/// The whole pass on the CPU, in the kernel's steps: every pixel of `gbuffer` interpolated from
+/// `probes` into `irradiance`, relaxed pixels counted in `counters`.
 pub fn interpolate_image<C: AtomicWords + ?Sized>(
     frame: &GiFrameParams,
     camera: &CameraParams,
-    depth: &[f32],
-    geometric_normal: &[Vec4],
-    shading_normal: &[Vec4],
-    records: &[ProbeRecord],
-    mask: &[u32],
-    sh: &[[f32; 4]],
+    gbuffer: GBufferSlices<'_>,
+    probes: InterpolationProbes<'_>,
     irradiance: &mut [[f32; 4]],
     counters: &mut C,
 ) {
+    let GBufferSlices {
+        depth,
+        geometric_normal,
+        shading_normal,
+    } = gbuffer;
     let [w, h] = frame.image_size;
     let at = |p: UVec2| (p.y * w + p.x) as usize;
     for y in 0..h {
@@ -357,7 +370,7 @@ pub fn interpolate_image<C: AtomicWords + ?Sized>(
                     lookup = c;
                 }
             }
-            let r = interpolate_pixel(frame, &surface, d, lookup, records, mask, sh);
+            let r = interpolate_pixel(frame, &surface, d, lookup, probes);
             irradiance[i] = r.irradiance;
             if r.relaxed && RELAXED_COUNT < counters.word_count() {
                 counters.fetch_add(RELAXED_COUNT, 1);
@@ -567,11 +580,11 @@ mod tests {
         let s = gather_probes(&f, &mask, UVec2::new(1, 1));
         assert_eq!(s.count, 1);
         // Duplicates are not added twice.
-        let mut set = ProbeSet::EMPTY;
+        let mut grid = ProbeSet::EMPTY;
         for v in [5, 5, NO_PROBE, 7, 5, 8, 9, 10] {
-            set.insert(v);
+            grid.insert(v);
         }
-        assert_eq!((set.count, set.seeds), (4, [5, 7, 8, 9]));
+        assert_eq!((grid.count, grid.seeds), (4, [5, 7, 8, 9]));
     }
 
     #[test]
@@ -635,10 +648,15 @@ mod tests {
             (10, UVec2::new(20, 20), 4.0),
         ];
         let (records, mask, sh) = probes(&f, &depth, &normals, &list);
+        let grid = InterpolationProbes {
+            records: &records,
+            mask: &mask,
+            sh: &sh,
+        };
         let p = UVec2::new(13, 14);
         let s = surface_at(&depth, &normals, p);
         let d = depth[(p.y * W + p.x) as usize];
-        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh);
+        let r = interpolate_pixel(&f, &s, d, p, grid);
         let expected = PI * 2.5;
         assert!(
             (r.irradiance[0] - expected).abs() < 1e-3 * expected,
@@ -655,8 +673,13 @@ mod tests {
             &normals,
             &[(5, UVec2::new(12, 12), 1.0), (6, UVec2::new(20, 12), 100.0)],
         );
+        let grid2 = InterpolationProbes {
+            records: &records2,
+            mask: &mask2,
+            sh: &sh2,
+        };
         f.flags = 0;
-        let r = interpolate_pixel(&f, &s, d, p, &records2, &mask2, &sh2);
+        let r = interpolate_pixel(&f, &s, d, p, grid2);
         assert!(
             (r.irradiance[0] - PI).abs() < 1e-3 * PI,
             "{:?}",
@@ -670,14 +693,19 @@ mod tests {
         let (depth, normals) = gbuffer(16);
         // Only a probe on the box face for a pixel on the wall: all weights zero.
         let (records, mask, sh) = probes(&f, &depth, &normals, &[(6, UVec2::new(20, 12), 2.0)]);
+        let grid = InterpolationProbes {
+            records: &records,
+            mask: &mask,
+            sh: &sh,
+        };
         let p = UVec2::new(10, 10);
         let s = surface_at(&depth, &normals, p);
         let d = depth[(p.y * W + p.x) as usize];
-        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh);
+        let r = interpolate_pixel(&f, &s, d, p, grid);
         assert_eq!(r.irradiance, [0.0, 0.0, 0.0, HINT_RELAXED]);
         assert!(!r.relaxed);
         f.flags = FLAG_RELAXED_FALLBACK;
-        let r = interpolate_pixel(&f, &s, d, p, &records, &mask, &sh);
+        let r = interpolate_pixel(&f, &s, d, p, grid);
         assert!(
             (r.irradiance[0] - 2.0 * PI).abs() < 1e-3,
             "{:?}",
@@ -693,12 +721,12 @@ mod tests {
         interpolate_image(
             &f,
             &camera(),
-            &depth_sky,
-            &normals,
-            &normals,
-            &records,
-            &mask,
-            &sh,
+            GBufferSlices {
+                depth: &depth_sky,
+                geometric_normal: &normals,
+                shading_normal: &normals,
+            },
+            grid,
             &mut out,
             &mut counters[..],
         );

@@ -30,7 +30,7 @@
 //! ([`EMPTY_CELL`]) marks a cell without radiance. Probe `p`'s cells are `p × 64 + x + 8 · y`.
 //!
 //! The probe rays' radiance lives in the cache passes' per-ray records
-//! (`cache_view::CacheViewPixel::ray_radiance`, indexed by the ray index `spawn × 64 + lane`),
+//! (`cache_view::RayRecord::ray_radiance`, indexed by the ray index `spawn × 64 + lane`),
 //! so that InsertRadianceCache ... ResolveRadianceCache complete them unchanged.
 
 use bytemuck::{Pod, Zeroable};
@@ -243,6 +243,10 @@ pub struct ProbeRecord {
     pub _pad: u32,
 }
 
+impl crate::layout::FloatLayout for ProbeRecord {
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 5];
+}
+
 impl ProbeRecord {
     /// A tile without a probe.
     pub const NONE: Self = Self {
@@ -314,6 +318,10 @@ pub struct ProbeRay {
     pub cell_probability: f32,
     /// Explicit padding.
     pub _pad: [u32; 2],
+}
+
+impl crate::layout::FloatLayout for ProbeRay {
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 4, 5];
 }
 
 /// A cell `[r, g, b, hit distance]` as radiance and distance.
@@ -421,6 +429,23 @@ mod tests {
 
     #[test]
     fn layouts_are_their_documented_size() {
+        use crate::layout::{FloatLayout, float_field_words};
+        use core::mem::offset_of;
+        assert_eq!(
+            ProbeRay::FLOAT_WORDS,
+            float_field_words(&[
+                (offset_of!(ProbeRay, direction), 3),
+                (offset_of!(ProbeRay, hit_distance), 1),
+                (offset_of!(ProbeRay, cell_probability), 1)
+            ])
+        );
+        assert_eq!(
+            ProbeRecord::FLOAT_WORDS,
+            float_field_words(&[
+                (offset_of!(ProbeRecord, position), 3),
+                (offset_of!(ProbeRecord, depth), 1)
+            ])
+        );
         assert_eq!(core::mem::size_of::<ProbeRecord>(), 32);
         assert_eq!(core::mem::size_of::<ProbeRay>(), 32);
         assert_eq!(core::mem::size_of::<GiFrameParams>() % 16, 0);

@@ -42,7 +42,7 @@ use super::{
 use crate::append_list::append;
 use crate::atomics::AtomicWords;
 use crate::camera::CameraParams;
-use crate::gbuffer::previous_point;
+use crate::gbuffer::{ReprojectionTexel, previous_point};
 use crate::math::min_u32;
 use crate::math::to_u32_clamped;
 use crate::packing::{pack_score_lane, pack_seed, pack_snorm10x3, unpack_score_lane};
@@ -80,28 +80,27 @@ impl ReuseCandidate {
     };
 }
 
-/// Phase 1 for the lane `lane` at `pixel` (G-buffer texels `depth`, `geometric_normal`,
-/// `motion`; the previous frame's pixel and position from [`previous_point`]): the
+/// Phase 1 for the lane `lane` at `pixel` (its G-buffer `texel`; the previous frame's pixel and
+/// position from [`previous_point`]): the
 /// previous probe that may stand for the pixel's surface and the key of that reuse, or
 /// [`ReuseCandidate::NONE`]. The key is `pack_score_lane(score, lane)`, with 64 added to the
 /// lane unless the pixel reprojects onto the previous probe's own seed pixel: among equal
 /// (half-float) scores the probe's own seed wins, then the lowest lane.
 #[inline]
-#[allow(
-    clippy::too_many_arguments,
-    reason = "one argument per G-buffer texel and buffer the kernel reads"
-)]
 pub fn reuse_candidate(
     frame: &GiFrameParams,
     camera: &CameraParams,
     pixel: UVec2,
     lane: u32,
-    depth: f32,
-    geometric_normal: Vec4,
-    motion: Vec4,
-    previous_records: &[ProbeRecord],
-    previous_mask: &[u32],
+    texel: ReprojectionTexel,
+    previous: &PreviousProbes,
 ) -> ReuseCandidate {
+    let ReprojectionTexel {
+        depth,
+        geometric_normal,
+        motion,
+    } = texel;
+    let (previous_records, previous_mask) = (previous.records, previous.mask);
     if !reprojection_enabled(frame) || !sees_surface(depth, geometric_normal) {
         return ReuseCandidate::NONE;
     }
@@ -316,10 +315,6 @@ pub fn spawn_fills(has_seed: bool, depth: f32, geometric_normal: Vec4) -> bool {
 /// `empty_tiles` (counter [`EMPTY_COUNT`]) unless `spawned` (a spawn seed with a surface falls
 /// into it).
 #[inline]
-#[allow(
-    clippy::too_many_arguments,
-    reason = "one argument per buffer the kernel writes"
-)]
 pub fn finish_tile<W: AtomicWords + ?Sized>(
     tile: u32,
     record: &ProbeRecord,
@@ -397,17 +392,12 @@ pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4, Vec4)>(
     for lane in 0..PROBE_CELLS {
         let pixel = lane_pixel(tile, lane);
         let (depth, normal, motion) = texel(pixel);
-        let c = reuse_candidate(
-            frame,
-            camera,
-            pixel,
-            lane,
+        let texel = ReprojectionTexel {
             depth,
-            normal,
+            geometric_normal: normal,
             motion,
-            previous.records,
-            previous.mask,
-        );
+        };
+        let c = reuse_candidate(frame, camera, pixel, lane, texel, previous);
         sources[lane as usize] = c.source;
         if c.key != NO_WINNER {
             key[..].fetch_min(0, c.key);

@@ -126,22 +126,36 @@ impl Spawned {
     };
 }
 
-/// Spawn tile `slot`'s spawn at `seed` (`None`: outside the image), whose G-buffer texel is
-/// `depth` and `geometric_normal`: the packed seed in `spawns[slot]` ([`SEED_NONE`] for the sky
+/// A spawn's seed pixel and its G-buffer texel; [`SpawnSeed::NONE`] (no surface) where the spawn
+/// tile's seed falls outside the image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpawnSeed {
+    /// The seed pixel.
+    pub pixel: UVec2,
+    /// Its linear depth.
+    pub depth: f32,
+    /// Its geometric normal texel.
+    pub geometric_normal: Vec4,
+}
+
+impl SpawnSeed {
+    /// No seed: it sees no surface.
+    pub const NONE: Self = Self {
+        pixel: UVec2::ZERO,
+        depth: 0.0,
+        geometric_normal: Vec4::ZERO,
+    };
+}
+
+/// Spawn tile `slot`'s spawn at `seed`: the packed seed in `spawns[slot]` ([`SEED_NONE`] for the sky
 /// or no seed) and, when `records` (this frame's reprojected probes) hold a probe for the seed's
 /// probe tile, [`OVERRIDE_OPEN`] in `overrides[slot]` (else [`OVERRIDE_CLOSED`]). Counts
 /// [`SPAWN_COUNT`] and [`OVERRIDE_COUNT`].
 #[inline]
-#[allow(
-    clippy::too_many_arguments,
-    reason = "one argument per buffer the kernel binds"
-)]
 pub fn spawn_probe<W: AtomicWords + ?Sized>(
     frame: &GiFrameParams,
     slot: u32,
-    seed: Option<UVec2>,
-    depth: f32,
-    geometric_normal: Vec4,
+    seed: SpawnSeed,
     records: &[ProbeRecord],
     spawns: &mut [u32],
     overrides: &mut [u32],
@@ -153,9 +167,11 @@ pub fn spawn_probe<W: AtomicWords + ?Sized>(
     }
     spawns[s] = SEED_NONE;
     overrides[s] = OVERRIDE_CLOSED;
-    let Some(seed) = seed else {
-        return Spawned::NONE;
-    };
+    let SpawnSeed {
+        pixel: seed,
+        depth,
+        geometric_normal,
+    } = seed;
     if !sees_surface(depth, geometric_normal) {
         return Spawned::NONE;
     }
@@ -302,9 +318,11 @@ pub(crate) mod tests {
             let s = spawn_probe(
                 &f,
                 2,
-                Some(seed),
-                d,
-                n,
+                SpawnSeed {
+                    pixel: seed,
+                    depth: d,
+                    geometric_normal: n,
+                },
                 &records,
                 &mut spawns,
                 &mut overrides,
@@ -316,9 +334,7 @@ pub(crate) mod tests {
         let s = spawn_probe(
             &f,
             3,
-            None,
-            2.0,
-            surface,
+            SpawnSeed::NONE,
             &records,
             &mut spawns,
             &mut overrides,
@@ -333,9 +349,11 @@ pub(crate) mod tests {
         let s = spawn_probe(
             &f,
             1,
-            Some(other),
-            2.0,
-            surface,
+            SpawnSeed {
+                pixel: other,
+                depth: 2.0,
+                geometric_normal: surface,
+            },
             &records,
             &mut spawns,
             &mut overrides,
@@ -354,9 +372,11 @@ pub(crate) mod tests {
         let s = spawn_probe(
             &f,
             0,
-            Some(seed),
-            2.0,
-            surface,
+            SpawnSeed {
+                pixel: seed,
+                depth: 2.0,
+                geometric_normal: surface,
+            },
             &records,
             &mut spawns,
             &mut overrides,
@@ -377,9 +397,11 @@ pub(crate) mod tests {
         let s = spawn_probe(
             &f,
             4,
-            Some(seed),
-            2.0,
-            surface,
+            SpawnSeed {
+                pixel: seed,
+                depth: 2.0,
+                geometric_normal: surface,
+            },
             &records,
             &mut spawns,
             &mut overrides,
