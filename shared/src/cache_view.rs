@@ -14,8 +14,7 @@ use crate::path_tracer::{
 use crate::primary_surface::PrimarySurface;
 use crate::random::Random;
 use crate::ray::Ray;
-use crate::scene_data::SceneSurfaces;
-use crate::scene_data::{GpuTriangle, GpuVertex};
+use crate::scene_data::{GpuTriangle, GpuVertex, SceneSurfaces};
 use crate::secondary_hits::path_params;
 use crate::textures::TextureImages;
 use crate::world_cache::{CacheFrameParams, RayRecord, finite_sample};

@@ -35,7 +35,6 @@
 //! The GI passes find a pixel's surface in the previous frame with [`previous_point`]: from the
 //! motion image where the object moved, else by reprojecting the point with the previous camera.
 
-use crate::scene_data::SceneSurfaces;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, UVec2, UVec4, Vec2, Vec3, Vec4};
 
@@ -43,7 +42,7 @@ use crate::camera::{CameraParams, to_clip, uv_of_clip};
 use crate::elements::Elements;
 use crate::ray::{HitRecord, Ray};
 use crate::ray_cone::RayFootprint;
-use crate::scene_data::{GpuTriangle, GpuVertex, hit_surface, object_position};
+use crate::scene_data::{GpuTriangle, GpuVertex, SceneSurfaces, hit_surface, object_position};
 use crate::textures::TextureImages;
 
 /// One instance's object-to-world transform in the previous frame, as the `gbuffer` kernel reads

@@ -65,7 +65,6 @@
 //! [`light_contribution`]). The target uses a triangle's radiance without its emissive texture;
 //! the kernel may shade with the textured radiance (the target only steers the choice).
 
-use crate::lights::LightSources;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec2, UVec3, Vec2, Vec3};
 
@@ -74,7 +73,7 @@ use crate::color::luminance;
 use crate::hash::pcg_chain;
 use crate::lights::{
     GpuLight, LIGHT_DIRECTIONAL, LIGHT_ENVIRONMENT, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE,
-    LightSample, sample_light,
+    LightSample, LightSources, sample_light,
 };
 use crate::math::{INV_PI, PI, floor, floor_to_i32_clamped, max, min, min_u32, to_u32_clamped};
 use crate::random::Random;

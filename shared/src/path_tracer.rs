@@ -59,7 +59,6 @@
 //! `max_bounces` counts reflections: 0 shows only what the camera sees emit, 1 adds direct
 //! lighting, and so on.
 
-use crate::scene_data::SceneSurfaces;
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec2, Vec2, Vec3};
 
@@ -79,7 +78,9 @@ use crate::ray::{HitRecord, Ray, offset_ray_origin};
 use crate::ray_cone::RayFootprint;
 use crate::reservoir::Reservoir;
 use crate::sampling::{sample_cosine_hemisphere, tangent_to_world};
-use crate::scene_data::{GpuMaterial, GpuTriangle, GpuVertex, hit_surface};
+use crate::scene_data::{
+    GpuMaterial, GpuTriangle, GpuVertex, MaterialSample, SceneSurfaces, Surface, hit_surface,
+};
 use crate::textures::{TextureImages, UvFootprint};
 
 /// The largest bounce count a path may take, whatever the parameters ask.
@@ -452,6 +453,45 @@ pub fn emitter_light_pdf(
     }
 }
 
+/// What the surface a BSDF-sampled ray (direction `ray_direction`, not normalised: `hit.t` is
+/// in its units) hit emits back along it, × the multiplier, and the density with which
+/// next-event estimation would have drawn that point ([`emitter_light_pdf`], 0: not a light),
+/// for the caller's MIS weight; `None` where the surface does not emit toward the ray.
+#[inline]
+pub fn hit_emission(
+    params: &PathTracerParams,
+    lighting: SceneLights<'_>,
+    materials: &[GpuMaterial],
+    hit: &HitRecord,
+    surface: &Surface,
+    material: &MaterialSample,
+    ray_direction: Vec3,
+) -> Option<(Vec3, f32)> {
+    let emission = material.emissive * params.emissive_multiplier;
+    let direction = ray_direction.normalize_or_zero();
+    if emission.max_element() > 0.0
+        && emits_toward(
+            materials,
+            surface.material,
+            surface.geometric_normal,
+            -direction,
+        )
+    {
+        let light_pdf = emitter_light_pdf(
+            params,
+            lighting.sources.lights,
+            lighting.light_table,
+            hit,
+            surface.area,
+            surface.geometric_normal.dot(direction),
+            ray_direction.length(),
+        );
+        Some((emission, light_pdf))
+    } else {
+        None
+    }
+}
+
 /// Shades the hit `hit` of `path.ray`: adds emission (MIS-weighted) or sky, prepares a shadow ray
 /// for next-event estimation, and samples the next ray, or ends the path.
 ///
@@ -466,7 +506,7 @@ pub fn shade<I: TextureImages + ?Sized>(
     images: &I,
     lighting: SceneLights<'_>,
 ) {
-    let (sources, light_table) = (lighting.sources, lighting.light_table);
+    let sources = lighting.sources;
     let (lights, environment) = (sources.lights, sources.environment);
     let environment_cdf = sources.environment_cdf;
     path.shadow_pending = false;
@@ -506,24 +546,15 @@ pub fn shade<I: TextureImages + ?Sized>(
         ns = ng;
     }
 
-    let emission = material.emissive * params.emissive_multiplier;
-    if emission.max_element() > 0.0
-        && emits_toward(
-            surfaces.materials,
-            surface.material,
-            surface.geometric_normal,
-            -direction,
-        )
-    {
-        let light_pdf = emitter_light_pdf(
-            params,
-            lights,
-            light_table,
-            hit,
-            surface.area,
-            ng.dot(direction),
-            ray_direction.length(),
-        );
+    if let Some((emission, light_pdf)) = hit_emission(
+        params,
+        lighting,
+        surfaces.materials,
+        hit,
+        &surface,
+        &material,
+        ray_direction,
+    ) {
         path.radiance += path.throughput * emission * bsdf_weight(light_pdf);
     }
 

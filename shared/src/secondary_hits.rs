@@ -9,20 +9,20 @@ use crate::elements::Elements;
 use crate::light_grid::{
     DiffuseHit, LightGridEntry, LightGridParams, LightGridSample, sample_light_grid,
 };
-use crate::lights::sky_radiance;
-use crate::lights::{LightSources, SceneLights};
+use crate::lights::{LightSources, SceneLights, sky_radiance};
 use crate::math::INV_PI;
 use crate::packing::pack_snorm10x3;
 use crate::path_tracer::{
-    PathTracerParams, STRATEGY_BSDF_ONLY, STRATEGY_MIS, bsdf_mis_weight, emits_toward,
-    emitter_light_pdf, environment_light_pdf, folded_cosine,
+    PathTracerParams, STRATEGY_BSDF_ONLY, STRATEGY_MIS, bsdf_mis_weight, environment_light_pdf,
+    folded_cosine, hit_emission,
 };
 use crate::primary_surface::PrimarySurface;
 use crate::random::Random;
 use crate::ray::{HitRecord, Ray, offset_ray_origin};
 use crate::ray_cone::{RayCone, RayFootprint};
-use crate::scene_data::SceneSurfaces;
-use crate::scene_data::{GpuTriangle, GpuVertex, MaterialSample, NONE, Surface, hit_surface};
+use crate::scene_data::{
+    GpuTriangle, GpuVertex, MaterialSample, NONE, SceneSurfaces, Surface, hit_surface,
+};
 use crate::screen_probes::PROBE_CELLS;
 use crate::textures::TextureImages;
 use crate::world_cache::{
@@ -97,26 +97,19 @@ pub fn shade_cache_hit<I: TextureImages + ?Sized>(
         return out;
     }
     let (surface, material) = hit_surface(surfaces, images, ray, secondary_hit_footprint(), hit);
-    let emission = material.emissive * view.emissive_multiplier;
     // With emitter sampling the primary hit has taken a probe ray's emitter already.
-    if emission.max_element() > 0.0
-        && !view.has(FLAG_PROBE_RAYS | FLAG_EMITTERS_SAMPLED)
-        && emits_toward(
+    let ray_direction = Vec3::from_array(ray.direction);
+    if !view.has(FLAG_PROBE_RAYS | FLAG_EMITTERS_SAMPLED)
+        && let Some((emission, light_pdf)) = hit_emission(
+            &params,
+            lighting,
             surfaces.materials,
-            surface.material,
-            surface.geometric_normal,
-            -direction,
+            hit,
+            &surface,
+            &material,
+            ray_direction,
         )
     {
-        let light_pdf = emitter_light_pdf(
-            &params,
-            lights,
-            lighting.light_table,
-            hit,
-            surface.area,
-            surface.geometric_normal.dot(direction),
-            Vec3::from_array(ray.direction).length(),
-        );
         // The emitter's light, MIS-weighted; what it reflects still comes from its cell below
         // (a cell never holds emission, so neither is counted twice).
         out.radiance = emission * bsdf_mis_weight(strategy, bsdf_pdf, light_pdf);

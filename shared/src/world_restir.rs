@@ -37,7 +37,6 @@
 //! history length; the shadow ray is traced every frame, and occluded samples have their `W`
 //! zeroed ("invalidate the stored reservoir").
 
-use crate::lights::LightSources;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
 
@@ -47,6 +46,7 @@ use crate::light_grid::{
     DiffuseHit, LightContribution, LightGridParams, LightGridSample, light_contribution,
     sample_params_uv,
 };
+use crate::lights::LightSources;
 use crate::math::{floor, max, min_u32, tan, to_i32_clamped, to_u32_clamped};
 use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
 use crate::random::Random;

@@ -4,13 +4,12 @@
 //! ReprojectGI, FilterBlurMask and FilterGI (horizontal, then vertical), with their per-pixel
 //! buffers.
 
-use super::pass_inputs::pixel_groups;
+use super::pass_inputs::{PrimaryView, pixel_groups};
 use super::screen_probes::ScreenProbeResources;
 use super::settings::GiSettings;
 use crate::error::Result;
 use crate::frame::Recorder;
 use crate::gbuffer::GBufferImages;
-use crate::gi::pass_inputs::PrimaryView;
 use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong};
 
 /// The per-pixel buffers of interpolation and the denoiser.

@@ -4,11 +4,10 @@
 //! by the camera, punctual lights by shadow rays) and ResolveGI (emission + albedo × irradiance,
 //! and the feedback image of the next frame).
 
-use super::pass_inputs::pixel_groups;
+use super::pass_inputs::{PrimaryView, pixel_groups};
 use super::screen_probes::ScreenProbeResources;
 use crate::error::Result;
 use crate::frame::Recorder;
-use crate::gi::pass_inputs::PrimaryView;
 use crate::scene::upload::GpuScene;
 use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule};
 use gi_shared::primary_lighting::PrimaryLighting;

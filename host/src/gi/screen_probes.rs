@@ -5,12 +5,11 @@
 //! BlendScreenProbes, FilterProbeMask, FilterScreenProbes and ProjectScreenProbes.
 //! InterpolateScreenProbes is recorded with the denoiser's passes, which read its output.
 
-use super::pass_inputs::PUSH_BYTES;
+use super::pass_inputs::{PUSH_BYTES, PrimaryView};
 use super::resources::CacheResources;
 use super::settings::GiSettings;
 use crate::error::Result;
 use crate::frame::Recorder;
-use crate::gi::pass_inputs::PrimaryView;
 use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong, SceneSets};
 use ash::vk;
 use gi_shared::screen_probes::{
