@@ -37,8 +37,8 @@ OUT=out/bias; mkdir -p "$OUT"
 extra() { case "$1" in *living-room*) echo "--environment $(dirname "$1")/sky-19.exr" ;; esac; }
 field() { sed -n "s/.*$1 \([-+0-9.e]*%\{0,1\}\).*/\1/p" | tail -1; }
 {
-  echo "| scene | run | mean vs PT | relMSE | FLIP | mean moved by the switch |"
-  echo "|---|---|---|---|---|---|"
+  echo "| scene | run | mean vs PT | dark half vs PT | relMSE | FLIP | mean moved by the switch |"
+  echo "|---|---|---|---|---|---|---|"
 } > "$OUT/table.md"
 for scene in "${SCENES[@]}"; do
   s=$(basename "${scene%.*}")
@@ -59,7 +59,7 @@ for scene in "${SCENES[@]}"; do
     "$GI" render "$scene" $(extra "$scene") "${args[@]}" --frames "$FRAMES" --width "$W" \
       --height "$H" --average-last "$AVERAGE" --reference "$ref" --out "$OUT/$s-$run.exr" > "$log"
     line=$(grep 'against reference' "$log")
-    mean=$(echo "$line" | field mean); rel=$(echo "$line" | field relMSE); flip=$(echo "$line" | field FLIP)
+    mean=$(echo "$line" | field mean); dark=$(echo "$line" | field half); rel=$(echo "$line" | field relMSE); flip=$(echo "$line" | field FLIP)
     moved="-"
     if [ "$run" = balanced ]; then
       base_mean=$mean
@@ -67,7 +67,7 @@ for scene in "${SCENES[@]}"; do
       moved=$(awk -v a="${mean%\%}" -v b="${base_mean%\%}" 'BEGIN { printf "%+.1f pp", a - b }')
       if [ "$run" = feedback ]; then run="with feedback"; else run="no $run"; fi
     fi
-    echo "| $s | $run | $mean | $rel | $flip | $moved |" >> "$OUT/table.md"
+    echo "| $s | $run | $mean | $dark | $rel | $flip | $moved |" >> "$OUT/table.md"
   done
   echo "$s done" >&2
 done

@@ -55,6 +55,10 @@ pub struct Metrics {
     /// The test image's mean over the reference's, minus one (finite pixels): a light path
     /// counted twice or missed shows here even where noise hides it per pixel.
     pub mean_bias: f64,
+    /// The same over the darker half of the image: see [`dark_half_bias`]. Light that fails to
+    /// reach the indirectly lit regions shows here, where a bright region's excess would hide
+    /// it in [`Self::mean_bias`].
+    pub dark_half_bias: f64,
     /// Pixels with a NaN or infinite channel in either image.
     pub non_finite: usize,
 }
@@ -63,12 +67,13 @@ impl fmt::Display for Metrics {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "RMSE {:.4e}  relMSE {:.4e}  PSNR {:.2} dB  FLIP {:.4}  mean {:+.2}%",
+            "RMSE {:.4e}  relMSE {:.4e}  PSNR {:.2} dB  FLIP {:.4}  mean {:+.2}%  dark half {:+.2}%",
             self.rmse,
             self.relative_mse,
             self.psnr,
             self.flip,
-            self.mean_bias * 100.0
+            self.mean_bias * 100.0,
+            self.dark_half_bias * 100.0
         )?;
         if self.non_finite > 0 {
             write!(f, "  non-finite pixels {}", self.non_finite)?;
@@ -158,6 +163,7 @@ pub fn compare(
             psnr: psnr(reference, test, &settings.tone)?,
             flip: flip_map.mean(),
             mean_bias: mean_bias(reference, test)?,
+            dark_half_bias: dark_half_bias(reference, test)?,
             non_finite,
         },
         flip_map,
@@ -174,6 +180,38 @@ pub fn mean_bias(reference: &HdrImage, test: &HdrImage) -> Result<f64> {
             t += b.iter().map(|&c| f64::from(c)).sum::<f64>();
         }
     }
+    Ok(if r > 0.0 { t / r - 1.0 } else { 0.0 })
+}
+
+/// Side in pixels of the blocks [`dark_half_bias`] ranks: blocks rather than pixels, so that the
+/// reference's own noise does not choose the pixels it measures (a noisy reference's darkest
+/// pixels are its low outliers, which any test image would exceed).
+pub const DARK_HALF_BLOCK: u32 = 8;
+
+/// [`mean_bias`] over the darker half of the reference: its [`DARK_HALF_BLOCK`]-pixel blocks
+/// (partial at the right and bottom edges) ranked by their mean over the finite pixels, and
+/// `Σ test / Σ reference − 1` over the finite pixels of the darker half of them (the lower
+/// `⌈blocks / 2⌉`). 0 when those sum to 0 in the reference.
+pub fn dark_half_bias(reference: &HdrImage, test: &HdrImage) -> Result<f64> {
+    check_sizes(reference, test)?;
+    let (width, height) = (reference.width() as usize, reference.height() as usize);
+    let side = DARK_HALF_BLOCK as usize;
+    let columns = width.div_ceil(side);
+    // Per block: the reference's sum, the test's sum, finite pixels.
+    let mut blocks = vec![(0.0f64, 0.0f64, 0u32); columns * height.div_ceil(side)];
+    for (i, (a, b)) in pairs(reference, test)?.enumerate() {
+        if a.iter().chain(b.iter()).all(|c| c.is_finite()) {
+            let block = &mut blocks[(i / width) / side * columns + (i % width) / side];
+            block.0 += a.iter().map(|&c| f64::from(c)).sum::<f64>();
+            block.1 += b.iter().map(|&c| f64::from(c)).sum::<f64>();
+            block.2 += 1;
+        }
+    }
+    blocks.retain(|b| b.2 > 0);
+    blocks.sort_by(|x, y| (x.0 / f64::from(x.2)).total_cmp(&(y.0 / f64::from(y.2))));
+    let (r, t) = blocks[..blocks.len().div_ceil(2)]
+        .iter()
+        .fold((0.0, 0.0), |(r, t), b| (r + b.0, t + b.1));
     Ok(if r > 0.0 { t / r - 1.0 } else { 0.0 })
 }
 

@@ -263,8 +263,53 @@ fn identical_images_have_zero_distance_and_infinite_psnr() {
     assert!(result.flip_map.values().iter().all(|&v| v == 0.0));
     assert_eq!(
         m.to_string(),
-        "RMSE 0.0000e0  relMSE 0.0000e0  PSNR inf dB  FLIP 0.0000  mean +0.00%"
+        "RMSE 0.0000e0  relMSE 0.0000e0  PSNR inf dB  FLIP 0.0000  mean +0.00%  dark half +0.00%"
     );
+}
+
+#[test]
+fn the_dark_half_is_the_darker_half_of_the_blocks() {
+    // Three 8-pixel-wide columns of blocks (the last 4 pixels wide), two rows: a dark left column,
+    // a bright middle one, a mid-grey partial one on the right.
+    let (width, height) = (20, 16);
+    let shade = |x: u32| match x {
+        0..8 => 0.1,
+        8..16 => 1.0,
+        _ => 0.5,
+    };
+    let mut reference = HdrImage::new(width, height).unwrap();
+    for (i, p) in reference.pixels_mut().iter_mut().enumerate() {
+        *p = [shade(i as u32 % width); 3];
+    }
+    // The dark column at half its light, the bright one at twice: the mean rises, and the darker
+    // half (the 3 darkest of 6 blocks: both dark ones and one mid-grey) reads low.
+    let mut test = reference.clone();
+    for (i, p) in test.pixels_mut().iter_mut().enumerate() {
+        let x = i as u32 % width;
+        let scale = match x {
+            0..8 => 0.5,
+            8..16 => 2.0,
+            _ => 1.0,
+        };
+        *p = p.map(|c| c * scale);
+    }
+    let dark = metrics::dark_half_bias(&reference, &test).unwrap();
+    // Sums over the three channels.
+    let (r, t) = (
+        3.0 * (2.0 * 64.0 * 0.1 + 32.0 * 0.5),
+        3.0 * (2.0 * 64.0 * 0.05 + 32.0 * 0.5),
+    );
+    assert!((dark - (t / r - 1.0)).abs() < 1e-6, "{dark}");
+    assert!(metrics::mean_bias(&reference, &test).unwrap() > 0.0);
+    // Non-finite pixels are left out, a black reference reads 0, and sizes must match.
+    let mut poisoned = test.clone();
+    poisoned.pixels_mut()[0] = [f32::NAN; 3];
+    let without = metrics::dark_half_bias(&reference, &poisoned).unwrap();
+    let (r, t) = (r - 0.3, t - 0.15);
+    assert!((without - (t / r - 1.0)).abs() < 1e-6, "{without}");
+    let black = HdrImage::new(width, height).unwrap();
+    assert_eq!(metrics::dark_half_bias(&black, &test).unwrap(), 0.0);
+    assert!(metrics::dark_half_bias(&reference, &HdrImage::new(8, 8).unwrap()).is_err());
 }
 
 #[test]

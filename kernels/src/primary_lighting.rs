@@ -4,7 +4,8 @@
 //!
 //! DirectLight, set 0: 0 frame (`GiFrameParams`), 1 camera (`CameraParams`), 2 depth, 3
 //! geometric normal, 4 shading normal, 5 emissive, 6 ids (images), 7 primary lighting
-//! (`PrimaryLighting`, written). Set 1: the scene's geometry. Set 2: instances, meshes,
+//! (`PrimaryLighting`, written), 8 interpolated irradiance (`[f32; 4]`, the emitters' direct light
+//! added under `FLAG_EMITTER_SAMPLING`). Set 1: the scene's geometry. Set 2: instances, meshes,
 //! vertices, triangles, materials, textures, texels, lights, light table, environment,
 //! environment CDF (as TraceCacheRays).
 //!
@@ -20,17 +21,19 @@ use crate::texture_images::Bindless;
 use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
 use gi_shared::lights::GpuLight;
-use gi_shared::primary_lighting::{PrimaryLighting, sky_lighting, surface_lighting};
+use gi_shared::primary_lighting::{
+    PrimaryLighting, add_emitter_light, sky_lighting, surface_lighting,
+};
 use gi_shared::primary_surface::{primary_emission, primary_surface};
 use gi_shared::ray::Ray;
-use gi_shared::screen_probes::{GiFrameParams, PASS_DIRECT};
+use gi_shared::screen_probes::{FLAG_EMITTER_SAMPLING, GiFrameParams, PASS_DIRECT};
 use gi_shared::world_cache::pass_random;
 use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
 
 traced_kernel! {
     /// DirectLight: the emission (or sky) and the punctual lights' direct irradiance of pixel
-    /// `id`.
+    /// `id`; the emitters' direct irradiance is added to its interpolated GI irradiance.
     #[spirv(compute(threads(8, 8)))]
     pub fn direct_light(
         scene, texture_images;
@@ -43,6 +46,7 @@ traced_kernel! {
         #[spirv(descriptor_set = 0, binding = 5)] emissive: &HalfImage,
         #[spirv(descriptor_set = 0, binding = 6)] ids: &IdImage,
         #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lighting: &mut [PrimaryLighting],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] irradiance: &mut [[f32; 4]],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 7)] lights: &[GpuLight],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 8)] _light_table: &[u32],
         #[spirv(storage_buffer, descriptor_set = 2, binding = 9)] environment: &[[f32; 4]],
@@ -71,7 +75,7 @@ traced_kernel! {
         let emission = primary_emission(scene.surfaces.materials, ids_texel, e, frame.emissive_multiplier);
         let mut rng = pass_random(frame.seed, index, PASS_DIRECT, frame.frame_index);
         let tracer = scene.tracer();
-        lighting[index as usize] = surface_lighting(
+        let lit = surface_lighting(
             frame,
             &surface,
             emission,
@@ -80,6 +84,10 @@ traced_kernel! {
             &Bindless(texture_images),
             move |ray: &Ray, images: &Bindless<'_>| tracer.any_hit(ray, images),
         );
+        lighting[index as usize] = lit.record;
+        if frame.has(FLAG_EMITTER_SAMPLING) && (index as usize) < irradiance.len() {
+            irradiance[index as usize] = add_emitter_light(irradiance[index as usize], lit.emitters);
+        }
     }
 }
 

@@ -16,7 +16,8 @@
 //!   over `GiFrameParams::light_candidates` uniformly drawn punctual lights, one shadow ray).
 //! * **Direct light of emissive triangles**, under `FLAG_EMITTER_SAMPLING` (the setting
 //!   `emitter_sampling`), also comes from DirectLight: one light sample and shadow ray
-//!   ([`emitter_light`]); probe rays then add nothing where they hit an emitter.
+//!   ([`emitter_light`]), added to the pixel's interpolated GI irradiance so that the denoiser
+//!   filters it ([`add_emitter_light`]); probe rays then add nothing where they hit an emitter.
 //! * **Everything else** arrives through the screen probes: emissive surfaces (without emitter
 //!   sampling) and the sky (which probe rays take at full weight when they hit or miss), and all
 //!   multi-bounce light (probe rays that hit another surface read the world cache, which lights
@@ -50,7 +51,7 @@ use crate::world_cache::finite_sample;
 /// [`FLAG_SAMPLED_DIRECT`] and one light is resampled.
 pub const EXACT_DIRECT_LIGHTS: u32 = 16;
 
-/// What DirectLight leaves for a pixel (32 bytes), read by InterpolateScreenProbes and ResolveGI.
+/// What DirectLight leaves for a pixel (32 bytes), read by ResolveGI.
 ///
 /// | offset | field      |
 /// |--------|------------|
@@ -255,6 +256,18 @@ pub fn sky_lighting(
     }
 }
 
+/// DirectLight's result for a surface pixel: its record, and the emissive triangles' direct
+/// irradiance, which DirectLight adds to the pixel's interpolated GI irradiance
+/// ([`add_emitter_light`]) so that the denoiser filters it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceLighting {
+    /// The pixel's record: emission and the punctual lights' direct irradiance.
+    pub record: PrimaryLighting,
+    /// The emissive triangles' direct irradiance under [`FLAG_EMITTER_SAMPLING`] (one light
+    /// sample, [`emitter_light`]); zero without it.
+    pub emitters: Vec3,
+}
+
 /// DirectLight for a surface pixel: its `emission` toward the camera (already × the multiplier)
 /// and the punctual lights' direct irradiance, exact or (under [`FLAG_SAMPLED_DIRECT`]) resampled
 /// from `rng`, plus under [`FLAG_EMITTER_SAMPLING`] the emissive triangles' ([`emitter_light`]);
@@ -271,9 +284,12 @@ pub fn surface_lighting<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
     rng: &mut Random,
     images: &I,
     mut occluded: F,
-) -> PrimaryLighting {
+) -> SurfaceLighting {
     if !surface.valid {
-        return PrimaryLighting::default();
+        return SurfaceLighting {
+            record: PrimaryLighting::default(),
+            emitters: Vec3::ZERO,
+        };
     }
     let emission = finite_sample(emission);
     let direct = if frame.has(FLAG_SAMPLED_DIRECT) {
@@ -289,17 +305,37 @@ pub fn surface_lighting<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
     } else {
         exact_direct_light(surface, lights, frame.punctual_count, images, &mut occluded)
     };
-    let direct = if frame.has(FLAG_EMITTER_SAMPLING) {
-        direct + emitter_light(frame, surface, lights, rng, images, &mut occluded)
+    let emitters = if frame.has(FLAG_EMITTER_SAMPLING) {
+        emitter_light(frame, surface, lights, rng, images, &mut occluded)
     } else {
-        direct
+        Vec3::ZERO
     };
-    PrimaryLighting {
-        emission: emission.to_array(),
-        surface: 1,
-        direct: direct.to_array(),
-        emissive: if emission.max_element() > 0.0 { 1 } else { 0 },
+    SurfaceLighting {
+        record: PrimaryLighting {
+            emission: emission.to_array(),
+            surface: 1,
+            direct: direct.to_array(),
+            emissive: if emission.max_element() > 0.0 { 1 } else { 0 },
+        },
+        emitters,
     }
+}
+
+/// The interpolated GI irradiance `[r, g, b, hint]` of a pixel with the emitters' direct
+/// irradiance added ([`SurfaceLighting::emitters`]). One light sample per pixel and frame is
+/// noisy where many small emitters light the scene; through the denoiser it is filtered with the
+/// probes' light, as the emitters' light was when the probes carried it (added undenoised in the
+/// composite instead, one frame of the Bitterli bathroom had relMSE 0.33 against 0.25 without
+/// emitter sampling).
+#[inline]
+pub fn add_emitter_light(irradiance: [f32; 4], emitters: Vec3) -> [f32; 4] {
+    let e = finite_sample(emitters);
+    [
+        irradiance[0] + e.x,
+        irradiance[1] + e.y,
+        irradiance[2] + e.z,
+        irradiance[3],
+    ]
 }
 
 /// One light-sampled estimate of the emissive triangles' direct irradiance at `surface`
@@ -480,9 +516,48 @@ mod tests {
             false
         });
         let point = punctual_term(&lights[0], &plane()).irradiance;
-        assert_eq!(lit.direct(), point);
+        assert_eq!(lit.record.direct(), point);
+        assert_eq!(lit.emitters, Vec3::ZERO);
         // The random stream is untouched, so the frame's other samples are as before.
         assert_eq!(a.next_u32(), { b }.next_u32());
+    }
+
+    #[test]
+    fn with_emitter_sampling_the_emitters_light_is_kept_apart_for_the_denoiser() {
+        let (lights, _) = point_and_triangle();
+        let on = GiFrameParams {
+            punctual_count: 1,
+            light_count: 2,
+            flags: FLAG_EMITTER_SAMPLING,
+            emissive_multiplier: 1.0,
+            ..GiFrameParams::default()
+        };
+        let mut lit_by_emitter = 0;
+        for seed in 0..8 {
+            let (mut a, mut b) = (Random::new(seed, 0), Random::new(seed, 0));
+            let lit = surface_lighting(&on, &plane(), Vec3::ZERO, &lights, &mut a, &(), |_, _| {
+                false
+            });
+            // The record holds the punctual light alone; the emitters' estimate is the one
+            // emitter_light draws from the same stream.
+            assert_eq!(
+                lit.record.direct(),
+                punctual_term(&lights[0], &plane()).irradiance
+            );
+            let expected = emitter_light(&on, &plane(), &lights, &mut b, &(), &mut |_, _| false);
+            assert_eq!(lit.emitters, expected);
+            assert_eq!(a.next_u32(), b.next_u32());
+            lit_by_emitter += u32::from(expected.x > 0.0);
+        }
+        assert!(lit_by_emitter > 0);
+        // Added to the interpolated irradiance, hint kept; a non-finite estimate adds nothing.
+        let gi = add_emitter_light([1.0, 2.0, 3.0, 0.5], Vec3::new(0.5, 0.0, 1.0));
+        assert_eq!(gi, [1.5, 2.0, 4.0, 0.5]);
+        let nan = add_emitter_light(
+            [1.0, 2.0, 3.0, 0.5],
+            Vec3::new(f32::NAN, f32::INFINITY, -1.0),
+        );
+        assert_eq!(nan, [1.0, 2.0, 3.0, 0.5]);
     }
 
     #[test]
@@ -609,7 +684,8 @@ mod tests {
             &mut rng,
             &(),
             |_, _: &()| false,
-        );
+        )
+        .record;
         assert_eq!(l.surface, 1);
         assert_eq!(l.emissive, 0);
         assert!((l.direct() - Vec3::ONE).length() < 1e-5);
@@ -617,7 +693,8 @@ mod tests {
         frame.flags = FLAG_SAMPLED_DIRECT;
         let l = surface_lighting(&frame, &s, Vec3::X, &lights, &mut rng, &(), |_, _: &()| {
             false
-        });
+        })
+        .record;
         assert!((l.direct() - Vec3::ONE).length() < 1e-5);
         assert_eq!(l.emissive, 1);
         assert_eq!(l.emission(), Vec3::X);
@@ -630,7 +707,8 @@ mod tests {
             &mut rng,
             &(),
             |_, _: &()| true,
-        );
+        )
+        .record;
         assert_eq!(l.direct(), Vec3::ZERO);
         // Not a surface.
         let sky = PrimarySurface { valid: false, ..s };
@@ -642,7 +720,8 @@ mod tests {
             &mut rng,
             &(),
             |_, _: &()| false,
-        );
+        )
+        .record;
         assert_eq!(l, PrimaryLighting::default());
         assert!(samples_direct_light(EXACT_DIRECT_LIGHTS + 1));
         assert!(!samples_direct_light(EXACT_DIRECT_LIGHTS));

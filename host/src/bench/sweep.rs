@@ -176,7 +176,7 @@ pub fn points(
                 ));
             }
         }
-        let switches: [Switch; 7] = [
+        let switches: [Switch; 8] = [
             ("probe_filter", "off", |s| s.probe_filter = false),
             ("restir", "on", |s| s.restir = true),
             ("temporal_feedback", "on", |s| s.temporal_feedback = true),
@@ -185,6 +185,7 @@ pub fn points(
                 s.adaptive_cache_blend = false
             }),
             ("hysteresis", "off", |s| s.hysteresis = false),
+            ("emitter_sampling", "off", |s| s.emitter_sampling = false),
             ("denoiser", "off", |s| {
                 s.denoiser_temporal = false;
                 s.denoiser_spatial = false;
@@ -247,6 +248,7 @@ mod tests {
             "multi_bounce",
             "adaptive_cache_blend",
             "hysteresis",
+            "emitter_sampling",
             "denoiser",
             "resolution",
             "tracing",

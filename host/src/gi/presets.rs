@@ -7,6 +7,11 @@ use super::settings::{GiSettings, SpawnRate};
 use gi_shared::hash_cells::HISTORY_FRAMES;
 use std::fmt;
 
+/// The presets' interpolation jitter, in probe tiles: half the reference's reach. It lowers
+/// relMSE, FLIP and flicker on every scene measured, as a shorter reach moves less light across
+/// shadow edges (README, "Round 11" and "Round 16").
+pub const PRESET_JITTER_TILES: f32 = 1.0;
+
 /// A named set of [`GiSettings`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Preset {
@@ -15,7 +20,8 @@ pub enum Preset {
     /// answer a change of light and a disocclusion, noisier while the camera moves.
     Fast,
     /// The reference's settings at this resolution (1/4 of the tiles traced per frame, 32-pixel
-    /// cache cells, a 16-sample cap) with multi-bounce through the cache. The default.
+    /// cache cells, a 16-sample cap) with multi-bounce through the cache, emitter sampling and
+    /// a one-tile interpolation jitter. The default.
     Balanced,
     /// Every probe tile traced every frame (four times the probe rays of `balanced`) and no
     /// probe filter: with four times the rays a probe needs no help from its neighbours, and
@@ -46,14 +52,17 @@ impl Preset {
     /// [`GiSettings::with_cache_for`] for the preset's cell size).
     pub fn settings(self, width: u32, height: u32) -> GiSettings {
         // Every preset bounces light through the world cache, lets its cells' history fade
-        // with time and adapts its blend to change (the reference does none of these). The
-        // cache's own bounces replace temporal feedback, which fed the screen's biases back into
-        // the cache (README, "Round 14").
+        // with time, adapts its blend to change, samples the emitters at the primary hit and
+        // jitters interpolation by one tile (the reference does none of these). The cache's own
+        // bounces replace temporal feedback, which fed the screen's biases back into the cache
+        // (README, "Round 14"; "Round 16" for the emitters and the jitter).
         let base = GiSettings {
             multi_bounce: true,
             temporal_feedback: false,
             adaptive_cache_blend: true,
             cache_history_frames: HISTORY_FRAMES,
+            emitter_sampling: true,
+            interpolation_jitter_radius: PRESET_JITTER_TILES,
             ..GiSettings::default()
         };
         match self {
@@ -97,6 +106,8 @@ mod tests {
                 temporal_feedback: false,
                 adaptive_cache_blend: true,
                 cache_history_frames: HISTORY_FRAMES,
+                emitter_sampling: true,
+                interpolation_jitter_radius: PRESET_JITTER_TILES,
                 ..GiSettings::default()
             }
             .with_cache_for(320, 180)

@@ -41,6 +41,7 @@ crate::bindings! {
         emissive: &'a Image,
         ids: &'a Image,
         lighting: &'a Buffer,
+        irradiance: &'a Buffer,
     }
 }
 
@@ -74,7 +75,9 @@ impl PrimaryPasses {
         })
     }
 
-    /// DirectLight: emission, the sky and punctual lights at every pixel.
+    /// DirectLight: emission, the sky and punctual lights at every pixel, and with emitter
+    /// sampling the emitters' direct light added to `irradiance` (InterpolateScreenProbes'
+    /// output, which the denoiser reads next).
     pub fn record_direct(
         &self,
         rec: &mut Recorder<'_>,
@@ -82,6 +85,7 @@ impl PrimaryPasses {
         probes: &ScreenProbeResources,
         res: &PrimaryResources,
         view: PrimaryView<'_>,
+        irradiance: &Buffer,
     ) -> Result<()> {
         let PrimaryView { camera, gbuffer } = view;
         let g = gbuffer;
@@ -97,6 +101,7 @@ impl PrimaryPasses {
                 emissive: &g.emissive,
                 ids: &g.ids,
                 lighting: &res.primary,
+                irradiance,
             },
             &[],
             pixel_groups(gbuffer),

@@ -4,7 +4,7 @@
 //! PurgeRadianceCache, GBuffer, ReprojectScreenProbes, SpawnScreenProbes, PatchScreenProbes,
 //! SampleScreenProbes, PopulateScreenProbes, the world cache's passes (InsertRadianceCache ...
 //! ResolveRadianceCache, `world_cache`), BlendScreenProbes, FilterProbeMask,
-//! FilterScreenProbes, ProjectScreenProbes, DirectLight, InterpolateScreenProbes, ReprojectGI,
+//! FilterScreenProbes, ProjectScreenProbes, InterpolateScreenProbes, DirectLight, ReprojectGI,
 //! FilterBlurMask + FilterGI, ResolveGI.
 //!
 //! Switched-off techniques skip their pass where one exists (patching, the probe filter, the
@@ -531,12 +531,18 @@ impl GiRenderer {
         rec.pass("ProjectScreenProbes", |rec| {
             pp.record_project(rec, probes, probes.projected_cells(s.probe_filter))
         })?;
-        rec.pass("DirectLight", |rec| {
-            self.primary_passes
-                .record_direct(rec, scene, probes, primary, view)
-        })?;
         rec.pass("InterpolateScreenProbes", |rec| {
             dp.record_interpolate(rec, probes, denoiser, view)
+        })?;
+        rec.pass("DirectLight", |rec| {
+            self.primary_passes.record_direct(
+                rec,
+                scene,
+                probes,
+                primary,
+                view,
+                denoiser.output(DenoiserStage::Interpolated),
+            )
         })?;
         rec.pass("ReprojectGI", |rec| {
             dp.record_reproject(rec, probes, denoiser, view)

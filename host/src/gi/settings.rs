@@ -32,8 +32,8 @@ pub const MAX_SAMPLE_CAP: u32 = 1024;
 pub const MAX_INTERPOLATION_JITTER_TILES: f32 =
     (MAX_INTERPOLATION_JITTER_PIXELS / PROBE_SIZE) as f32;
 /// The default [`GiSettings::interpolation_jitter_radius`], in probe tiles: the reference's ±16
-/// pixels. One tile has less relMSE, FLIP and flicker but follows a light switched on more
-/// slowly in the 64 × 64 lag test (README, "Round 11").
+/// pixels. The presets use one tile (`presets::PRESET_JITTER_TILES`): less relMSE, FLIP and
+/// flicker (README, "Round 11" and "Round 16").
 pub const DEFAULT_INTERPOLATION_JITTER_TILES: f32 = 2.0;
 
 /// Everything a GI frame can be tuned by.
@@ -213,10 +213,11 @@ pub struct GiSettings {
     /// (the sky stays in the probes). Cost: a shadow ray per pixel. Quality: the probes' cells
     /// average a small emitter's cosine over their solid angle and their direct light comes out
     /// blocky; with it, the converged error falls by three quarters where small emitters light
-    /// the scene (relMSE at 128 × 72: Cornell box 0.022 → 0.004, staircase 0.084 → 0.019,
-    /// bathroom 0.24 → 0.07), but each frame's estimate is added undenoised, so one frame of a
-    /// scene of many small lights is noisier (bathroom 0.22 → 0.31). Off by default until it is
-    /// denoised. Scenes without emissive triangles render the same either way.
+    /// the scene. The estimate joins the probes' irradiance before the denoiser, so one frame is
+    /// also less noisy (`balanced`, the 64th frame at 128 × 72 against the path tracer, relMSE:
+    /// Cornell box 0.023 → 0.005, staircase 0.091 → 0.027, bathroom 0.25 → 0.11; README, "Round
+    /// 16"). On in every preset; off in [`Default`], the reference's settings. Scenes without
+    /// emissive triangles render the same either way.
     pub emitter_sampling: bool,
 }
 

@@ -59,6 +59,9 @@ pub enum Technique {
     LeakFixes,
     /// Per-object reprojection of moving objects.
     ObjectMotion,
+    /// Emitter sampling at the primary hit (the emitters' direct light through the probes
+    /// instead).
+    EmitterSampling,
 }
 
 /// A quality preset of `gi render` (README, "Speed and accuracy": each one's measured cost and
@@ -82,7 +85,7 @@ pub struct GiArgs {
     #[arg(long, value_enum, default_value_t = Method::Path)]
     pub method: Method,
     /// A quality preset: `fast`, `balanced` or `quality` (GI, its settings before --spawn-rate,
-    /// --no, --restir, --emitter-sampling and --feedback), or `reference` (the path tracer);
+    /// --no, --restir and --feedback), or `reference` (the path tracer);
     /// instead of --method.
     #[arg(long, value_enum, conflicts_with = "method")]
     pub preset: Option<PresetArg>,
@@ -133,10 +136,6 @@ pub struct GiArgs {
     /// GI: world-space ReSTIR temporal reuse of the cache's light samples.
     #[arg(long)]
     pub restir: bool,
-    /// GI: emitter sampling: the emissive triangles' direct light from a light sample at the
-    /// primary hit instead of through the probes (`GiSettings::emitter_sampling`).
-    #[arg(long)]
-    pub emitter_sampling: bool,
     /// GI: temporal radiance feedback at secondary hits (`GiSettings::temporal_feedback`; off in
     /// every preset, whose cache bounces light itself).
     #[arg(long)]
@@ -198,7 +197,6 @@ impl GiArgs {
             s = s.with_cache_for(width, height);
         }
         s.restir |= self.restir;
-        s.emitter_sampling |= self.emitter_sampling;
         s.temporal_feedback |= self.feedback;
         switch_off(&mut s, &self.no);
         s
@@ -425,6 +423,7 @@ pub fn switch_off(s: &mut GiSettings, off: &[Technique]) {
             Technique::MultiBounce => s.multi_bounce = false,
             Technique::AdaptiveBlend => s.adaptive_cache_blend = false,
             Technique::ObjectMotion => s.object_motion = false,
+            Technique::EmitterSampling => s.emitter_sampling = false,
             Technique::LeakFixes => {
                 s.short_ray_flag = false;
                 s.bypass = false;
