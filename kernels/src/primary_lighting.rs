@@ -4,10 +4,10 @@
 //!
 //! DirectLight, set 0: 0 frame (`GiFrameParams`), 1 camera (`CameraParams`), 2 depth, 3
 //! geometric normal, 4 shading normal, 5 emissive, 6 ids (images), 7 primary lighting
-//! (`PrimaryLighting`, written), 8 interpolated irradiance (`[f32; 4]`, the emitters' direct light
-//! added under `FLAG_EMITTER_SAMPLING`). Set 1: the scene's geometry. Set 2: instances, meshes,
-//! vertices, triangles, materials, textures, texels, lights, light table, environment,
-//! environment CDF (as TraceCacheRays).
+//! (`PrimaryLighting`, written), 8 interpolated irradiance (`[f32; 4]`, the sampled direct light
+//! added: `gi_shared::primary_lighting::samples_light`). Set 1: the scene's geometry. Set 2:
+//! instances, meshes, vertices, triangles, materials, textures, texels, lights, light table,
+//! environment, environment CDF (as TraceCacheRays).
 //!
 //! ResolveGI, set 0: 0 camera, 1 depth, 2 geometric normal, 3 albedo, 4 primary lighting, 5
 //! denoised irradiance (`[f32; 4]`), 6 colour (`[f32; 4]`, written), 7 feedback history
@@ -22,18 +22,18 @@ use gi_shared::camera::{CameraParams, primary_ray};
 use gi_shared::gbuffer::in_image;
 use gi_shared::lights::GpuLight;
 use gi_shared::primary_lighting::{
-    PrimaryLighting, add_emitter_light, sky_lighting, surface_lighting,
+    PrimaryLighting, add_sampled_light, samples_light, sky_lighting, surface_lighting,
 };
 use gi_shared::primary_surface::{primary_emission, primary_surface};
 use gi_shared::ray::Ray;
-use gi_shared::screen_probes::{FLAG_EMITTER_SAMPLING, GiFrameParams, PASS_DIRECT};
+use gi_shared::screen_probes::{GiFrameParams, PASS_DIRECT};
 use gi_shared::world_cache::pass_random;
 use spirv_std::glam::{UVec2, UVec3, UVec4, Vec3, Vec4};
 use spirv_std::spirv;
 
 traced_kernel! {
     /// DirectLight: the emission (or sky) and the punctual lights' direct irradiance of pixel
-    /// `id`; the emitters' direct irradiance is added to its interpolated GI irradiance.
+    /// `id`; the direct irradiance it samples is added to its interpolated GI irradiance.
     #[spirv(compute(threads(8, 8)))]
     pub fn direct_light(
         scene, texture_images;
@@ -85,8 +85,8 @@ traced_kernel! {
             move |ray: &Ray, images: &Bindless<'_>| tracer.any_hit(ray, images),
         );
         lighting[index as usize] = lit.record;
-        if frame.has(FLAG_EMITTER_SAMPLING) && (index as usize) < irradiance.len() {
-            irradiance[index as usize] = add_emitter_light(irradiance[index as usize], lit.emitters);
+        if samples_light(frame) && (index as usize) < irradiance.len() {
+            irradiance[index as usize] = add_sampled_light(irradiance[index as usize], lit.sampled);
         }
     }
 }

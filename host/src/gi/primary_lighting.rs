@@ -75,9 +75,9 @@ impl PrimaryPasses {
         })
     }
 
-    /// DirectLight: emission, the sky and punctual lights at every pixel, and with emitter
-    /// sampling the emitters' direct light added to `irradiance` (InterpolateScreenProbes'
-    /// output, which the denoiser reads next).
+    /// DirectLight: emission, the sky and punctual lights at every pixel, the direct light it
+    /// samples (resampled punctual lights, emitter sampling) added to `irradiance`
+    /// (InterpolateScreenProbes' output, which the denoiser reads next).
     pub fn record_direct(
         &self,
         rec: &mut Recorder<'_>,
