@@ -193,13 +193,13 @@ pub const DARK_HALF_BLOCK: u32 = 8;
 /// `Σ test / Σ reference − 1` over the finite pixels of the darker half of them (the lower
 /// `⌈blocks / 2⌉`). 0 when those sum to 0 in the reference.
 pub fn dark_half_bias(reference: &HdrImage, test: &HdrImage) -> Result<f64> {
-    check_sizes(reference, test)?;
+    let pixels = pairs(reference, test)?;
     let (width, height) = (reference.width() as usize, reference.height() as usize);
     let side = DARK_HALF_BLOCK as usize;
     let columns = width.div_ceil(side);
     // Per block: the reference's sum, the test's sum, finite pixels.
     let mut blocks = vec![(0.0f64, 0.0f64, 0u32); columns * height.div_ceil(side)];
-    for (i, (a, b)) in pairs(reference, test)?.enumerate() {
+    for (i, (a, b)) in pixels.enumerate() {
         if a.iter().chain(b.iter()).all(|c| c.is_finite()) {
             let block = &mut blocks[(i / width) / side * columns + (i % width) / side];
             block.0 += a.iter().map(|&c| f64::from(c)).sum::<f64>();
