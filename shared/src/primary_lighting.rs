@@ -262,8 +262,8 @@ pub fn sky_lighting(
 
 /// DirectLight's result for a surface pixel: its record, and the direct irradiance it sampled,
 /// which DirectLight adds to the pixel's interpolated GI irradiance ([`add_sampled_light`]) so
-/// that the denoiser filters it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// that the denoiser filters it. A pixel without a surface gets the default: all zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SurfaceLighting {
     /// The pixel's record: emission and the exactly summed punctual lights' direct irradiance.
     pub record: PrimaryLighting,
@@ -291,10 +291,7 @@ pub fn surface_lighting<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
     mut occluded: F,
 ) -> SurfaceLighting {
     if !surface.valid {
-        return SurfaceLighting {
-            record: PrimaryLighting::default(),
-            sampled: Vec3::ZERO,
-        };
+        return SurfaceLighting::default();
     }
     let emission = finite_sample(emission);
     let (direct, punctual_sample) = if frame.has(FLAG_SAMPLED_DIRECT) {

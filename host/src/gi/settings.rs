@@ -80,8 +80,8 @@ pub struct GiSettings {
     /// switched off leaves the cache within a few frames instead of circulating through the
     /// multi-bounce loop for tens (README "Response to change"); static lighting keeps its cap.
     /// Tiles that pool fewer than 4 samples a frame adapt less, and one sample not at all (its
-    /// decision would follow its own noise). Default: off, as in the reference; every preset
-    /// turns it on.
+    /// decision would follow its own noise). Bias: up to 1.5 points darker converged means (README
+    /// "Bias budget"). Default: off, as in the reference; every preset turns it on.
     pub adaptive_cache_blend: bool,
     /// Smallest world-space cell, in scene units (reference: 0.1, for scenes in metres). Cost:
     /// none. Quality: stops cells near the camera from becoming so small that they never gather
