@@ -411,6 +411,9 @@ mod tests {
 
     const W: u32 = 32;
     const H: u32 = 24;
+    /// Pixels of the test image, and the index of a pixel near its centre.
+    const N: usize = (W * H) as usize;
+    const CENTRE: usize = (12 * W + 16) as usize;
 
     fn camera() -> CameraParams {
         CameraParams::new(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z, Vec3::Y, 0.8, W, H)
@@ -450,6 +453,13 @@ mod tests {
         (depth, normals)
     }
 
+    /// The test camera, a frame with the temporal history on, and a wall without sky.
+    fn temporal_wall() -> (CameraParams, GiFrameParams, (Vec<f32>, Vec<Vec4>)) {
+        let c = camera();
+        let g = wall(&c, |_, _| false);
+        (c, frame(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY), g)
+    }
+
     struct Buffers {
         history: Vec<[f32; 4]>,
         surface: Vec<[f32; 4]>,
@@ -459,12 +469,11 @@ mod tests {
 
     impl Buffers {
         fn new() -> Self {
-            let n = (W * H) as usize;
             Self {
-                history: vec![[0.0; 4]; n],
-                surface: vec![[0.0; 4]; n],
-                delta: vec![0.0; n],
-                mask: vec![0.0; n],
+                history: vec![[0.0; 4]; N],
+                surface: vec![[0.0; 4]; N],
+                delta: vec![0.0; N],
+                mask: vec![0.0; N],
             }
         }
     }
@@ -522,25 +531,23 @@ mod tests {
         let c = camera();
         let f = frame(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY);
         let g = wall(&c, |x, y| x == 31 && y == 0);
-        let n = (W * H) as usize;
-        let centre = (12 * W + 16) as usize;
         let corner = 0usize;
         // Constant input: the count climbs to the cap.
-        let input = vec![[2.0, 1.0, 0.5, 1.0]; n];
+        let input = vec![[2.0, 1.0, 0.5, 1.0]; N];
         let mut b = Buffers::new();
         for frame_index in 0..200 {
             b = step(&f, &c, &g, &input, &b);
             if frame_index == 0 {
-                assert_eq!(b.history[centre][3], 1.0);
-                assert_eq!(b.mask[centre], 7.0);
+                assert_eq!(b.history[CENTRE][3], 1.0);
+                assert_eq!(b.mask[CENTRE], 7.0);
             }
         }
         let cap_centre = 64.0 * vignette(UVec2::new(16, 12), [W, H]);
         let cap_corner = history_cap(64.0, 1.0, vignette(UVec2::new(0, 0), [W, H]));
         assert!(
-            (b.history[centre][3] - cap_centre).abs() < 1e-3,
+            (b.history[CENTRE][3] - cap_centre).abs() < 1e-3,
             "{:?}",
-            b.history[centre]
+            b.history[CENTRE]
         );
         assert!(cap_centre > 60.0);
         assert!(
@@ -549,8 +556,8 @@ mod tests {
             b.history[corner]
         );
         assert!(cap_corner < 0.5 * cap_centre);
-        assert_eq!(b.mask[centre], 0.0);
-        assert_eq!(&b.history[centre][..3], &[2.0, 1.0, 0.5]);
+        assert_eq!(b.mask[CENTRE], 0.0);
+        assert_eq!(&b.history[CENTRE][..3], &[2.0, 1.0, 0.5]);
         assert_eq!(b.mask[31], BLUR_MASK_SKY);
         assert_eq!(b.history[31], [0.0; 4]);
         assert_eq!(b.surface[31][3].to_bits(), 0);
@@ -560,7 +567,7 @@ mod tests {
         let mut late = 0.0f64;
         let mut late_n = 0;
         for frame_index in 0..600 {
-            let input: Vec<[f32; 4]> = (0..n)
+            let input: Vec<[f32; 4]> = (0..N)
                 .map(|_| {
                     let v = 0.75 + 0.5 * rng.next_f32();
                     [v, v, v, 1.0]
@@ -568,15 +575,15 @@ mod tests {
                 .collect();
             b = step(&f, &c, &g, &input, &b);
             if frame_index >= 200 {
-                late += f64::from(b.history[centre][0]);
+                late += f64::from(b.history[CENTRE][0]);
                 late_n += 1;
             }
         }
         let late = late / f64::from(late_n);
         assert!((late - 1.0).abs() < 0.01, "{late}");
-        assert!((b.history[centre][0] - 1.0).abs() < 0.05);
+        assert!((b.history[CENTRE][0] - 1.0).abs() < 0.05);
         // The noise keeps alpha below 1, but the history stays long.
-        assert!(b.history[centre][3] > 32.0, "{:?}", b.history[centre]);
+        assert!(b.history[CENTRE][3] > 32.0, "{:?}", b.history[CENTRE]);
     }
 
     /// A warming input (the cache's further bounces arriving over tens of frames) is followed
@@ -584,46 +591,38 @@ mod tests {
     /// average of the 64 frames would.
     #[test]
     fn a_warming_input_is_followed_with_linear_weights() {
-        let c = camera();
-        let f = frame(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY);
-        let g = wall(&c, |_, _| false);
-        let n = (W * H) as usize;
-        let centre = (12 * W + 16) as usize;
+        let (c, f, g) = temporal_wall();
         let warming = |t: usize| 1.0 - 0.5 * (-(t as f32) / 15.0).exp();
         let mut b = Buffers::new();
         let mut plain = 0.0;
         for t in 0..64 {
-            b = step(&f, &c, &g, &vec![[warming(t); 4]; n], &b);
+            b = step(&f, &c, &g, &vec![[warming(t); 4]; N], &b);
             plain += warming(t) / 64.0;
         }
-        let lag = warming(63) - b.history[centre][0];
+        let lag = warming(63) - b.history[CENTRE][0];
         let plain_lag = warming(63) - plain;
         assert!(
             lag > 0.0 && lag < 0.5 * plain_lag,
             "{lag} against {plain_lag}"
         );
-        assert!((b.history[centre][3] - 32.5).abs() < 1e-4);
+        assert!((b.history[CENTRE][3] - 32.5).abs() < 1e-4);
     }
 
     /// A lasting change of the lighting shortens the history: the mean follows within a few
     /// frames, not 64.
     #[test]
     fn a_lighting_change_shortens_the_history() {
-        let c = camera();
-        let f = frame(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY);
-        let g = wall(&c, |_, _| false);
-        let n = (W * H) as usize;
-        let centre = (12 * W + 16) as usize;
+        let (c, f, g) = temporal_wall();
         let mut b = Buffers::new();
         for _ in 0..100 {
-            b = step(&f, &c, &g, &vec![[1.0, 1.0, 1.0, 1.0]; n], &b);
+            b = step(&f, &c, &g, &vec![[1.0, 1.0, 1.0, 1.0]; N], &b);
         }
         for _ in 0..16 {
-            b = step(&f, &c, &g, &vec![[4.0, 4.0, 4.0, 1.0]; n], &b);
+            b = step(&f, &c, &g, &vec![[4.0, 4.0, 4.0, 1.0]; N], &b);
         }
         // A fixed 64-frame average would be at 1 + 3 × (1 − (63/64)^16) ≈ 1.67.
-        assert!(b.history[centre][0] > 2.5, "{:?}", b.history[centre]);
-        assert!(b.history[centre][3] < 32.0);
+        assert!(b.history[CENTRE][0] > 2.5, "{:?}", b.history[CENTRE]);
+        assert!(b.history[CENTRE][3] < 32.0);
     }
 
     /// Rare bright samples (16 with probability 1/16, else 0: mean 1, as a light sample that
@@ -632,15 +631,12 @@ mod tests {
     /// read 1.55.
     #[test]
     fn rare_bright_samples_keep_their_mean() {
-        let c = camera();
-        let f = frame(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY);
-        let g = wall(&c, |_, _| false);
-        let n = (W * H) as usize;
+        let (c, f, g) = temporal_wall();
         let mut rng = Random::new(3, 0);
         let mut b = Buffers::new();
         let (mut sum, mut count) = (0.0f64, 0u32);
         for frame in 0..600 {
-            let input: Vec<[f32; 4]> = (0..n)
+            let input: Vec<[f32; 4]> = (0..N)
                 .map(|_| {
                     let v = if rng.next_f32() < 1.0 / 16.0 {
                         16.0
@@ -653,7 +649,7 @@ mod tests {
             b = step(&f, &c, &g, &input, &b);
             if frame >= 100 {
                 sum += b.history.iter().map(|h| f64::from(h[0])).sum::<f64>();
-                count += n as u32;
+                count += N as u32;
             }
         }
         let mean = sum / f64::from(count);
@@ -665,9 +661,7 @@ mod tests {
     fn history_restarts_without_temporal_or_a_match() {
         let c = camera();
         let g = wall(&c, |_, _| false);
-        let n = (W * H) as usize;
-        let centre = (12 * W + 16) as usize;
-        let input = vec![[1.0, 1.0, 1.0, 1.0]; n];
+        let input = vec![[1.0, 1.0, 1.0, 1.0]; N];
         for flags in [
             FLAG_HISTORY,
             FLAG_DENOISER_TEMPORAL,
@@ -684,7 +678,7 @@ mod tests {
                 1.0
             };
             assert!(
-                (b.history[centre][3] - expected).abs() < 1e-4,
+                (b.history[CENTRE][3] - expected).abs() < 1e-4,
                 "flags {flags}"
             );
         }
@@ -704,18 +698,15 @@ mod tests {
             ..f
         };
         let b2 = step(&f_near, &near, &g, &input, &b);
-        assert_eq!(b2.history[centre][3], 1.0);
-        assert_eq!(b2.mask[centre], 7.0);
+        assert_eq!(b2.history[CENTRE][3], 1.0);
+        assert_eq!(b2.mask[CENTRE], 7.0);
     }
 
     /// A camera that pans by a pixel finds its history through the sub-pixel taps.
     #[test]
     fn a_panning_camera_keeps_its_history() {
-        let c = camera();
-        let f = frame(FLAG_DENOISER_TEMPORAL | FLAG_HISTORY);
-        let g = wall(&c, |_, _| false);
-        let n = (W * H) as usize;
-        let input = vec![[1.0, 1.0, 1.0, 1.0]; n];
+        let (c, f, g) = temporal_wall();
+        let input = vec![[1.0, 1.0, 1.0, 1.0]; N];
         let mut b = Buffers::new();
         for _ in 0..10 {
             b = step(&f, &c, &g, &input, &b);
@@ -732,11 +723,10 @@ mod tests {
         };
         let g2 = wall(&moved, |_, _| false);
         let b2 = step(&f2, &moved, &g2, &input, &b);
-        let centre = (12 * W + 16) as usize;
         assert!(
-            (b2.history[centre][3] - (1.0 + 10.0 * HISTORY_GROWTH_PER_FRAME)).abs() < 1e-3,
+            (b2.history[CENTRE][3] - (1.0 + 10.0 * HISTORY_GROWTH_PER_FRAME)).abs() < 1e-3,
             "{:?}",
-            b2.history[centre]
+            b2.history[CENTRE]
         );
         // The rightmost column came from off screen on the right: restarts.
         let edge = (12 * W + 31) as usize;
