@@ -60,6 +60,7 @@ crate::bindings! {
         environment: &'a Buffer,
         last_touch: &'a Buffer,
         carried: &'a Buffer,
+        bounce_values: &'a Buffer,
     }
 }
 
@@ -69,6 +70,7 @@ crate::bindings! {
         values: &'a Buffer,
         accumulators: &'a Buffer,
         lists: &'a Buffer,
+        bounce_values: &'a Buffer,
     }
 }
 
@@ -327,6 +329,7 @@ impl HashCellPasses {
                 environment,
                 last_touch: &res.last_touch,
                 carried: &res.carried,
+                bounce_values: &res.bounce_values,
             },
             bytemuck::bytes_of(params),
             &res.args,
@@ -356,6 +359,7 @@ impl HashCellPasses {
                 values: &res.values,
                 accumulators: &res.accumulators,
                 lists: &res.lists,
+                bounce_values: &res.bounce_values,
             },
             bytemuck::bytes_of(params),
             &res.args,

@@ -44,6 +44,9 @@ pub struct CacheResources {
     pub last_touch: Buffer,
     /// Hash grid: 85 [`HashCellValue`]s per tile.
     pub values: Buffer,
+    /// Hash grid: multi-bounce's bounce copy of `values`, the history bounce rays read
+    /// (`gi_shared::hash_cells::update::update_bounce_copy`); one value without multi-bounce.
+    pub bounce_values: Buffer,
     /// Hash grid: [`TILE_ACCUMULATOR_WORDS`] words per tile (7 per mip-0 cell and the tile's
     /// luminance trend).
     pub accumulators: Buffer,
@@ -134,6 +137,11 @@ impl CacheResources {
                 vk::BufferUsageFlags::empty(),
             )?,
             values: Buffer::device_zeroed::<HashCellValue>(ctx, "hash grid values", cells)?,
+            bounce_values: Buffer::device_zeroed::<HashCellValue>(
+                ctx,
+                "hash grid bounce values",
+                if settings.multi_bounce { cells } else { 1 },
+            )?,
             accumulators: Buffer::device_zeroed::<u32>(
                 ctx,
                 "hash grid accumulators",
@@ -243,12 +251,13 @@ impl CacheResources {
     }
 
     /// Every buffer.
-    pub fn buffers(&self) -> [&Buffer; 18] {
+    pub fn buffers(&self) -> [&Buffer; 19] {
         [
             &self.camera,
             &self.keys,
             &self.last_touch,
             &self.values,
+            &self.bounce_values,
             &self.accumulators,
             &self.lists,
             &self.counters,
@@ -301,6 +310,7 @@ impl CacheResources {
     pub fn float_buffers(&self) -> Result<Vec<(&Buffer, FloatWords)>> {
         Ok(vec![
             (&self.values, FloatWords::ALL),
+            (&self.bounce_values, FloatWords::ALL),
             (&self.queries, FloatWords::of::<CacheQuery>()?),
             (&self.shadow_rays, FloatWords::of::<ShadowRay>()?),
             (&self.ray_records, FloatWords::of::<RayRecord>()?),

@@ -8,7 +8,8 @@
 //!
 //! Set 0: cache-view counters, shadow rays, queries, accumulators, pixels, lists (for the count of
 //! dropped samples), this frame's ReSTIR reservoirs, the hash grid's keys and values, the
-//! environment image, the hash grid's last touch, the carried queries. Set 1: the scene's
+//! environment image, the hash grid's last touch, the carried queries, the hash grid's bounce
+//! copy. Set 1: the scene's
 //! geometry; set 2 as `traced_kernel!` binds it.
 
 use crate::atomics::DeviceWords;
@@ -49,6 +50,7 @@ traced_kernel! {
         #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] environment: &[[f32; 4]],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] last_touch: &[u32],
         #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] carried: &mut [CacheQuery],
+        #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] bounce_values: &[HashCellValue],
     ) {
         let mut counters = DeviceWords(counters);
         let n = min_u32(counters.load(SHADOW_RAY_COUNT), shadow_rays.len() as u32);
@@ -78,6 +80,7 @@ traced_kernel! {
             let cells = HashCellsRead { keys, last_touch, values };
             let bounce = bounce_radiance(
                 cells,
+                bounce_values,
                 params,
                 environment,
                 &query,

@@ -78,6 +78,11 @@ pub const READ_MIN_SAMPLES: f32 = 1.0;
 /// after 64 frames, against −13.7%) but left a light switched on 5–9% short after 15 frames
 /// (`tests/tests/light_change.rs`), against 3% with 12.
 pub const HISTORY_FRAMES: u32 = 12;
+/// Time constant, in updates of its tile, of multi-bounce's bounce copy of a cell
+/// ([`update::update_bounce_copy`]): bounce rays read this shorter history, so each further bounce
+/// arrives within a few frames instead of a [`HISTORY_FRAMES`] blend later, while reads from the
+/// screen keep the longer, quieter history.
+pub const BOUNCE_HISTORY_FRAMES: u32 = 3;
 /// Tiles untouched for this many frames are evicted.
 pub const TILE_DECAY_FRAMES: u32 = 50;
 /// Cell sizes are `2^L` millimetres: the LOD key is `floor(log2(1000 · step))`.

@@ -93,6 +93,7 @@ impl HashGridModel {
         for index in 0..count {
             update_pass(
                 &mut self.values,
+                &mut [],
                 &mut self.accumulators[..],
                 &self.lists[..],
                 params,
@@ -481,7 +482,7 @@ mod tests {
         model.update(&p);
         let len = list_len(&lists[..], UPDATE_TILES, p.tile_count());
         for index in 0..len {
-            update_pass(&mut values, &mut accs[..], &lists[..], &p, index);
+            update_pass(&mut values, &mut [], &mut accs[..], &lists[..], &p, index);
         }
         let threaded = Snapshot::new(&p, &keys, &stamps, &values, &accs, &lists);
         threaded.compare(&model.snapshot(&p), 0.0).unwrap();

@@ -8,7 +8,7 @@
 //! 3. [`query_pass`], one invocation per query;
 //! 4. [`update_pass`], one invocation per entry of the update list (or 64 per entry running
 //!    [`super::update::update_mip0_cell`] and [`super::update::update_mip_cell`] on
-//!    [`update_list_tile`]);
+//!    [`update_list_tile`]), with multi-bounce's bounce copy;
 //! 5. reads with [`super::read::lookup`] in later passes.
 //!
 //! Buffers: `keys` and `last_touch` (one word per tile), `values` (85 [`HashCellValue`]s per tile),
@@ -23,7 +23,7 @@ use super::lists::{
 use super::purge::purge_tile;
 use super::storage::{TileInsert, insert_tile};
 use super::touch::{clear_tile_values, touch_tile};
-use super::update::update_tile;
+use super::update::{blend_tile, tile_blend_cap, update_bounce_copy};
 use super::{CellDescriptor, cell_descriptor};
 use crate::atomics::AtomicWords;
 
@@ -118,10 +118,12 @@ pub fn update_list_tile<L: AtomicWords + ?Sized>(
     list_tile(lists, UPDATE_TILES, params.tile_count(), index)
 }
 
-/// Update invocation `index`: blends and re-mips entry `index` of the update list.
+/// Update invocation `index`: blends and re-mips entry `index` of the update list, and its bounce
+/// copy in `bounce` where that holds one for every cell ([`update_bounce_copy`]; multi-bounce).
 #[inline]
 pub fn update_pass<A, L>(
     values: &mut [HashCellValue],
+    bounce: &mut [HashCellValue],
     accumulators: &mut A,
     lists: &L,
     params: &HashGridParams,
@@ -131,12 +133,17 @@ pub fn update_pass<A, L>(
     L: AtomicWords + ?Sized,
 {
     if let Some(tile) = update_list_tile(lists, params, index) {
-        update_tile(
+        let cap = params.sample_cap;
+        let blend_cap = tile_blend_cap(values, accumulators, tile, cap, params.adaptive_blend != 0);
+        if bounce.len() >= values.len() {
+            update_bounce_copy(bounce, values, accumulators, tile, cap, blend_cap);
+        }
+        blend_tile(
             values,
             accumulators,
             tile,
-            params.sample_cap,
-            params.adaptive_blend != 0,
+            cap,
+            blend_cap,
             params.history_frames,
         );
     }

@@ -22,6 +22,27 @@ use super::storage::find_tile;
 use super::{CellDescriptor, NUM_MIPS, cell_index};
 use crate::atomics::AtomicWords;
 
+/// The index in `values` of the cell the adaptive read stops at for mip-0 cell `cell` (`[x, y]`)
+/// of tile `tile`.
+#[inline]
+pub fn filtered_index(
+    values: &[HashCellValue],
+    tile: u32,
+    cell: [u32; 2],
+    min_samples: f32,
+) -> usize {
+    let (mut x, mut y) = (cell[0], cell[1]);
+    let mut mip = 0;
+    let mut index = cell_index(tile, 0, x, y) as usize;
+    while values[index].count < min_samples && mip + 1 < NUM_MIPS {
+        mip += 1;
+        x /= 2;
+        y /= 2;
+        index = cell_index(tile, mip, x, y) as usize;
+    }
+    index
+}
+
 /// The `(rgb · n, n)` value the adaptive read stops at for mip-0 cell `cell` (`[x, y]`) of tile
 /// `tile`.
 #[inline]
@@ -31,16 +52,33 @@ pub fn filtered_value(
     cell: [u32; 2],
     min_samples: f32,
 ) -> HashCellValue {
-    let (mut x, mut y) = (cell[0], cell[1]);
-    let mut mip = 0;
-    let mut value = values[cell_index(tile, 0, x, y) as usize];
-    while value.count < min_samples && mip + 1 < NUM_MIPS {
-        mip += 1;
-        x /= 2;
-        y /= 2;
-        value = values[cell_index(tile, mip, x, y) as usize];
+    values[filtered_index(values, tile, cell, min_samples)]
+}
+
+/// Filtered radiance as a bounce ray reads it: the cell the adaptive read picks in `values`, taken
+/// from multi-bounce's bounce copy `bounce` (its shorter history,
+/// [`super::update::update_bounce_copy`]), or from `values` where the copy holds no sample or
+/// does not cover the cell. `None` when even the tile's root has no sample.
+#[inline]
+pub fn bounce_filtered_radiance(
+    values: &[HashCellValue],
+    bounce: &[HashCellValue],
+    tile: u32,
+    cell: [u32; 2],
+    min_samples: f32,
+) -> Option<Vec3> {
+    let index = filtered_index(values, tile, cell, min_samples);
+    let own = values[index];
+    let value = if index < bounce.len() && bounce[index].count > 0.0 {
+        bounce[index]
+    } else {
+        own
+    };
+    if own.count > 0.0 && value.count > 0.0 {
+        Some(value.radiance_sum() / value.count)
+    } else {
+        None
     }
-    value
 }
 
 /// Filtered radiance of mip-0 cell `cell` of tile `tile`: sum / count of [`filtered_value`];
@@ -124,6 +162,39 @@ mod tests {
         assert_eq!(
             filtered_radiance(&values, 1, [5, 6], 16.0),
             Some(Vec3::splat(7.0))
+        );
+    }
+
+    #[test]
+    fn a_bounce_reads_the_copy_at_the_level_the_cells_pick() {
+        let mut values = vec![HashCellValue::ZERO; 2 * CELLS_PER_TILE as usize];
+        let mut bounce = values.clone();
+        let at = |mip, x, y| cell_index(1, mip, x, y) as usize;
+        values[at(3, 0, 0)] = HashCellValue::new(Vec3::splat(7.0 * 9.0), 9.0);
+        bounce[at(3, 0, 0)] = HashCellValue::new(Vec3::splat(8.0 * 2.0), 2.0);
+        values[at(0, 5, 6)] = HashCellValue::new(Vec3::splat(0.5 * 0.5), 0.5);
+        bounce[at(0, 5, 6)] = HashCellValue::new(Vec3::splat(40.0), 0.5);
+        // The cell's own history weighs under one sample: the root's level, read from the copy.
+        assert_eq!(
+            bounce_filtered_radiance(&values, &bounce, 1, [5, 6], 1.0),
+            Some(Vec3::splat(8.0))
+        );
+        // Where the copy holds nothing at that level, or does not reach it, the cells answer.
+        bounce[at(3, 0, 0)] = HashCellValue::ZERO;
+        assert_eq!(
+            bounce_filtered_radiance(&values, &bounce, 1, [5, 6], 1.0),
+            Some(Vec3::splat(7.0))
+        );
+        assert_eq!(
+            bounce_filtered_radiance(&values, &[], 1, [5, 6], 1.0),
+            Some(Vec3::splat(7.0))
+        );
+        // No sample in the cells: nothing, whatever the copy holds.
+        bounce[at(3, 0, 0)] = HashCellValue::new(Vec3::ONE, 1.0);
+        values[at(3, 0, 0)] = HashCellValue::ZERO;
+        assert_eq!(
+            bounce_filtered_radiance(&values, &bounce, 1, [0, 0], 1.0),
+            None
         );
     }
 }

@@ -33,7 +33,7 @@ use super::accumulate::{
 };
 use super::adaptive_blend::{PooledChange, TileTrend, blend_cap, frame_change};
 use super::layout::{HashCellAccumulator, HashCellValue};
-use super::{MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_CELL_RATIO, cell_index};
+use super::{BOUNCE_HISTORY_FRAMES, MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_CELL_RATIO, cell_index};
 use crate::atomics::AtomicWords;
 use crate::math::{clamp, max, max_u32, min, min_u32};
 
@@ -190,8 +190,8 @@ pub fn tile_blend_cap<W: AtomicWords + ?Sized>(
     blend_cap(cap, trend, pooled.samples)
 }
 
-/// The whole update of one tile by one invocation: its blend cap ([`tile_blend_cap`]), the 64
-/// mip-0 blends, then mips 1, 2, 3.
+/// The whole update of one tile by one invocation: its blend cap ([`tile_blend_cap`]), then
+/// [`blend_tile`].
 #[inline]
 pub fn update_tile<W: AtomicWords + ?Sized>(
     values: &mut [HashCellValue],
@@ -202,12 +202,32 @@ pub fn update_tile<W: AtomicWords + ?Sized>(
     history_frames: u32,
 ) {
     let blend_cap = tile_blend_cap(values, accumulators, tile, cap, adaptive);
+    blend_tile(values, accumulators, tile, cap, blend_cap, history_frames);
+}
+
+/// Tile `tile`'s 64 mip-0 blends with weights capped at `blend_cap` (clearing the accumulators),
+/// then mips 1, 2, 3.
+#[inline]
+pub fn blend_tile<W: AtomicWords + ?Sized>(
+    values: &mut [HashCellValue],
+    accumulators: &mut W,
+    tile: u32,
+    cap: u32,
+    blend_cap: f32,
+    history_frames: u32,
+) {
     let keep = history_keep(history_frames);
     let mut cell = 0;
     while cell < MIP0_CELLS_PER_TILE {
         update_mip0_cell(values, accumulators, tile, cell, cap, blend_cap, keep);
         cell += 1;
     }
+    update_mips(values, tile);
+}
+
+/// Mips 1, 2, 3 of tile `tile` from its mip-0 cells.
+#[inline]
+fn update_mips(values: &mut [HashCellValue], tile: u32) {
     let mut mip = 1;
     while mip < NUM_MIPS {
         let mut cell = 0;
@@ -217,6 +237,42 @@ pub fn update_tile<W: AtomicWords + ?Sized>(
         }
         mip += 1;
     }
+}
+
+/// Multi-bounce's bounce copy of tile `tile` (`bounce`, laid out as `values`): each mip-0 cell
+/// blended with the frame's accumulator like the cell itself (weights capped at `blend_cap`), but
+/// its history fading over [`BOUNCE_HISTORY_FRAMES`] updates, then its mips. Runs before
+/// [`blend_tile`] changes `values` or clears the accumulators: a cell that had no history in
+/// `values` (a tile just inserted, a cell never sampled) starts its copy over, so no copy outlives
+/// its tile.
+#[inline]
+pub fn update_bounce_copy<W: AtomicWords + ?Sized>(
+    bounce: &mut [HashCellValue],
+    values: &[HashCellValue],
+    accumulators: &W,
+    tile: u32,
+    cap: u32,
+    blend_cap: f32,
+) {
+    let keep = history_keep(BOUNCE_HISTORY_FRAMES);
+    let mut cell = 0;
+    while cell < MIP0_CELLS_PER_TILE {
+        let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
+        let index = cell_index(tile, 0, xy[0], xy[1]) as usize;
+        let old = if values[index].count > 0.0 {
+            decayed(bounce[index], keep)
+        } else {
+            HashCellValue::ZERO
+        };
+        let base = accumulator_word(tile, xy);
+        bounce[index] = if accumulator_count(accumulators, base) != 0 {
+            blend_cell(old, load_accumulator(accumulators, base), cap, blend_cap)
+        } else {
+            old
+        };
+        cell += 1;
+    }
+    update_mips(bounce, tile);
 }
 
 #[cfg(test)]
@@ -495,5 +551,105 @@ mod tests {
             }
         }
         assert_eq!(other, values);
+    }
+
+    /// One update of tile 0 through the pass: the bounce copy first, then the cells.
+    fn update_both(
+        values: &mut [HashCellValue],
+        bounce: &mut [HashCellValue],
+        accs: &mut [u32],
+        history_frames: u32,
+    ) {
+        let blend_cap = tile_blend_cap(values, accs, 0, MAX_SAMPLE_COUNT, false);
+        update_bounce_copy(bounce, values, accs, 0, MAX_SAMPLE_COUNT, blend_cap);
+        blend_tile(values, accs, 0, MAX_SAMPLE_COUNT, blend_cap, history_frames);
+    }
+
+    #[test]
+    fn the_bounce_copy_follows_a_change_sooner_and_agrees_once_it_holds() {
+        let cells = CELLS_PER_TILE as usize;
+        let (mut values, mut bounce) = (
+            vec![HashCellValue::ZERO; cells],
+            vec![HashCellValue::ZERO; cells],
+        );
+        let mut accs = vec![0u32; TILE_ACCUMULATOR_WORDS];
+        let frame = |values: &mut [HashCellValue],
+                     bounce: &mut [HashCellValue],
+                     accs: &mut [u32],
+                     light: f32| {
+            for cell in 0..64 {
+                accumulate_sample(accs, 0, [cell % 8, cell / 8], Vec3::splat(light));
+            }
+            update_both(values, bounce, accs, 12);
+        };
+        // A steady light: both hold it, the copy with a shorter history.
+        for _ in 0..40 {
+            frame(&mut values, &mut bounce, &mut accs, 1.0);
+        }
+        for i in [0, 63, 64, 84] {
+            assert!(
+                close(values[i].mean(), Vec3::ONE) && close(bounce[i].mean(), Vec3::ONE),
+                "{i}"
+            );
+            assert!(bounce[i].count < values[i].count, "{i}");
+        }
+        // The light doubles: after 6 frames the copy is within 10 % of it (it keeps 2/3 per
+        // update), the cells (11/12) still more than half short; both converge to it.
+        for _ in 0..6 {
+            frame(&mut values, &mut bounce, &mut accs, 2.0);
+        }
+        let (slow, fast) = (values[84].mean().x, bounce[84].mean().x);
+        assert!(fast > 1.9 && slow < 1.5, "{slow} {fast}");
+        for _ in 0..200 {
+            frame(&mut values, &mut bounce, &mut accs, 2.0);
+        }
+        assert!(
+            close(values[84].mean(), Vec3::splat(2.0))
+                && close(bounce[84].mean(), Vec3::splat(2.0))
+        );
+        // The accumulators are cleared once, after both read them.
+        assert!(accs.iter().take(64 * 7).all(|&w| w == 0));
+    }
+
+    #[test]
+    fn a_new_tile_starts_its_bounce_copy_over() {
+        let cells = CELLS_PER_TILE as usize;
+        let mut values = vec![HashCellValue::ZERO; cells];
+        let mut accs = vec![0u32; TILE_ACCUMULATOR_WORDS];
+        // The slot's copy still holds an evicted tile's light; the new tile's cells are cleared.
+        let mut bounce = vec![HashCellValue::new(Vec3::splat(90.0), 3.0); cells];
+        accumulate_sample(&mut accs[..], 0, [2, 5], Vec3::splat(0.5));
+        update_both(&mut values, &mut bounce, &mut accs, 12);
+        // The sampled cell's copy is its sample; the others hold nothing; the mips sum them.
+        let sampled = cell_index(0, 0, 2, 5) as usize;
+        assert_eq!(bounce[sampled], HashCellValue::new(Vec3::splat(0.5), 1.0));
+        for i in (0..64).filter(|&i| i != sampled) {
+            assert_eq!(bounce[i], HashCellValue::ZERO, "{i}");
+        }
+        assert_eq!(bounce[84], bounce[sampled]);
+        // A copy that is too short for the cells is left alone by the pass (multi-bounce off).
+        let mut lists = vec![0u32; crate::hash_cells::lists::list_buffer_words(1)];
+        crate::hash_cells::lists::push_tile(
+            &mut lists[..],
+            crate::hash_cells::lists::UPDATE_TILES,
+            1,
+            0,
+        );
+        accumulate_sample(&mut accs[..], 0, [2, 5], Vec3::splat(0.5));
+        let mut short = [HashCellValue::new(Vec3::ONE, 1.0)];
+        let mut params = crate::hash_cells::layout::HashGridParams::new(Vec3::ZERO, 0.01, 1);
+        params.num_buckets_log2 = 0;
+        params.tiles_per_bucket_log2 = 0;
+        crate::hash_cells::passes::update_pass(
+            &mut values,
+            &mut short,
+            &mut accs[..],
+            &lists[..],
+            &params,
+            0,
+        );
+        assert_eq!(short, [HashCellValue::new(Vec3::ONE, 1.0)]);
+        // The cells blend as ever (a history that never fades: two samples).
+        assert_eq!(values[sampled].count, 2.0);
     }
 }
