@@ -58,7 +58,7 @@
 //! # The bounce copy
 //!
 //! A bounce reads each cell's bounce copy ([`crate::hash_cells::update::update_bounce_copy`]): the
-//! same samples blended with a history of [`crate::hash_cells::BOUNCE_HISTORY_FRAMES`] (3) updates
+//! same samples blended with a history of [`crate::hash_cells::BOUNCE_HISTORY_FRAMES`] (2) updates
 //! instead of 12, at the level the cell's own history picks. The loop `R = albedo · (direct + R')`
 //! then gains a bounce every few frames, not every 12 blends, while the screen's probes read the
 //! quieter 12-frame history; both hold the same mean once the light holds, so the converged image

@@ -111,7 +111,7 @@ pub struct GiSettings {
     /// probe ray that neither misses nor reprojects), in PopulateRadianceCache, and the carried
     /// queries (about 10–20% more queries in a closed room, more tiles live); memory: the carried
     /// list and room for its queries and shadow rays (208 bytes per ray), and the cells' bounce
-    /// copy, the 3-frame history bounces read (1.3 KiB per cache tile), allocated only with it.
+    /// copy, the 2-frame history bounces read (1.3 KiB per cache tile), allocated only with it.
     /// Quality: off, the cache holds direct light alone and further bounces come only from
     /// on-screen hits through feedback (a closed furnace of albedo 0.5 reads 1.75 of its exact
     /// 2.0, `indirect-room` −18%); on, the furnace converges (cache view −0.03%, GI frame −1.3%)

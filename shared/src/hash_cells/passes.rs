@@ -6,9 +6,8 @@
 //! 1. [`super::lists::begin_frame`], one invocation;
 //! 2. [`purge_pass`], one invocation per entry of the previous live list;
 //! 3. [`query_pass`], one invocation per query;
-//! 4. [`update_pass`], one invocation per entry of the update list (or 64 per entry running
-//!    [`super::update::update_mip0_cell`] and [`super::update::update_mip_cell`] on
-//!    [`update_list_tile`]), with multi-bounce's bounce copy;
+//! 4. [`update_pass`], one invocation per entry of the update list, with multi-bounce's bounce
+//!    copy ([`super::update`] says how 64 invocations per entry could share it);
 //! 5. reads with [`super::read::lookup`] in later passes.
 //!
 //! Buffers: `keys` and `last_touch` (one word per tile), `values` (85 [`HashCellValue`]s per tile),

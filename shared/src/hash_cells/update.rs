@@ -1,8 +1,9 @@
 //! The update pass, per tile touched this frame: blend each mip-0 cell's history with the frame's
 //! accumulated samples, clear the accumulators, then rebuild mips 1–3 as sums of their four
-//! children. Either one invocation per tile runs [`update_tile`], or 64 per tile run
-//! [`update_mip0_cell`] each, then (with a barrier between levels) [`update_mip_cell`] for mips
-//! 1, 2 and 3 on the first 16, 4 and 1 invocations.
+//! children. One invocation per tile runs [`super::passes::update_pass`]: [`tile_blend_cap`], the
+//! bounce copy, then [`blend_tile`]. Its parts are per cell, so a workgroup of 64 per tile could
+//! run [`update_mip0_cell`] each, then (with a barrier between levels) [`update_mip_cell`] for
+//! mips 1, 2 and 3 on the first 16, 4 and 1 invocations (a test checks it gives the same bits).
 //!
 //! Blend: with history mean `m` over `c0` samples and `k` new samples of mean `a`, the new count
 //! is `c = min(c0 + k, cap)` (the sample cap, 16 by default) and the mean is the running mean that
@@ -190,21 +191,6 @@ pub fn tile_blend_cap<W: AtomicWords + ?Sized>(
     blend_cap(cap, trend, pooled.samples)
 }
 
-/// The whole update of one tile by one invocation: its blend cap ([`tile_blend_cap`]), then
-/// [`blend_tile`].
-#[inline]
-pub fn update_tile<W: AtomicWords + ?Sized>(
-    values: &mut [HashCellValue],
-    accumulators: &mut W,
-    tile: u32,
-    cap: u32,
-    adaptive: bool,
-    history_frames: u32,
-) {
-    let blend_cap = tile_blend_cap(values, accumulators, tile, cap, adaptive);
-    blend_tile(values, accumulators, tile, cap, blend_cap, history_frames);
-}
-
 /// Tile `tile`'s 64 mip-0 blends with weights capped at `blend_cap` (clearing the accumulators),
 /// then mips 1, 2, 3.
 #[inline]
@@ -297,6 +283,19 @@ mod tests {
     /// The blend with the fixed cap.
     fn fixed(old: HashCellValue, acc: HashCellAccumulator, cap: u32) -> HashCellValue {
         blend_cell(old, acc, cap, cap as f32)
+    }
+
+    /// The update of one tile without a bounce copy: its blend cap, then [`blend_tile`].
+    fn update_tile<W: AtomicWords + ?Sized>(
+        values: &mut [HashCellValue],
+        accumulators: &mut W,
+        tile: u32,
+        cap: u32,
+        adaptive: bool,
+        history_frames: u32,
+    ) {
+        let blend_cap = tile_blend_cap(values, accumulators, tile, cap, adaptive);
+        blend_tile(values, accumulators, tile, cap, blend_cap, history_frames);
     }
 
     fn close(a: Vec3, b: Vec3) -> bool {
