@@ -63,8 +63,9 @@
 //! then gains a bounce every few frames, not every 12 blends, while the screen's probes read the
 //! quieter 12-frame history; both hold the same mean once the light holds, so the converged image
 //! does not move. Cost: one more value per cell (16 bytes, 85 per tile) where multi-bounce is on.
-//! At 320 × 180, `balanced`, the 64th frame: the Bitterli staircase −8.5 → −6.8 %, the indirect
-//! room −5.0 → −4.1 % (README, "Round 18").
+//! At 320 × 180, `balanced`, the 64th frame, without → with the copy: the Bitterli staircase
+//! −8.5 → −6.3 %, the indirect room −5.0 → −3.5 % (README, "Round 18" with 3 updates, "Round 19"
+//! with 2).
 
 use glam::{Vec2, Vec3};
 
