@@ -11,6 +11,7 @@ use crate::error::Result;
 use crate::frame::Recorder;
 use crate::gbuffer::GBufferImages;
 use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong};
+use gi_shared::gi_denoiser::reproject_gi::TREND_WORDS;
 
 /// The per-pixel buffers of interpolation and the denoiser.
 pub struct DenoiserResources {
@@ -22,6 +23,9 @@ pub struct DenoiserResources {
     pub surface: PingPong<Buffer>,
     /// The smoothed luminance change, this frame's and the previous frame's.
     pub luma_delta: PingPong<Buffer>,
+    /// The image's trend sums (`reproject_gi::TREND_WORDS` words), this frame's and the previous
+    /// frame's.
+    pub trend: PingPong<Buffer>,
     /// The blur mask (radius in pixels before dilation).
     pub blur_mask: Buffer,
     /// The dilated, cost-adapted blur radius.
@@ -35,11 +39,13 @@ impl DenoiserResources {
     pub fn new(ctx: &Context, pixels: usize) -> Result<Self> {
         let v4 = |name: &str| Buffer::device_zeroed::<[f32; 4]>(ctx, name, pixels);
         let f = |name: &str| Buffer::device_zeroed::<f32>(ctx, name, pixels);
+        let trend = |name: &str| Buffer::device_zeroed::<u32>(ctx, name, TREND_WORDS);
         Ok(Self {
             irradiance: v4("interpolated irradiance")?,
             history: PingPong::new(v4("GI history (a)")?, v4("GI history (b)")?),
             surface: PingPong::new(v4("GI surfaces (a)")?, v4("GI surfaces (b)")?),
             luma_delta: PingPong::new(f("GI luma delta (a)")?, f("GI luma delta (b)")?),
+            trend: PingPong::new(trend("GI trend (a)")?, trend("GI trend (b)")?),
             blur_mask: f("blur mask")?,
             blur_radius: f("blur radius")?,
             filtered: [
@@ -54,6 +60,7 @@ impl DenoiserResources {
         self.history.swap();
         self.surface.swap();
         self.luma_delta.swap();
+        self.trend.swap();
     }
 
     /// The irradiance `stage` wrote.
@@ -121,6 +128,8 @@ crate::bindings! {
         luma_delta: &'a Buffer,
         blur_mask: &'a Buffer,
         motion: &'a Image,
+        previous_trend: &'a Buffer,
+        trend: &'a Buffer,
     }
 }
 
@@ -221,6 +230,7 @@ impl DenoiserPasses {
     ) -> Result<()> {
         let PrimaryView { camera, gbuffer } = view;
         let g = gbuffer;
+        rec.fill(res.trend.current(), 0);
         rec.dispatch(
             &self.reproject,
             &ReprojectGi {
@@ -237,6 +247,8 @@ impl DenoiserPasses {
                 luma_delta: res.luma_delta.current(),
                 blur_mask: &res.blur_mask,
                 motion: &g.motion,
+                previous_trend: res.trend.previous(),
+                trend: res.trend.current(),
             },
             &[],
             pixel_groups(gbuffer),

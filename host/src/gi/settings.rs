@@ -197,8 +197,9 @@ pub struct GiSettings {
     /// light (black holes at disocclusions and thin features).
     pub relaxed_fallback: bool,
     /// The denoiser's temporal reprojection of irradiance (history up to 64 frames, capped by
-    /// motion and vignette). Cost: one pass. Quality: off, the image shows each frame's probe
-    /// noise.
+    /// motion, vignette, each pixel's luminance change and, down to 16 frames, the whole image's
+    /// trend, so that a warming image lags less). Cost: one pass. Quality: off, the image shows
+    /// each frame's probe noise.
     pub denoiser_temporal: bool,
     /// The denoiser's blur mask and separable bilateral filter, with a radius that shrinks as
     /// history grows and as the screen's blur cost rises. Cost: three passes. Quality: off,

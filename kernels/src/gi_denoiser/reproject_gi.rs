@@ -5,13 +5,17 @@
 //! (images), 4 irradiance (`[f32; 4]`, this frame's interpolation), 5 previous history, 6
 //! current history (`[f32; 4]`: rgb mean, w count), 7 previous surface, 8 current surface
 //! (`[f32; 4]`: position, packed normal bits), 9 previous luma delta, 10 current luma delta
-//! (`f32`), 11 blur mask (`f32`), 12 G-buffer motion (image). Workgroups of 8 × 8 pixels, dispatched
+//! (`f32`), 11 blur mask (`f32`), 12 G-buffer motion (image), 13 previous trend, 14 current trend
+//! (`[u32; TREND_WORDS]`, cleared before the pass). Workgroups of 8 × 8 pixels, dispatched
 //! `[ceil(W / 8), ceil(H / 8), 1]`.
 
+use crate::atomics::DeviceWords;
 use crate::gbuffer::{DepthImage, FloatImage, HalfImage};
 use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::ReprojectionTexel;
-use gi_shared::gi_denoiser::reproject_gi::{PreviousGiHistory, reproject_gi_pixel};
+use gi_shared::gi_denoiser::reproject_gi::{
+    PreviousGiHistory, add_trend, reproject_gi_pixel, trend_reference,
+};
 use gi_shared::screen_probes::GiFrameParams;
 use spirv_std::glam::{UVec2, UVec3};
 use spirv_std::spirv;
@@ -37,6 +41,8 @@ pub fn reproject_gi(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] luma_delta: &mut [f32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] blur_mask: &mut [f32],
     #[spirv(descriptor_set = 0, binding = 12)] motion: &FloatImage,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] previous_trend: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] trend: &mut [u32],
 ) {
     let pixel = UVec2::new(id.x, id.y);
     if pixel.x >= frame.image_size[0] || pixel.y >= frame.image_size[1] {
@@ -60,8 +66,10 @@ pub fn reproject_gi(
         history: previous_history,
         surface: previous_surface,
         luma_delta: previous_luma_delta,
+        trend: previous_trend,
     };
     let r = reproject_gi_pixel(frame, camera, pixel, texel, irradiance[i], previous);
+    add_trend(&mut DeviceWords(trend), trend_reference(previous_trend), &r);
     history[i] = r.history;
     surface[i] = r.surface;
     luma_delta[i] = r.luma_delta;

@@ -29,6 +29,17 @@
 //!    history is young), `mean = lerp(mean, current, 1 / count)`; the blur mask is
 //!    `max(8 − count, 0)` pixels ([`blur_mask_of`]), −1 for sky.
 //!
+//! 5. The image's trend caps the count too ([`trend_cap`]). Every pixel with a history adds its
+//!    luma delta and its luminance to sums over the image ([`add_trend`]: 64-bit fixed point
+//!    from integer atomics, so the sums do not depend on the order of the adds); the next frame
+//!    reads their ratio, weighted by how far the deltas agree in sign ([`image_trend`]). While
+//!    the whole image rises (the world cache warming up, each further bounce arriving), that is
+//!    the history's lag behind its input, and the cap `max(16, count × target / |trend|)`
+//!    ([`TREND_MIN_CAP`]) holds the lag toward [`TREND_LAG_TARGET`]. One pixel's delta cannot tell a rise from noise (a
+//!    per-pixel test followed the cache's warm-up as if it were a change and doubled the relMSE
+//!    of a scene offset by 10⁵: README, "Response to change"); the image's sums can, and an
+//!    image whose deltas cancel (converged, or noisy) keeps its full history.
+//!
 //! Without [`FLAG_DENOISER_TEMPORAL`] or [`FLAG_HISTORY`], or with no accepted tap, the history
 //! restarts: `mean = current`, `count = 1`, luma delta 0.
 //!
@@ -37,10 +48,12 @@
 //! * history `[f32; 4]`: rgb mean irradiance, w = count (`≤ 0`: none);
 //! * surface `[f32; 4]`: xyz world position, w = `f32::from_bits(pack_snorm10x3(normal))` (bits 0:
 //!   none);
-//! * luma delta `f32`; blur mask `f32` (this frame only).
+//! * luma delta `f32`; blur mask `f32` (this frame only);
+//! * trend `[u32; TREND_WORDS]` ([`add_trend`]), one per image, cleared before the pass.
 
 use glam::{UVec2, Vec2, Vec3, Vec4};
 
+use crate::atomics::AtomicWords;
 use crate::camera::CameraParams;
 use crate::color::luminance;
 use crate::gbuffer::{PreviousPoint, ReprojectionTexel, previous_point};
@@ -67,6 +80,24 @@ pub const HISTORY_COUNT_CLAMP: f32 = 8.0;
 /// `balanced` 2–9 points below its own cache after 64 frames); linear weights halve that lag for
 /// a third less effective history (`3n / 4` samples). The cap is reached after `2 × 64` frames.
 pub const HISTORY_GROWTH_PER_FRAME: f32 = 0.5;
+/// The history's lag behind its input, relative, that the image's trend holds it to
+/// ([`trend_cap`]).
+pub const TREND_LAG_TARGET: f32 = 0.005;
+/// The least count the image's trend leaves a history ([`trend_cap`]). The cap is applied every
+/// frame, so while the trend stays above its target the count falls geometrically: with a floor
+/// of 4 a warming Cornell box's slow orbit changed by 3.8 % from frame to frame (`gi_frame`'s
+/// bound is 3 %), with 16 by 2.2 %. A change of the light still brings the count to 4 through
+/// each pixel's own delta ([`history_alpha`]).
+pub const TREND_MIN_CAP: f32 = 16.0;
+/// Words of the trend buffer: 64-bit fixed-point sums (low word, high word) of the positive luma
+/// deltas, of the negative ones and of the luminances, in units of [`TREND_UNITS`] per reference
+/// luminance; the pixels counted; the reference luminance (`f32` bits).
+pub const TREND_WORDS: usize = 8;
+/// Fixed-point units per reference luminance ([`trend_reference`]).
+pub const TREND_UNITS: f32 = 65536.0;
+/// A pixel's delta and luminance are clamped to this many reference luminances: with
+/// [`TREND_UNITS`], `2^24` units a pixel, so the 64-bit sums hold `2^40` pixels.
+pub const TREND_CLAMP: f32 = 256.0;
 /// The vignette's scale: `16 u(1−u) v(1−v)` is 1 at the centre (the reference uses 15).
 pub const VIGNETTE_SCALE: f32 = 16.0;
 /// A history tap's normal must have a dot product above this with the pixel's.
@@ -166,6 +197,104 @@ pub fn blur_mask_of(count: f32) -> f32 {
     max(BLUR_MASK_FRAMES - count, 0.0)
 }
 
+/// The luminance this frame's trend sums are in units of: the mean luminance the previous frame
+/// summed (`previous`, [`TREND_WORDS`]), 1 where that is not a positive finite number. Every
+/// invocation computes the same value, so the sums share it.
+#[inline]
+pub fn trend_reference(previous: &[u32]) -> f32 {
+    if previous.len() < TREND_WORDS || previous[6] == 0 {
+        return 1.0;
+    }
+    let reference = f32::from_bits(previous[7]);
+    let mean = wide(previous, 4) / TREND_UNITS * reference / previous[6] as f32;
+    if mean.is_finite() && mean > 1e-30 {
+        mean
+    } else {
+        1.0
+    }
+}
+
+/// The 64-bit sum at words `lo`, `lo + 1`, as a float.
+#[inline]
+fn wide(words: &[u32], lo: usize) -> f32 {
+    words[lo + 1] as f32 * 4_294_967_296.0 + words[lo] as f32
+}
+
+/// Adds `units` to the 64-bit sum at words `lo`, `lo + 1`: the high word takes the carry, so
+/// the sum does not depend on the order of the adds.
+#[inline]
+fn add_wide<W: AtomicWords + ?Sized>(words: &mut W, lo: usize, units: u32) {
+    let old = words.fetch_add(lo, units);
+    if old > u32::MAX - units {
+        words.fetch_add(lo + 1, 1);
+    }
+}
+
+/// `x / reference` clamped to `[0, TREND_CLAMP]`, in units of [`TREND_UNITS`] (0 when not
+/// finite).
+#[inline]
+fn trend_units(x: f32, reference: f32) -> u32 {
+    let r = x / reference;
+    if r.is_finite() {
+        floor(min(max(r, 0.0), TREND_CLAMP) * TREND_UNITS + 0.5) as u32
+    } else {
+        0
+    }
+}
+
+/// Adds pixel result `pixel`'s luma delta and luminance to the trend words `words`
+/// ([`TREND_WORDS`]) in units of `reference` ([`trend_reference`]), where it had a history.
+#[inline]
+pub fn add_trend<W: AtomicWords + ?Sized>(words: &mut W, reference: f32, pixel: &GiHistory) {
+    if !pixel.has_history || words.word_count() < TREND_WORDS {
+        return;
+    }
+    let d = pixel.luma_delta;
+    if d >= 0.0 {
+        add_wide(words, 0, trend_units(d, reference));
+    } else {
+        add_wide(words, 2, trend_units(-d, reference));
+    }
+    add_wide(words, 4, trend_units(pixel.luma, reference));
+    words.fetch_add(6, 1);
+    words.store(7, reference.to_bits());
+}
+
+/// The image's trend from the words [`add_trend`] summed: the luma deltas' sum over the
+/// luminances' sum, times how far the deltas agree in sign (`|Σ Δ| / Σ |Δ|`); 0 without any
+/// luminance. A ratio of sums: a ratio per pixel would weigh a dark pixel's noise as much as a
+/// lit one's, and its mean moves with the noise. The agreement: a warming image's pixels rise
+/// together, while noise, whose deltas cancel, leaves a small remainder that is not a lag; a
+/// history shortened for it would only be noisier.
+#[inline]
+pub fn image_trend(words: &[u32]) -> f32 {
+    if words.len() < TREND_WORDS {
+        return 0.0;
+    }
+    let luminance = wide(words, 4);
+    let (rising, falling) = (wide(words, 0), wide(words, 2));
+    let moved = rising + falling;
+    let summed = luminance > 0.0 && moved > 0.0;
+    if !summed {
+        return 0.0;
+    }
+    let net = rising - falling;
+    net / luminance * (abs(net) / moved)
+}
+
+/// The count's cap from the image's `trend` for a history of `count` frames: none (`∞`) while
+/// `|trend|` is within [`TREND_LAG_TARGET`], else `max(16, count × target / |trend|)`
+/// ([`TREND_MIN_CAP`]): a lag that grows with the history's length is held near the target.
+#[inline]
+pub fn trend_cap(count: f32, trend: f32) -> f32 {
+    let t = abs(trend);
+    let lagging = t > TREND_LAG_TARGET;
+    if !lagging {
+        return f32::INFINITY;
+    }
+    max(TREND_MIN_CAP, abs(count) * TREND_LAG_TARGET / t)
+}
+
 /// Each component clamped to `[0, ∞)`, non-finite components zero.
 #[inline]
 fn clean(v: Vec3) -> Vec3 {
@@ -184,6 +313,10 @@ pub struct GiHistory {
     pub luma_delta: f32,
     /// The blur mask (pixels; −1 for sky).
     pub blur_mask: f32,
+    /// Whether the pixel had a history: only then does it join the image's trend.
+    pub has_history: bool,
+    /// The luminance of its new mean.
+    pub luma: f32,
 }
 
 impl GiHistory {
@@ -193,6 +326,8 @@ impl GiHistory {
         surface: [0.0; 4],
         luma_delta: 0.0,
         blur_mask: BLUR_MASK_SKY,
+        has_history: false,
+        luma: 0.0,
     };
 }
 
@@ -224,6 +359,7 @@ pub fn gather_history(
         history: previous_history,
         surface: previous_surface,
         luma_delta: previous_luma_delta,
+        ..
     } = previous;
     let mut out = ReprojectedHistory {
         mean: Vec3::ZERO,
@@ -279,8 +415,8 @@ pub fn gather_history(
 }
 
 /// The temporal update of a pixel at `pixel` with `current` irradiance and its reprojected
-/// `history` (weight 0: none): the new history, luma delta and blur mask. `surface` is the
-/// pixel's record for the next frame.
+/// `history` (weight 0: none), under the previous frame's `image_trend` ([`image_trend`]): the
+/// new history, luma delta and blur mask. `surface` is the pixel's record for the next frame.
 #[inline]
 pub fn accumulate(
     frame: &GiFrameParams,
@@ -288,6 +424,7 @@ pub fn accumulate(
     current: Vec3,
     history: &ReprojectedHistory,
     surface: [f32; 4],
+    image_trend: f32,
 ) -> GiHistory {
     let current = clean(current);
     if history.weight <= 0.0 || history.count <= 0.0 {
@@ -296,6 +433,8 @@ pub fn accumulate(
             surface,
             luma_delta: 0.0,
             blur_mask: blur_mask_of(1.0),
+            has_history: false,
+            luma: 0.0,
         };
     }
     let history_luma = luminance(history.mean);
@@ -303,14 +442,20 @@ pub fn accumulate(
     let alpha = history_alpha(history.luma_delta, history_luma);
     let delta = history.luma_delta
         + (luminance(current) - history_luma - history.luma_delta) * LUMA_DELTA_SMOOTHING;
-    let cap = history_cap(history.count, alpha, vignette(pixel, frame.image_size));
+    let cap = min(
+        history_cap(history.count, alpha, vignette(pixel, frame.image_size)),
+        trend_cap(history.count, image_trend),
+    );
     let count = min(history.count + HISTORY_GROWTH_PER_FRAME, cap);
     let mean = history.mean + (current - history.mean) * (1.0 / count);
+    let delta = if delta.is_finite() { delta } else { 0.0 };
     GiHistory {
         history: [mean.x, mean.y, mean.z, count],
         surface,
-        luma_delta: if delta.is_finite() { delta } else { 0.0 },
+        luma_delta: delta,
         blur_mask: blur_mask_of(count),
+        has_history: true,
+        luma: luminance(mean),
     }
 }
 
@@ -323,6 +468,8 @@ pub struct PreviousGiHistory<'a> {
     pub surface: &'a [[f32; 4]],
     /// The pixels' smoothed luminance change.
     pub luma_delta: &'a [f32],
+    /// The previous frame's trend words ([`TREND_WORDS`]).
+    pub trend: &'a [u32],
 }
 
 /// ReprojectGI for one pixel: `texel` is its G-buffer, `current` this frame's interpolated
@@ -374,11 +521,12 @@ pub fn reproject_gi_pixel(
         Vec3::new(current[0], current[1], current[2]),
         &history,
         record,
+        image_trend(previous.trend),
     )
 }
 
 /// The whole pass on the CPU: every pixel of the G-buffer (`gbuffer(i)` for pixel `i`, row by
-/// row) reprojected from `previous` into `out`.
+/// row) reprojected from `previous` into `out`, its trend added to `trend` (cleared before).
 pub fn reproject_gi_image(
     frame: &GiFrameParams,
     camera: &CameraParams,
@@ -386,8 +534,10 @@ pub fn reproject_gi_image(
     irradiance: &[[f32; 4]],
     previous: PreviousGiHistory<'_>,
     out: &mut [GiHistory],
+    trend: &mut [u32],
 ) {
     let [w, h] = frame.image_size;
+    let reference = trend_reference(previous.trend);
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
@@ -399,6 +549,7 @@ pub fn reproject_gi_image(
                 irradiance[i],
                 previous,
             );
+            add_trend(trend, reference, &out[i]);
         }
     }
 }
@@ -465,6 +616,7 @@ mod tests {
         surface: Vec<[f32; 4]>,
         delta: Vec<f32>,
         mask: Vec<f32>,
+        trend: [u32; TREND_WORDS],
     }
 
     impl Buffers {
@@ -474,6 +626,7 @@ mod tests {
                 surface: vec![[0.0; 4]; N],
                 delta: vec![0.0; N],
                 mask: vec![0.0; N],
+                trend: [0; TREND_WORDS],
             }
         }
     }
@@ -496,9 +649,10 @@ mod tests {
             history: &prev.history,
             surface: &prev.surface,
             luma_delta: &prev.delta,
+            trend: &prev.trend,
         };
-        reproject_gi_image(f, c, gbuffer, input, previous, &mut out);
         let mut next = Buffers::new();
+        reproject_gi_image(f, c, gbuffer, input, previous, &mut out, &mut next.trend);
         for (i, r) in out.iter().enumerate() {
             next.history[i] = r.history;
             next.surface[i] = r.surface;
@@ -586,16 +740,75 @@ mod tests {
         assert!(b.history[CENTRE][3] > 32.0, "{:?}", b.history[CENTRE]);
     }
 
-    /// A warming input (the cache's further bounces arriving over tens of frames) is followed
-    /// with linear weights: after 64 frames the history lags behind by about half of what a plain
-    /// average of the 64 frames would.
+    /// The cache's further bounces arriving over tens of frames: a warming input.
+    fn warming(t: usize) -> f32 {
+        1.0 - 0.5 * (-(t as f32) / 15.0).exp()
+    }
+
+    #[test]
+    fn the_trend_sums_carry_and_ignore_what_is_not_finite() {
+        let pixel = |delta: f32, luma: f32| GiHistory {
+            has_history: true,
+            luma_delta: delta,
+            luma,
+            ..GiHistory::SKY
+        };
+        let mut words = [0u32; TREND_WORDS];
+        // Sums past 2^32 units carry into the high word, in any order.
+        for i in 0..600 {
+            add_trend(
+                &mut words[..],
+                1.0,
+                &pixel(if i % 3 == 0 { -1.0 } else { 2.0 }, 200.0),
+            );
+        }
+        assert_eq!(words[6], 600);
+        assert!(words[5] > 0, "the luminance sum carried: {words:?}");
+        let mut reversed = [0u32; TREND_WORDS];
+        for i in (0..600).rev() {
+            add_trend(
+                &mut reversed[..],
+                1.0,
+                &pixel(if i % 3 == 0 { -1.0 } else { 2.0 }, 200.0),
+            );
+        }
+        assert_eq!(words, reversed);
+        // (400 × 2 − 200 × 1) / (600 × 200), times the agreement 600 / 1000.
+        assert!((image_trend(&words) - 0.6 * 600.0 / 120_000.0).abs() < 1e-6);
+        // The next frame's reference is this frame's mean luminance.
+        assert_eq!(trend_reference(&words), 200.0);
+        // Not finite: no delta, no luminance; the sky is not counted; beyond the clamp, clamped.
+        let mut words = [0u32; TREND_WORDS];
+        add_trend(&mut words[..], 1.0, &pixel(f32::NAN, f32::INFINITY));
+        add_trend(&mut words[..], 1.0, &GiHistory::SKY);
+        assert_eq!(words[6], 1);
+        assert_eq!(image_trend(&words), 0.0);
+        assert_eq!(trend_reference(&words), 1.0);
+        add_trend(&mut words[..], 1.0, &pixel(-1e30, 1e30));
+        assert_eq!(image_trend(&words), -1.0);
+        // A tiny image (1e-30) keeps its trend: the reference follows it.
+        let mut tiny = [0u32; TREND_WORDS];
+        add_trend(&mut tiny[..], 1e-30, &pixel(1e-32, 1e-30));
+        assert!((image_trend(&tiny) - 0.01).abs() < 1e-4);
+        assert_eq!(image_trend(&[0; TREND_WORDS]), 0.0);
+        assert_eq!(trend_reference(&[0; TREND_WORDS]), 1.0);
+        // Within the target, no cap; beyond, the count scaled down to the target, at least 16.
+        assert_eq!(trend_cap(40.0, 0.5 * TREND_LAG_TARGET), f32::INFINITY);
+        assert_eq!(trend_cap(40.0, f32::NAN), f32::INFINITY);
+        assert_eq!(trend_cap(80.0, -4.0 * TREND_LAG_TARGET), 20.0);
+        assert_eq!(trend_cap(40.0, 1.0), TREND_MIN_CAP);
+    }
+
+    /// A warming input is followed with linear weights (here without the image's trend): after
+    /// 64 frames the history lags behind by about half of what a plain average of the 64 frames
+    /// would.
     #[test]
     fn a_warming_input_is_followed_with_linear_weights() {
         let (c, f, g) = temporal_wall();
-        let warming = |t: usize| 1.0 - 0.5 * (-(t as f32) / 15.0).exp();
         let mut b = Buffers::new();
         let mut plain = 0.0;
         for t in 0..64 {
+            b.trend = [0; TREND_WORDS];
             b = step(&f, &c, &g, &vec![[warming(t); 4]; N], &b);
             plain += warming(t) / 64.0;
         }
@@ -606,6 +819,41 @@ mod tests {
             "{lag} against {plain_lag}"
         );
         assert!((b.history[CENTRE][3] - 32.5).abs() < 1e-4);
+    }
+
+    /// With the image's trend, a warming image's history is shortened toward
+    /// [`TREND_MIN_CAP`] frames, and its lag behind the input falls well below the linear
+    /// weights'; it grows back once the input holds.
+    #[test]
+    fn the_image_trend_shortens_a_warming_image_s_lag() {
+        let (c, f, g) = temporal_wall();
+        let mut b = Buffers::new();
+        let mut linear = Buffers::new();
+        for t in 0..64 {
+            b = step(&f, &c, &g, &vec![[warming(t); 4]; N], &b);
+            linear.trend = [0; TREND_WORDS];
+            linear = step(&f, &c, &g, &vec![[warming(t); 4]; N], &linear);
+        }
+        let lag = |b: &Buffers| (warming(63) - b.history[CENTRE][0]) / warming(63);
+        let count = b.history[CENTRE][3];
+        // 2.7 % against 4.6 %.
+        assert!(
+            lag(&b) > 0.0 && lag(&b) < 0.6 * lag(&linear),
+            "{} against {}",
+            lag(&b),
+            lag(&linear)
+        );
+        assert!(lag(&linear) > 3.0 * TREND_LAG_TARGET, "{}", lag(&linear));
+        assert!((TREND_MIN_CAP..32.5).contains(&count), "{count}");
+        // The input holds: the trend falls within its target and the history grows again.
+        for _ in 0..64 {
+            b = step(&f, &c, &g, &vec![[warming(200); 4]; N], &b);
+        }
+        assert!(
+            b.history[CENTRE][3] > count + 8.0,
+            "{:?}",
+            b.history[CENTRE]
+        );
     }
 
     /// A lasting change of the lighting shortens the history: the mean follows within a few
