@@ -14,7 +14,7 @@ use crate::gbuffer::{DepthImage, FloatImage, HalfImage};
 use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::ReprojectionTexel;
 use gi_shared::gi_denoiser::reproject_gi::{
-    PreviousGiHistory, add_trend, reproject_gi_pixel, trend_reference,
+    PreviousGiHistory, add_trend, reproject_gi_pixel, store_trend_reference, trend_reference,
 };
 use gi_shared::screen_probes::GiFrameParams;
 use spirv_std::glam::{UVec2, UVec3};
@@ -69,7 +69,12 @@ pub fn reproject_gi(
         trend: previous_trend,
     };
     let r = reproject_gi_pixel(frame, camera, pixel, texel, irradiance[i], previous);
-    add_trend(&mut DeviceWords(trend), trend_reference(previous_trend), &r);
+    let reference = trend_reference(previous_trend);
+    let mut trend = DeviceWords(trend);
+    if i == 0 {
+        store_trend_reference(&mut trend, reference);
+    }
+    add_trend(&mut trend, reference, &r);
     history[i] = r.history;
     surface[i] = r.surface;
     luma_delta[i] = r.luma_delta;

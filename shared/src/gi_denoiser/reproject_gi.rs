@@ -56,6 +56,7 @@ use glam::{UVec2, Vec2, Vec3, Vec4};
 use crate::atomics::AtomicWords;
 use crate::camera::CameraParams;
 use crate::color::luminance;
+use crate::fixed_point;
 use crate::gbuffer::{PreviousPoint, ReprojectionTexel, previous_point};
 use crate::math::{abs, floor, max, min, saturate, sqrt, to_i32_clamped};
 use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
@@ -89,14 +90,16 @@ pub const TREND_LAG_TARGET: f32 = 0.005;
 /// bound is 3 %), with 16 by 2.2 %. A change of the light still brings the count to 4 through
 /// each pixel's own delta ([`history_alpha`]).
 pub const TREND_MIN_CAP: f32 = 16.0;
-/// Words of the trend buffer: 64-bit fixed-point sums (low word, high word) of the positive luma
-/// deltas, of the negative ones and of the luminances, in units of [`TREND_UNITS`] per reference
-/// luminance; the pixels counted; the reference luminance (`f32` bits).
+/// Words of the trend buffer: three [`fixed_point`] sums (low word, high word) of the positive
+/// luma deltas, of the negative ones and of the luminances, each value in reference luminances
+/// ([`trend_reference`]) times [`TREND_SAMPLE_SCALE`]; the pixels counted; the reference
+/// luminance (`f32` bits).
 pub const TREND_WORDS: usize = 8;
-/// Fixed-point units per reference luminance ([`trend_reference`]).
-pub const TREND_UNITS: f32 = 65536.0;
-/// A pixel's delta and luminance are clamped to this many reference luminances: with
-/// [`TREND_UNITS`], `2^24` units a pixel, so the 64-bit sums hold `2^40` pixels.
+/// The sums hold `value / reference / 16`: at [`fixed_point`]'s resolution of `2^-20`, steps of
+/// `2^-16` reference luminances (the figures of README "Round 21" were measured with these steps).
+pub const TREND_SAMPLE_SCALE: f32 = 1.0 / 16.0;
+/// A pixel's delta and luminance are clamped to this many reference luminances, so that the
+/// sums of `2^28` pixels (a 16384² image) stay below [`fixed_point::MAX_TOTAL`].
 pub const TREND_CLAMP: f32 = 256.0;
 /// The vignette's scale: `16 u(1−u) v(1−v)` is 1 at the centre (the reference uses 15).
 pub const VIGNETTE_SCALE: f32 = 16.0;
@@ -206,7 +209,7 @@ pub fn trend_reference(previous: &[u32]) -> f32 {
         return 1.0;
     }
     let reference = f32::from_bits(previous[7]);
-    let mean = wide(previous, 4) / TREND_UNITS * reference / previous[6] as f32;
+    let mean = trend_sum(previous, 4) * reference / previous[6] as f32;
     if mean.is_finite() && mean > 1e-30 {
         mean
     } else {
@@ -214,36 +217,26 @@ pub fn trend_reference(previous: &[u32]) -> f32 {
     }
 }
 
-/// The 64-bit sum at words `lo`, `lo + 1`, as a float.
+/// The trend sum at words `lo`, `lo + 1`, in reference luminances.
 #[inline]
-fn wide(words: &[u32], lo: usize) -> f32 {
-    words[lo + 1] as f32 * 4_294_967_296.0 + words[lo] as f32
+fn trend_sum(words: &[u32], lo: usize) -> f32 {
+    fixed_point::decode([words[lo], words[lo + 1]]) * (1.0 / TREND_SAMPLE_SCALE)
 }
 
-/// Adds `units` to the 64-bit sum at words `lo`, `lo + 1`: the high word takes the carry, so
-/// the sum does not depend on the order of the adds.
+/// Adds `x / reference`, clamped to `[0, TREND_CLAMP]` (nothing when not finite), to the trend
+/// sum at words `lo`, `lo + 1`.
 #[inline]
-fn add_wide<W: AtomicWords + ?Sized>(words: &mut W, lo: usize, units: u32) {
-    let old = words.fetch_add(lo, units);
-    if old > u32::MAX - units {
-        words.fetch_add(lo + 1, 1);
-    }
-}
-
-/// `x / reference` clamped to `[0, TREND_CLAMP]`, in units of [`TREND_UNITS`] (0 when not
-/// finite).
-#[inline]
-fn trend_units(x: f32, reference: f32) -> u32 {
+fn add_to_trend_sum<W: AtomicWords + ?Sized>(words: &mut W, lo: usize, x: f32, reference: f32) {
     let r = x / reference;
     if r.is_finite() {
-        floor(min(max(r, 0.0), TREND_CLAMP) * TREND_UNITS + 0.5) as u32
-    } else {
-        0
+        let r = min(max(r, 0.0), TREND_CLAMP);
+        fixed_point::atomic_add(words, lo, r * TREND_SAMPLE_SCALE);
     }
 }
 
 /// Adds pixel result `pixel`'s luma delta and luminance to the trend words `words`
 /// ([`TREND_WORDS`]) in units of `reference` ([`trend_reference`]), where it had a history.
+/// One invocation records the reference beside them ([`store_trend_reference`]).
 #[inline]
 pub fn add_trend<W: AtomicWords + ?Sized>(words: &mut W, reference: f32, pixel: &GiHistory) {
     if !pixel.has_history || words.word_count() < TREND_WORDS {
@@ -251,13 +244,21 @@ pub fn add_trend<W: AtomicWords + ?Sized>(words: &mut W, reference: f32, pixel: 
     }
     let d = pixel.luma_delta;
     if d >= 0.0 {
-        add_wide(words, 0, trend_units(d, reference));
+        add_to_trend_sum(words, 0, d, reference);
     } else {
-        add_wide(words, 2, trend_units(-d, reference));
+        add_to_trend_sum(words, 2, -d, reference);
     }
-    add_wide(words, 4, trend_units(pixel.luma, reference));
+    add_to_trend_sum(words, 4, pixel.luma, reference);
     words.fetch_add(6, 1);
-    words.store(7, reference.to_bits());
+}
+
+/// Records the `reference` this frame's trend sums are in ([`trend_reference`]), for the next
+/// frame: once per frame, by one invocation.
+#[inline]
+pub fn store_trend_reference<W: AtomicWords + ?Sized>(words: &mut W, reference: f32) {
+    if words.word_count() >= TREND_WORDS {
+        words.store(7, reference.to_bits());
+    }
 }
 
 /// The image's trend from the words [`add_trend`] summed: the luma deltas' sum over the
@@ -271,8 +272,8 @@ pub fn image_trend(words: &[u32]) -> f32 {
     if words.len() < TREND_WORDS {
         return 0.0;
     }
-    let luminance = wide(words, 4);
-    let (rising, falling) = (wide(words, 0), wide(words, 2));
+    let luminance = trend_sum(words, 4);
+    let (rising, falling) = (trend_sum(words, 0), trend_sum(words, 2));
     let moved = rising + falling;
     let summed = luminance > 0.0 && moved > 0.0;
     if !summed {
@@ -538,6 +539,7 @@ pub fn reproject_gi_image(
 ) {
     let [w, h] = frame.image_size;
     let reference = trend_reference(previous.trend);
+    store_trend_reference(trend, reference);
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
@@ -754,6 +756,7 @@ mod tests {
             ..GiHistory::SKY
         };
         let mut words = [0u32; TREND_WORDS];
+        store_trend_reference(&mut words[..], 1.0);
         // Sums past 2^32 units carry into the high word, in any order.
         for i in 0..600 {
             add_trend(
@@ -765,6 +768,7 @@ mod tests {
         assert_eq!(words[6], 600);
         assert!(words[5] > 0, "the luminance sum carried: {words:?}");
         let mut reversed = [0u32; TREND_WORDS];
+        store_trend_reference(&mut reversed[..], 1.0);
         for i in (0..600).rev() {
             add_trend(
                 &mut reversed[..],
