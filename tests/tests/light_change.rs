@@ -1,5 +1,5 @@
 //! Response to a change of light (lag), `balanced`: the Cornell box's ceiling light switched off,
-//! switched on and moved, with the renderer's history kept across the change
+//! switched on and moved, with the world cache kept across the change
 //! (`gi_host::bench::light_change`; `gi lag` prints the same figures for every preset).
 
 use gi_host::KernelVariant;
@@ -53,12 +53,13 @@ fn assert_missing_below(change: LightChange, bound: f64) {
 
 #[test]
 fn a_light_switched_off_leaves_little_light_after_15_frames() {
-    // Measured: 0.043, the mean of 2 streams, since round 16 (emitter sampling and a one-tile
-    // jitter in the presets); 0.044 before it (also with temporal feedback, before round 14;
-    // stream 0 alone: 0.047 before the cache's fading history, 0.058 before issue 22's round 5,
-    // 0.069 before the cache's adaptive blend;
-    // the issue's goal is 0.05, met here but not at 128 × 72: README "Response to change").
-    assert_missing_below(LightChange::Off, 0.06);
+    // Measured: 0.029, the mean of 2 streams, since round 22 (a sudden image trend lowers the
+    // denoiser's floor of 16 frames toward 4); 0.043 from round 16 (emitter sampling and a
+    // one-tile jitter in the presets) under a bound of 0.06; 0.044 before it (also with temporal
+    // feedback, before round 14; stream 0 alone: 0.047 before the cache's fading history, 0.058
+    // before issue 22's round 5, 0.069 before the cache's adaptive blend). The issue's goal is
+    // 0.05, met here and at 128 × 72 since round 22: README "Response to change".
+    assert_missing_below(LightChange::Off, 0.04);
 }
 
 #[test]

@@ -5,8 +5,10 @@
 //! triangles), else its brightest punctual light (point and spot lights before directional
 //! ones): off sets its emission or intensity to zero, on starts from that and restores it, move
 //! translates every instance that carries the material, or the light, by a quarter of the
-//! scene's extent along its longest horizontal axis, toward the centre. The renderer keeps all its history across the change
-//! ([`GiRenderer::change_scene`] without resetting the cache), as an engine's would.
+//! scene's extent along its longest horizontal axis, toward the centre. The world cache keeps its
+//! light across the change ([`GiRenderer::change_scene`] without resetting it), as an engine's
+//! would; the screen-space history starts over there, so the figures are the cache's lag and the
+//! denoiser's history growing back, not a kept screen-space history following the change.
 //!
 //! The measure is the share of the change still missing: with `S_old` and `S_new` the two scenes'
 //! steady states (the mean of the last frames of a long still run of each) and `I_t` the `t`-th

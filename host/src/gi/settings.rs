@@ -197,8 +197,9 @@ pub struct GiSettings {
     /// light (black holes at disocclusions and thin features).
     pub relaxed_fallback: bool,
     /// The denoiser's temporal reprojection of irradiance (history up to 64 frames, capped by
-    /// motion, vignette, each pixel's luminance change and, down to 16 frames, the whole image's
-    /// trend, so that a warming image lags less). Cost: one pass. Quality: off, the image shows
+    /// motion, vignette, each pixel's luminance change and the whole image's trend: down to 16
+    /// frames while the image warms, so that it lags less, and to 4 after a sudden change of
+    /// the light). Cost: one pass. Quality: off, the image shows
     /// each frame's probe noise.
     pub denoiser_temporal: bool,
     /// The denoiser's blur mask and separable bilateral filter, with a radius that shrinks as

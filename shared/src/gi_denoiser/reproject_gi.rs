@@ -35,8 +35,9 @@
 //!    reads their ratio, weighted by how far the deltas agree in sign ([`image_trend`]). While
 //!    the whole image rises (the world cache warming up, each further bounce arriving), that is
 //!    the history's lag behind its input, and the cap `max(16, count × target / |trend|)`
-//!    ([`TREND_MIN_CAP`]) holds the lag toward [`TREND_LAG_TARGET`]. One pixel's delta cannot tell a rise from noise (a
-//!    per-pixel test followed the cache's warm-up as if it were a change and doubled the relMSE
+//!    ([`TREND_MIN_CAP`]) holds the lag toward [`TREND_LAG_TARGET`]; a sudden trend (a light
+//!    switched, [`TREND_SUDDEN`]) lowers the floor of 16 toward 4. One pixel's delta cannot tell
+//!    a rise from noise (a per-pixel test followed the cache's warm-up as if it were a change and doubled the relMSE
 //!    of a scene offset by 10⁵: README, "Response to change"); the image's sums can, and an
 //!    image whose deltas cancel (converged, or noisy) keeps its full history.
 //!
@@ -84,12 +85,18 @@ pub const HISTORY_GROWTH_PER_FRAME: f32 = 0.5;
 /// The history's lag behind its input, relative, that the image's trend holds it to
 /// ([`trend_cap`]).
 pub const TREND_LAG_TARGET: f32 = 0.005;
-/// The least count the image's trend leaves a history ([`trend_cap`]). The cap is applied every
+/// The least count a modest trend leaves a history ([`trend_cap`]). The cap is applied every
 /// frame, so while the trend stays above its target the count falls geometrically: with a floor
 /// of 4 a warming Cornell box's slow orbit changed by 3.8 % from frame to frame (`gi_frame`'s
 /// bound is 3 %), with 16 by 2.2 %. A change of the light still brings the count to 4 through
 /// each pixel's own delta ([`history_alpha`]).
 pub const TREND_MIN_CAP: f32 = 16.0;
+/// The trend above which the floor [`TREND_MIN_CAP`] falls, in proportion, down to
+/// [`HISTORY_MIN_CAP`] (4 frames from 4 × this trend on). A warming cache moves the image by a
+/// few per cent of its luminance (the staircase's trend peaks at 4.5 %, the Cornell box's at
+/// 2.8 %); a light switched off moves it by tens of per cent within a few frames, and then every
+/// frame of history is lag. README, "Round 22".
+pub const TREND_SUDDEN: f32 = 0.1;
 /// Words of the trend buffer: three [`fixed_point`] sums (low word, high word) of the positive
 /// luma deltas, of the negative ones and of the luminances, each value in reference luminances
 /// ([`trend_reference`]) times [`TREND_SAMPLE_SCALE`]; the pixels counted; the reference
@@ -284,8 +291,10 @@ pub fn image_trend(words: &[u32]) -> f32 {
 }
 
 /// The count's cap from the image's `trend` for a history of `count` frames: none (`∞`) while
-/// `|trend|` is within [`TREND_LAG_TARGET`], else `max(16, count × target / |trend|)`
-/// ([`TREND_MIN_CAP`]): a lag that grows with the history's length is held near the target.
+/// `|trend|` is within [`TREND_LAG_TARGET`], else `max(floor, count × target / |trend|)`: a lag
+/// that grows with the history's length is held near the target. The floor is 16 frames
+/// ([`TREND_MIN_CAP`]) up to a sudden trend ([`TREND_SUDDEN`]), then falls with `1 / |trend|`
+/// to 4 ([`HISTORY_MIN_CAP`]).
 #[inline]
 pub fn trend_cap(count: f32, trend: f32) -> f32 {
     let t = abs(trend);
@@ -293,7 +302,11 @@ pub fn trend_cap(count: f32, trend: f32) -> f32 {
     if !lagging {
         return f32::INFINITY;
     }
-    max(TREND_MIN_CAP, abs(count) * TREND_LAG_TARGET / t)
+    let floor = min(
+        TREND_MIN_CAP,
+        max(HISTORY_MIN_CAP, TREND_MIN_CAP * TREND_SUDDEN / t),
+    );
+    max(floor, abs(count) * TREND_LAG_TARGET / t)
 }
 
 /// Each component clamped to `[0, ∞)`, non-finite components zero.
@@ -796,11 +809,15 @@ mod tests {
         assert!((image_trend(&tiny) - 0.01).abs() < 1e-4);
         assert_eq!(image_trend(&[0; TREND_WORDS]), 0.0);
         assert_eq!(trend_reference(&[0; TREND_WORDS]), 1.0);
-        // Within the target, no cap; beyond, the count scaled down to the target, at least 16.
+        // Within the target, no cap; beyond, the count scaled down to the target, at least 16
+        // up to a sudden trend, then at least 16 × sudden / |trend|, and 4.
         assert_eq!(trend_cap(40.0, 0.5 * TREND_LAG_TARGET), f32::INFINITY);
         assert_eq!(trend_cap(40.0, f32::NAN), f32::INFINITY);
         assert_eq!(trend_cap(80.0, -4.0 * TREND_LAG_TARGET), 20.0);
-        assert_eq!(trend_cap(40.0, 1.0), TREND_MIN_CAP);
+        assert_eq!(trend_cap(40.0, TREND_SUDDEN), TREND_MIN_CAP);
+        assert_eq!(trend_cap(40.0, -2.0 * TREND_SUDDEN), 0.5 * TREND_MIN_CAP);
+        assert_eq!(trend_cap(40.0, 1.0), HISTORY_MIN_CAP);
+        assert_eq!(trend_cap(40.0, f32::INFINITY), HISTORY_MIN_CAP);
     }
 
     /// A warming input is followed with linear weights (here without the image's trend): after
