@@ -92,10 +92,10 @@ pub const TREND_LAG_TARGET: f32 = 0.005;
 /// each pixel's own delta ([`history_alpha`]).
 pub const TREND_MIN_CAP: f32 = 16.0;
 /// The trend above which the floor [`TREND_MIN_CAP`] falls, in proportion, down to
-/// [`HISTORY_MIN_CAP`] (4 frames from 4 × this trend on). A warming cache moves the image by a
-/// few per cent of its luminance (the staircase's trend peaks at 4.5 %, the Cornell box's at
-/// 2.8 %); a light switched off moves it by tens of per cent within a few frames, and then every
-/// frame of history is lag. README, "Round 22".
+/// [`HISTORY_MIN_CAP`] (4 frames from 4 × this trend on). A warming cache's trend peaks at a few
+/// per cent (the staircase 4.5 %, the Cornell box 3.5 %; a room lit only indirectly 15.5 %, whose
+/// warm-up then lags a little less); a light switched off reaches tens of per cent within ten
+/// frames, and then every frame of history is lag. README, "Round 22".
 pub const TREND_SUDDEN: f32 = 0.1;
 /// Words of the trend buffer: three [`fixed_point`] sums (low word, high word) of the positive
 /// luma deltas, of the negative ones and of the luminances, each value in reference luminances
