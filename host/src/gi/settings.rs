@@ -199,8 +199,7 @@ pub struct GiSettings {
     /// The denoiser's temporal reprojection of irradiance (history up to 64 frames, capped by
     /// motion, vignette, each pixel's luminance change and the whole image's trend: down to 16
     /// frames while the image warms, so that it lags less, and to 4 after a sudden change of
-    /// the light). Cost: one pass. Quality: off, the image shows
-    /// each frame's probe noise.
+    /// the light). Cost: one pass. Quality: off, the image shows each frame's probe noise.
     pub denoiser_temporal: bool,
     /// The denoiser's blur mask and separable bilateral filter, with a radius that shrinks as
     /// history grows and as the screen's blur cost rises. Cost: three passes. Quality: off,
