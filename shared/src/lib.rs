@@ -25,6 +25,7 @@ pub mod hash;
 pub mod hash_cells;
 pub mod indirect;
 pub mod layout;
+pub mod light_clusters;
 pub mod light_grid;
 pub mod lights;
 pub mod machinery_tests;

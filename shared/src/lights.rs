@@ -65,7 +65,8 @@ pub const MAX_LIGHT_CANDIDATES: u32 = 64;
 /// | 76     | `alias`      | all kinds    |             |            |
 /// | 80     | `alias_threshold` | all kinds |            |            |
 /// | 84     | `emit_sides` | unused       | unused      | triangle   |
-/// | 88     | `_pad`       |              |             |            |
+/// | 88     | `cluster`    | all kinds    |             |            |
+/// | 92     | `cluster_cdf` | all kinds   |             |            |
 ///
 /// `direction` is the unit direction the light shines in. The environment light uses only the
 /// selection fields.
@@ -101,8 +102,12 @@ pub struct GpuLight {
     pub alias_threshold: f32,
     /// Triangle: [`EMIT_FRONT`] and/or [`EMIT_BACK`].
     pub emit_sides: u32,
-    /// Explicit padding.
-    pub _pad: [u32; 2],
+    /// Index of the light's cluster (`crate::light_clusters`), which the light grid weighs.
+    pub cluster: u32,
+    /// The light's cluster's probabilities, summed over its lights up to this one: the light
+    /// takes the interval from its predecessor's value (0 for the first) to this one (1 for the
+    /// last).
+    pub cluster_cdf: f32,
 }
 
 impl GpuLight {
@@ -122,7 +127,8 @@ impl GpuLight {
         alias: 0,
         alias_threshold: 0.0,
         emit_sides: 0,
-        _pad: [0; 2],
+        cluster: 0,
+        cluster_cdf: 1.0,
     };
 
     /// A point light at `position` of intensity `intensity` (W/sr).
@@ -597,7 +603,8 @@ mod tests {
         assert_eq!(offset_of!(GpuLight, alias), 76);
         assert_eq!(offset_of!(GpuLight, alias_threshold), 80);
         assert_eq!(offset_of!(GpuLight, emit_sides), 84);
-        assert_eq!(offset_of!(GpuLight, _pad), 88);
+        assert_eq!(offset_of!(GpuLight, cluster), 88);
+        assert_eq!(offset_of!(GpuLight, cluster_cdf), 92);
     }
 
     /// The alias table of probabilities (1/2, 1/4, 1/4), written by hand (the host builds them):

@@ -24,6 +24,7 @@ use gi_host::scene::upload::{GeometryData, GpuScene, PoseUpdate};
 use gi_host::trace_rays::TraceRays;
 use gi_host::vulkan::{Buffer, Context, Resource, StagedWrites};
 use gi_shared::bvh::BvhNode;
+use gi_shared::light_clusters::LightCluster;
 use gi_shared::lights::GpuLight;
 use gi_shared::random::Random;
 use gi_shared::ray::{HitRecord, Ray};
@@ -149,7 +150,12 @@ fn geometry_handles(gpu: &GpuScene) -> Vec<String> {
 
 /// Bytes a pose that moved `moved` instances and rewrote `lights` lights uploads in `variant`,
 /// for a scene of `instances`.
-fn expected_upload(variant: KernelVariant, instances: usize, moved: u64, lights: u64) -> u64 {
+fn expected_upload(
+    variant: KernelVariant,
+    instances: usize,
+    moved: u64,
+    [lights, clusters]: [u64; 2],
+) -> u64 {
     let top = match variant {
         KernelVariant::Software if moved > 0 => {
             (tlas_node_count(instances) * size_of::<BvhNode>()) as u64
@@ -157,7 +163,10 @@ fn expected_upload(variant: KernelVariant, instances: usize, moved: u64, lights:
         KernelVariant::Software => 0,
         KernelVariant::RayQuery => moved * TLAS_RECORD_BYTES,
     };
-    moved * size_of::<GpuInstance>() as u64 + top + lights * size_of::<GpuLight>() as u64
+    moved * size_of::<GpuInstance>() as u64
+        + top
+        + lights * size_of::<GpuLight>() as u64
+        + clusters * size_of::<LightCluster>() as u64
 }
 
 #[test]
@@ -201,16 +210,25 @@ fn set_pose_traces_the_new_pose() {
             println!("{name}: {update:?} in {ms:.2} ms");
             // The cube moved, and its lights: the run from the first light that changed to the
             // last holds its twelve, and those of the ceiling where the rounding of the turned
-            // cube's areas moved the alias table.
+            // cube's areas moved the alias table; each light its own cluster, whose bounds moved.
             assert_eq!(update.moved_instances, 1, "{name}");
             assert!(update.top_level_rebuilt, "{name}");
             assert!(
                 (cube_lights..=emitters).contains(&(update.lights as usize)),
                 "{name}"
             );
+            assert!(
+                (cube_lights..=emitters).contains(&(update.light_clusters as usize)),
+                "{name}"
+            );
             assert_eq!(
                 update.uploaded_bytes,
-                expected_upload(variant, scene.instances.len(), 1, update.lights.into()),
+                expected_upload(
+                    variant,
+                    scene.instances.len(),
+                    1,
+                    [update.lights, update.light_clusters].map(u64::from)
+                ),
                 "{name}"
             );
             assert_eq!(
@@ -326,7 +344,7 @@ fn pose_upload_does_not_grow_with_triangles() {
             let update = gpu.last_pose();
             assert_eq!(
                 update.uploaded_bytes,
-                expected_upload(variant, 27, 1, 0),
+                expected_upload(variant, 27, 1, [0, 0]),
                 "{variant}"
             );
             // A ray that passes 1.3 beside the sphere's old centre (3, 3, 3) and 0.8 beside its

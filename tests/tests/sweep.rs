@@ -34,6 +34,7 @@ fn a_tiny_sweep_measures_every_point_and_writes_every_output() {
             resolutions: vec![(32, 18), (64, 36)],
             sphere_levels: vec![0, 1],
             light_counts: vec![1, 20],
+            emitter_counts: vec![2, 40],
             width: 32,
             height: 18,
             base_levels: 0,
@@ -104,10 +105,18 @@ fn a_tiny_sweep_measures_every_point_and_writes_every_output() {
         (
             axes(Axis::Pixels),
             axes(Axis::Triangles),
-            axes(Axis::Lights)
+            axes(Axis::Lights),
+            axes(Axis::Emitters)
         ),
-        (2, 2, 2)
+        (2, 2, 2, 2)
     );
+    let emitters: Vec<usize> = report
+        .scaling
+        .iter()
+        .filter(|p| p.axis == Axis::Emitters)
+        .map(|p| p.emitters)
+        .collect();
+    assert_eq!(emitters, [2, 40]);
     let tris: Vec<usize> = report
         .scaling
         .iter()
@@ -135,6 +144,7 @@ fn a_tiny_sweep_measures_every_point_and_writes_every_output() {
         "scaling-pixels",
         "scaling-triangles",
         "scaling-lights",
+        "scaling-emitters",
     ] {
         let png = image::open(out.join(format!("{stem}.png"))).unwrap();
         assert_eq!((png.width(), png.height()), PLOT_SIZE);

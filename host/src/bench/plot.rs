@@ -1,6 +1,6 @@
 //! The bench's plots, each as PNG and SVG: per scene, relMSE against GPU ms per frame (one point
 //! per setting, presets labelled in bold, the static camera left and the orbit right); and the
-//! three scaling sweeps (ms against pixels, triangles, lights, total and tracing).
+//! four scaling sweeps (ms against pixels, triangles, lights, emissive triangles, total and tracing).
 //!
 //! Text is drawn with DejaVu Sans, embedded (the `dejavu` crate), so a machine without fonts
 //! draws the same PNG.
@@ -104,7 +104,7 @@ pub fn write_plots(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
             &ErrorPlot { title, points },
         )?);
     }
-    for axis in [Axis::Pixels, Axis::Triangles, Axis::Lights] {
+    for axis in [Axis::Pixels, Axis::Triangles, Axis::Lights, Axis::Emitters] {
         let points: Vec<&ScalingPoint> = report.scaling.iter().filter(|p| p.axis == axis).collect();
         if points.is_empty() {
             continue;
@@ -231,6 +231,7 @@ fn scaling<DB: DrawingBackend>(
             Axis::Pixels => "pixels",
             Axis::Triangles => "triangles",
             Axis::Lights => "punctual lights",
+            Axis::Emitters => "emissive triangles",
         })
         .y_desc("GPU ms per frame")
         .x_label_formatter(&tick)

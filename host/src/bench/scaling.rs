@@ -1,9 +1,10 @@
 //! How a GI frame's cost scales: against pixels (expected linear), against triangles (tracing
 //! expected logarithmic: a BVH), against punctual lights (expected flat: above
 //! [`gi_shared::primary_lighting::EXACT_DIRECT_LIGHTS`] the primary hit resamples one light, and
-//! the cache's light grid keeps a few candidates per cell). Each sweep renders
-//! [`procedural::scaling_room`] with the `balanced` preset, static camera, and averages the GPU
-//! time of the frames after a warm-up.
+//! the cache's light grid keeps a few candidates per cell), against emissive triangles (expected
+//! flat: every light the grid weighs is a cluster of them). Each sweep renders
+//! [`procedural::scaling_room`] ([`procedural::emitter_room`] for emissive triangles) with the
+//! `balanced` preset, static camera, and averages the GPU time of the frames after a warm-up.
 
 use crate::error::{Error, Result};
 use crate::gi::Preset;
@@ -32,6 +33,8 @@ pub struct ScalingConfig {
     pub sphere_levels: Vec<u32>,
     /// Light counts of the light sweep.
     pub light_counts: Vec<u32>,
+    /// Emissive triangle counts of the emitter sweep (even).
+    pub emitter_counts: Vec<u32>,
     /// Resolution of the triangle and light sweeps.
     pub width: u32,
     /// Resolution of the triangle and light sweeps.
@@ -46,7 +49,7 @@ pub struct ScalingConfig {
 
 impl ScalingConfig {
     /// The full sweeps at a `width × height` base: resolutions from a quarter to four times its
-    /// pixels, 1.3 k to 1.3 M triangles, 1 to 1024 lights.
+    /// pixels, 1.3 k to 1.3 M triangles, 1 to 1024 lights, 16 to 100k emissive triangles.
     pub fn full(width: u32, height: u32) -> Self {
         Self {
             resolutions: vec![
@@ -57,6 +60,7 @@ impl ScalingConfig {
             ],
             sphere_levels: vec![1, 2, 3, 4, 5, 6],
             light_counts: vec![1, 4, 16, 64, 256, 1024],
+            emitter_counts: vec![16, 1000, 10_000, 100_000],
             width,
             height,
             base_levels: 3,
@@ -76,6 +80,8 @@ pub enum Axis {
     Triangles,
     /// Punctual lights.
     Lights,
+    /// Emissive triangles.
+    Emitters,
 }
 
 impl Axis {
@@ -85,6 +91,7 @@ impl Axis {
             Self::Pixels => "pixels",
             Self::Triangles => "triangles",
             Self::Lights => "lights",
+            Self::Emitters => "emitters",
         }
     }
 }
@@ -94,7 +101,7 @@ impl Axis {
 pub struct ScalingPoint {
     /// The sweep.
     pub axis: Axis,
-    /// Its x: pixels, triangles or lights.
+    /// Its x: pixels, triangles, lights or emissive triangles.
     pub x: f64,
     /// Width.
     pub width: u32,
@@ -104,13 +111,19 @@ pub struct ScalingPoint {
     pub triangles: usize,
     /// Punctual lights.
     pub lights: u32,
+    /// Emissive triangles (lights of the light grid).
+    #[serde(default)]
+    pub emitters: usize,
     /// GPU ms per frame.
     pub ms: f64,
     /// GPU ms per frame of the [`TRACING_PASSES`].
     pub tracing_ms: f64,
+    /// GPU ms per frame of UpdateLightGrid (its passes over the lights).
+    #[serde(default)]
+    pub light_grid_ms: f64,
 }
 
-/// Runs the three sweeps on `ctx`, printing each point.
+/// Runs the four sweeps on `ctx` (each skipped where its list is empty), printing each point.
 pub fn run(ctx: &Context, config: &ScalingConfig) -> Result<Vec<ScalingPoint>> {
     let mut points = Vec::new();
     let room = |levels: u32, lights: u32| {
@@ -119,9 +132,11 @@ pub fn run(ctx: &Context, config: &ScalingConfig) -> Result<Vec<ScalingPoint>> {
             why: format!("no room of {levels} subdivisions and {lights} lights"),
         })
     };
-    let base = LoadedScene::upload(ctx, room(config.base_levels, config.base_lights)?, None)?;
-    for &(w, h) in &config.resolutions {
-        points.push(point(ctx, &base, Axis::Pixels, w, h, config)?);
+    if !config.resolutions.is_empty() {
+        let base = LoadedScene::upload(ctx, room(config.base_levels, config.base_lights)?, None)?;
+        for &(w, h) in &config.resolutions {
+            points.push(point(ctx, &base, Axis::Pixels, w, h, config)?);
+        }
     }
     for &levels in &config.sphere_levels {
         let scene = LoadedScene::upload(ctx, room(levels, config.base_lights)?, None)?;
@@ -140,6 +155,23 @@ pub fn run(ctx: &Context, config: &ScalingConfig) -> Result<Vec<ScalingPoint>> {
             ctx,
             &scene,
             Axis::Lights,
+            config.width,
+            config.height,
+            config,
+        )?);
+    }
+    for &emitters in &config.emitter_counts {
+        let room = procedural::emitter_room(config.base_levels, emitters).ok_or(
+            Error::InvalidArgument {
+                name: "scaling",
+                why: format!("no room of {emitters} emissive triangles (an even count)"),
+            },
+        )?;
+        let scene = LoadedScene::upload(ctx, room, None)?;
+        points.push(point(
+            ctx,
+            &scene,
+            Axis::Emitters,
             config.width,
             config.height,
             config,
@@ -178,33 +210,45 @@ fn point(
         .filter(|p| TRACING_PASSES.contains(&p.pass.as_str()))
         .map(|p| p.ms)
         .sum();
+    let light_grid_ms = times
+        .passes()
+        .iter()
+        .filter(|p| p.pass == "UpdateLightGrid")
+        .map(|p| p.ms)
+        .sum();
     let triangles = scene.scene.triangle_count();
     let lights = scene.scene.lights.len() as u32;
+    let emitters = scene.scene.emissive_triangles.len();
     let p = ScalingPoint {
         axis,
         x: match axis {
             Axis::Pixels => f64::from(width) * f64::from(height),
             Axis::Triangles => triangles as f64,
             Axis::Lights => f64::from(lights),
+            Axis::Emitters => emitters as f64,
         },
         width,
         height,
         triangles,
         lights,
+        emitters,
         ms: times.mean_ms(),
         tracing_ms,
+        light_grid_ms,
     };
     println!(
-        "scaling {:<9} {:>10}: {:>9.2} ms per frame, {:>9.2} ms tracing ({}x{}, {} triangles in {} spheres, {} lights)",
+        "scaling {:<9} {:>10}: {:>9.2} ms per frame, {:>9.2} ms tracing, {:>8.2} ms light grid ({}x{}, {} triangles in {} spheres, {} lights, {} emissive triangles)",
         axis.name(),
         p.x,
         p.ms,
         p.tracing_ms,
+        p.light_grid_ms,
         width,
         height,
         triangles,
         ROOM_SPHERES,
-        lights
+        lights,
+        emitters
     );
     Ok(p)
 }

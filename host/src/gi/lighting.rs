@@ -28,6 +28,7 @@ crate::bindings! {
         grid: &'a Buffer,
         entries: &'a Buffer,
         lights: &'a Buffer,
+        clusters: &'a Buffer,
     }
 }
 
@@ -180,6 +181,7 @@ impl LightingPasses {
                 grid: &res.light_grid,
                 entries: &res.light_grid_entries,
                 lights: light_buffer,
+                clusters: lights.clusters(),
             },
             push,
             &res.args,

@@ -10,7 +10,7 @@
 //! error naming the scene and the buffer. Textures are images, one each, so their total size has
 //! no such bound.
 
-use super::{Instance, Scene, Wrap};
+use super::{Instance, Scene, Texture, Wrap};
 use crate::error::{Error, Result};
 use crate::vulkan::{
     Buffer, Context, Resource, Samplers, SplitBuffer, TRIANGLES_BINDING, TextureImage,
@@ -164,31 +164,9 @@ impl ShadingData {
             })
             .collect();
         for t in &scene.textures {
-            data.textures.push(GpuTexture {
-                offset: u32_index(scene, "texels", data.texels.len())?,
-                width: t.width,
-                height: t.height,
-                srgb: u32::from(t.srgb),
-                wrap_u: wrap_code(t.wrap[0]),
-                wrap_v: wrap_code(t.wrap[1]),
-                levels: t.levels.len() as u32,
-                _pad: 0,
-            });
-            for (l, level) in t.levels.iter().enumerate() {
-                let (w, h) = level_size(t.width, t.height, l as u32);
-                let texel_count = w as usize * h as usize;
-                let start = data.texels.len();
-                data.texels.extend(
-                    level
-                        .as_chunks::<4>()
-                        .0
-                        .iter()
-                        .take(texel_count)
-                        .map(|c| u32::from_le_bytes(*c)),
-                );
-                // A short level (the loader never makes one) still gets its full size, white.
-                data.texels.resize(start + texel_count, u32::MAX);
-            }
+            let offset = u32_index(scene, "texels", data.texels.len())?;
+            data.textures
+                .push(push_texture(t, offset, &mut data.texels));
             u32_index(scene, "texels", data.texels.len())?;
         }
         let (one, split) = (
@@ -202,6 +180,36 @@ impl ShadingData {
         check_size(scene, "materials", &data.materials, one)?;
         check_size(scene, "textures", &data.textures, one)?;
         Ok(data)
+    }
+}
+
+/// Appends `t`'s levels, one after another, to `texels` (which must hold `offset` texels) and
+/// returns its table entry.
+pub(crate) fn push_texture(t: &Texture, offset: u32, texels: &mut Vec<u32>) -> GpuTexture {
+    for (l, level) in t.levels.iter().enumerate() {
+        let (w, h) = level_size(t.width, t.height, l as u32);
+        let texel_count = w as usize * h as usize;
+        let start = texels.len();
+        texels.extend(
+            level
+                .as_chunks::<4>()
+                .0
+                .iter()
+                .take(texel_count)
+                .map(|c| u32::from_le_bytes(*c)),
+        );
+        // A short level (the loader never makes one) still gets its full size, white.
+        texels.resize(start + texel_count, u32::MAX);
+    }
+    GpuTexture {
+        offset,
+        width: t.width,
+        height: t.height,
+        srgb: u32::from(t.srgb),
+        wrap_u: wrap_code(t.wrap[0]),
+        wrap_v: wrap_code(t.wrap[1]),
+        levels: t.levels.len() as u32,
+        _pad: 0,
     }
 }
 

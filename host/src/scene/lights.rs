@@ -4,7 +4,8 @@
 //! the environment's texels and its sampling distribution.
 //!
 //! Only what the scene has is uploaded: a scene without lights binds one-element placeholders (a
-//! Vulkan buffer cannot be empty) and passes a light count of 0.
+//! Vulkan buffer cannot be empty) and passes a light count of 0. Beside them, the clusters the
+//! light grid weighs (`gi_shared::light_clusters`), which only the grid's build binds.
 //!
 //! # Power
 //!
@@ -22,6 +23,7 @@ use ash::vk;
 use gi_shared::color::luminance;
 use gi_shared::environment::distribution_len;
 use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
+use gi_shared::light_clusters::{LIGHT_GRID_MAX_CLUSTERS, LightCluster, build_light_clusters};
 use gi_shared::lights::{EMIT_BACK, EMIT_FRONT, GpuLight, LightSources, SceneLights};
 use gi_shared::scene_data::NONE;
 use glam::Vec3;
@@ -210,6 +212,9 @@ pub struct LightSet {
     pub environment: Option<Environment>,
     /// Index of the environment's light, [`NONE`] when it is not sampled.
     pub environment_light: u32,
+    /// The clusters the light grid weighs (`gi_shared::light_clusters`): one per light up to
+    /// `LIGHT_GRID_MAX_CLUSTERS` lights; empty without lights.
+    pub clusters: Vec<LightCluster>,
 }
 
 impl LightSet {
@@ -314,12 +319,16 @@ impl LightSet {
             power.push(outside * e.luminance_integral);
         }
         build_alias_table(&mut lights, &power);
+        let mut clusters = vec![LightCluster::default(); LIGHT_GRID_MAX_CLUSTERS as usize];
+        let count = build_light_clusters(&mut lights, &mut clusters);
+        clusters.truncate(count as usize);
         header.extend(runs);
         Self {
             lights,
             triangle_table: header,
             environment,
             environment_light,
+            clusters,
         }
     }
 
@@ -374,26 +383,31 @@ fn build_alias_table(lights: &mut [GpuLight], power: &[f64]) {
 }
 
 /// The emitters on the device: lights, the triangle→light table, the environment's texels and
-/// distribution (one-element placeholders where the scene has none).
+/// distribution, the light clusters (one-element placeholders where the scene has none).
 pub struct GpuLights {
     lights: Buffer,
     triangle_table: Buffer,
     environment: Buffer,
     distribution: Buffer,
+    clusters: Buffer,
     params: LightParams,
     /// What `lights` holds, to find what a new pose changed ([`GpuLights::stage_pose`]).
     uploaded: Vec<GpuLight>,
+    /// What `clusters` holds.
+    uploaded_clusters: Vec<LightCluster>,
     triangle_table_len: usize,
 }
 
 impl GpuLights {
-    /// Bytes of device memory: lights, triangle table, environment and its distribution.
+    /// Bytes of device memory: lights, triangle table, environment and its distribution, light
+    /// clusters.
     pub fn bytes(&self) -> u64 {
         [
             &self.lights,
             &self.triangle_table,
             &self.environment,
             &self.distribution,
+            &self.clusters,
         ]
         .iter()
         .map(|b| b.size)
@@ -409,6 +423,12 @@ impl GpuLights {
         } else {
             &set.lights
         };
+        let placeholder_cluster = [LightCluster::default()];
+        let clusters: &[LightCluster] = if set.clusters.is_empty() {
+            &placeholder_cluster
+        } else {
+            &set.clusters
+        };
         let placeholder_texel = [[0.0f32; 4]];
         let placeholder_cdf = [0.0f32];
         let (texels, cdf): (&[[f32; 4]], &[f32]) = match &set.environment {
@@ -420,15 +440,18 @@ impl GpuLights {
             triangle_table: Buffer::device_local(ctx, "light table", &set.triangle_table, usage)?,
             environment: Buffer::device_local(ctx, "environment", texels, usage)?,
             distribution: Buffer::device_local(ctx, "environment distribution", cdf, usage)?,
+            clusters: Buffer::device_local(ctx, "light clusters", clusters, usage)?,
             params: set.params(),
             uploaded: set.lights.clone(),
+            uploaded_clusters: set.clusters.clone(),
             triangle_table_len: set.triangle_table.len(),
         })
     }
 
     /// Queues in `writes` the lights of `set` (the same scene's, made after it moved) that differ
-    /// from those on the device, as one run from the first to the last that changed; returns how
-    /// many lights that run holds (0 when none changed). The triangle→light table and the
+    /// from those on the device, as one run from the first to the last that changed, and the
+    /// same for the light clusters (whose bounds follow the lights); returns how many lights and
+    /// clusters those runs hold (0 when none changed). The triangle→light table and the
     /// environment depend on the scene's meshes, materials and sky, not on its pose: they are
     /// not written again.
     ///
@@ -438,7 +461,7 @@ impl GpuLights {
         &'a mut self,
         set: &LightSet,
         writes: &mut StagedWrites<'a>,
-    ) -> Result<u32> {
+    ) -> Result<[u32; 2]> {
         if set.params() != self.params || set.triangle_table.len() != self.triangle_table_len {
             return Err(Error::InvalidArgument {
                 name: "lights",
@@ -452,17 +475,15 @@ impl GpuLights {
                 ),
             });
         }
-        let same = |(a, b): (&GpuLight, &GpuLight)| bytemuck::bytes_of(a) == bytemuck::bytes_of(b);
-        let pairs = || set.lights.iter().zip(&self.uploaded);
-        let Some(first) = pairs().position(|p| !same(p)) else {
-            return Ok(0);
-        };
-        let last = pairs().rposition(|p| !same(p)).unwrap_or(first);
-        let changed = &set.lights[first..=last];
-        self.uploaded[first..=last].copy_from_slice(changed);
-        let offset = (first * size_of::<GpuLight>()) as u64;
-        writes.write(&self.lights, offset, changed)?;
-        Ok(changed.len() as u32)
+        // Same count of lights, same count of clusters (they follow from it).
+        let clusters = stage_changes(
+            &mut self.uploaded_clusters,
+            &set.clusters,
+            &self.clusters,
+            writes,
+        )?;
+        let lights = stage_changes(&mut self.uploaded, &set.lights, &self.lights, writes)?;
+        Ok([lights, clusters])
     }
 
     /// Number of lights (0 with the placeholder).
@@ -481,6 +502,11 @@ impl GpuLights {
         self.buffers().map(Resource::Buffer)
     }
 
+    /// The light clusters, which the light grid's build binds.
+    pub fn clusters(&self) -> &Buffer {
+        &self.clusters
+    }
+
     /// The four buffers of [`Self::resources`], in its order.
     pub fn buffers(&self) -> [&Buffer; 4] {
         [
@@ -490,6 +516,27 @@ impl GpuLights {
             &self.distribution,
         ]
     }
+}
+
+/// Queues in `writes` the run of `now` from its first to its last element that differs from
+/// `uploaded` (which then holds `now`), written to `buffer` at its place; returns its length (0
+/// when nothing changed). `now` and `uploaded` have the same length.
+fn stage_changes<'a, T: bytemuck::Pod>(
+    uploaded: &mut [T],
+    now: &[T],
+    buffer: &'a Buffer,
+    writes: &mut StagedWrites<'a>,
+) -> Result<u32> {
+    let same = |(a, b): (&T, &T)| bytemuck::bytes_of(a) == bytemuck::bytes_of(b);
+    let pairs = || now.iter().zip(uploaded.iter());
+    let Some(first) = pairs().position(|p| !same(p)) else {
+        return Ok(0);
+    };
+    let last = pairs().rposition(|p| !same(p)).unwrap_or(first);
+    let changed = &now[first..=last];
+    uploaded[first..=last].copy_from_slice(changed);
+    writes.write(buffer, (first * size_of::<T>()) as u64, changed)?;
+    Ok(changed.len() as u32)
 }
 
 #[cfg(test)]

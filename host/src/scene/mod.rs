@@ -72,6 +72,7 @@
 pub mod animation;
 pub mod bvh;
 mod document;
+mod emitters;
 mod geometry;
 pub mod gpu_data;
 pub mod lights;
@@ -214,24 +215,57 @@ impl Scene {
         self.derive_bounds_and_emitters();
     }
 
-    /// Recomputes [`Scene::bounds`] and [`Scene::emissive_triangles`] from the world triangles.
+    /// Recomputes [`Scene::bounds`] and [`Scene::emissive_triangles`] from the world triangles:
+    /// the triangles of emissive materials whose average emission is not black
+    /// ([`emitters::triangle_emission`]).
     fn derive_bounds_and_emitters(&mut self) {
+        use rayon::prelude::*;
         let mut bounds = Aabb::EMPTY;
-        let mut emissive = Vec::new();
+        let mut candidates = Vec::new();
         for tri in self.world_triangles() {
             tri.vertices.iter().for_each(|&v| bounds.grow(v));
-            let material = self.materials.get(tri.material as usize);
-            if let Some(material) = material.filter(|m| m.is_emissive()) {
+            if self
+                .materials
+                .get(tri.material as usize)
+                .is_some_and(Material::is_emissive)
+            {
+                candidates.push(tri);
+            }
+        }
+        // Each emissive texture packed once, in the shading's layout.
+        let mut packed: Vec<Option<emitters::PackedTexture>> = vec![None; self.textures.len()];
+        for tri in &candidates {
+            if let Some(t) = self.materials[tri.material as usize].emissive_texture
+                && let Some(slot @ None) = packed.get_mut(t as usize)
+            {
+                *slot = Some(emitters::PackedTexture::new(&self.textures[t as usize]));
+            }
+        }
+        let emissive = candidates
+            .par_iter()
+            .filter_map(|tri| {
+                let material = &self.materials[tri.material as usize];
+                let mesh = &self.meshes[self.instances[tri.instance as usize].mesh as usize];
+                let texture = material
+                    .emissive_texture
+                    .and_then(|t| packed.get(t as usize))
+                    .and_then(Option::as_ref);
+                let emission = emitters::triangle_emission(
+                    material,
+                    texture,
+                    mesh,
+                    mesh.triangles[tri.primitive as usize],
+                );
                 let [a, b, c] = tri.vertices;
-                emissive.push(EmissiveTriangle {
+                (emission.max_element() > 0.0).then(|| EmissiveTriangle {
                     instance: tri.instance,
                     primitive: tri.primitive,
                     vertices: tri.vertices,
-                    emission: material.emissive,
+                    emission,
                     area: 0.5 * (b - a).cross(c - a).length(),
-                });
-            }
-        }
+                })
+            })
+            .collect();
         self.bounds = bounds;
         self.emissive_triangles = emissive;
     }
@@ -484,7 +518,8 @@ pub struct EmissiveTriangle {
     pub primitive: u32,
     /// World-space vertices.
     pub vertices: [Vec3; 3],
-    /// Emitted radiance, W/(sr·m²): the material's [`Material::emissive`], before its texture.
+    /// Emitted radiance, W/(sr·m²), averaged over the triangle: the material's
+    /// [`Material::emissive`] times its emissive texture's mean under the triangle (never black).
     pub emission: Vec3,
     /// World-space area, m².
     pub area: f32,

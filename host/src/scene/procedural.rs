@@ -289,6 +289,62 @@ pub fn scaling_room(sphere_levels: u32, lights: u32) -> Option<Scene> {
     Some(scene)
 }
 
+/// [`scaling_room`] lit by a panel under its ceiling instead of point lights: `emitters`
+/// emissive triangles (an even count, at least 2; `cols × rows` quads of two triangles each,
+/// `cols` the largest divisor of `emitters / 2` up to its square root) covering 80 % of the
+/// ceiling's width and depth, facing down, of one radiance whatever their count, so that the
+/// image's light stays the same: what the scaling sweep over emissive triangles renders. The
+/// panel gives the power of [`scaling_room`]'s point lights. `None` for an odd count or 0.
+pub fn emitter_room(sphere_levels: u32, emitters: u32) -> Option<Scene> {
+    if emitters == 0 || !emitters.is_multiple_of(2) {
+        return None;
+    }
+    let mut scene = scaling_room(sphere_levels, 1)?;
+    scene.lights.clear();
+    let quads = emitters / 2;
+    let cols = (1..=quads.isqrt()).rev().find(|&c| quads.is_multiple_of(c))?;
+    let rows = quads / cols;
+    let h = ROOM_HALF_EXTENTS;
+    let (x0, z0, y) = (-0.8 * h.x, -0.8 * h.z, 0.95 * h.y);
+    let (dx, dz) = (1.6 * h.x / cols as f32, 1.6 * h.z / rows as f32);
+    let mut positions = Vec::with_capacity(4 * quads as usize);
+    let mut triangles = Vec::with_capacity(emitters as usize);
+    for r in 0..rows {
+        for c in 0..cols {
+            let (x, z) = (x0 + dx * c as f32, z0 + dz * r as f32);
+            let v = positions.len() as u32;
+            positions.extend([
+                Vec3::new(x, y, z),
+                Vec3::new(x + dx, y, z),
+                Vec3::new(x + dx, y, z + dz),
+                Vec3::new(x, y, z + dz),
+            ]);
+            // Counter-clockwise seen from below: the front faces the floor.
+            triangles.extend([[v, v + 1, v + 2], [v, v + 2, v + 3]]);
+        }
+    }
+    let mut panel = mesh("panel", positions, triangles);
+    panel.materials.fill(1);
+    // Power π L A equal to the point lights' 4π I.
+    let area = 1.6 * h.x * 1.6 * h.z;
+    scene.materials.push(Material {
+        name: "panel".into(),
+        base_color: Vec4::new(0.6, 0.6, 0.6, 1.0),
+        emissive: Vec3::splat(4.0 * ROOM_LIGHT_INTENSITY / area),
+        metallic: 0.0,
+        ..Material::default()
+    });
+    scene.meshes.push(panel);
+    scene.instances.push(Instance {
+        name: "panel".into(),
+        node: scene.instances.len() as u32,
+        mesh: scene.meshes.len() as u32 - 1,
+        transform: Mat4::IDENTITY,
+    });
+    scene.update_derived();
+    Some(scene)
+}
+
 /// `transform` followed by a move of 32 times its scale along (1, 1, 1): a [`cube`] or
 /// [`icosphere`] placed by it, and the outside origins of [`ray_at_shared_feature`], then lie
 /// away from the coordinate planes, every coordinate of a ray within a factor 2 of its target's.
@@ -393,6 +449,22 @@ mod tests {
             assert!(inside(camera.position() + camera.forward()));
         }
         assert!(scaling_room(1, 0).is_none());
+        for emitters in [16, 1000, 10_000] {
+            let room = emitter_room(1, emitters).unwrap();
+            assert!(room.lights.is_empty());
+            assert_eq!(room.emissive_triangles.len(), emitters as usize);
+            let power: f32 = room
+                .emissive_triangles
+                .iter()
+                .map(|t| t.emission.x * t.area)
+                .sum();
+            let points = 4.0 * ROOM_LIGHT_INTENSITY;
+            assert!((power - points).abs() < 1e-3 * points, "{power}");
+            // Facing the floor.
+            let [a, b, c] = room.emissive_triangles[0].vertices;
+            assert!((b - a).cross(c - a).y < 0.0);
+        }
+        assert!(emitter_room(1, 0).is_none() && emitter_room(1, 7).is_none());
         assert!(scaling_room(MAX_ICOSPHERE_LEVELS + 1, 1).is_none());
     }
 

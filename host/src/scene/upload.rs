@@ -166,11 +166,13 @@ pub struct PoseUpdate {
     pub moved_instances: u32,
     /// Lights rewritten: the run from the first to the last light whose record changed.
     pub lights: u32,
+    /// Light clusters rewritten (`gi_shared::light_clusters`), the same way.
+    pub light_clusters: u32,
     /// Whether the top level was built again (software: on the CPU, its nodes uploaded; ray
     /// queries: on the device): whenever an instance moved.
     pub top_level_rebuilt: bool,
     /// Bytes copied to device-local buffers: instance records, top-level nodes or instance
-    /// records of the acceleration structure, lights.
+    /// records of the acceleration structure, lights, light clusters.
     pub uploaded_bytes: u64,
     /// Bytes written to the host-visible previous transforms.
     pub parameter_bytes: u64,
@@ -286,7 +288,7 @@ impl GpuScene {
             }
         }
         let mut writes = StagedWrites::new();
-        let lights_written = self.lights.stage_pose(lights, &mut writes)?;
+        let [lights_written, clusters_written] = self.lights.stage_pose(lights, &mut writes)?;
         if let Some(buffer) = self.shading.instances() {
             for &i in &moved {
                 let offset = (i * size_of::<GpuInstance>()) as u64;
@@ -346,6 +348,7 @@ impl GpuScene {
         self.last_pose = PoseUpdate {
             moved_instances: moved.len() as u32,
             lights: lights_written,
+            light_clusters: clusters_written,
             top_level_rebuilt: !moved.is_empty(),
             uploaded_bytes,
             parameter_bytes,

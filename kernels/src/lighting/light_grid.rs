@@ -1,15 +1,18 @@
 //! UpdateLightGrid (`gi_shared::light_grid`): [`update_light_grid`] turns this frame's hit bounds
 //! into the grid's parameters and the indirect dispatch of [`build_light_grid`]: one workgroup
-//! per cell, whose 64 lanes share the pass over all lights, then each draws one entry.
+//! per cell, whose 64 lanes share the pass over the light clusters (`gi_shared::light_clusters`),
+//! then each draws one entry.
 //!
 //! `update_light_grid`, set 0: hit bounds (`u32`), grid parameters (`LightGridParams`), indirect
 //! arguments (`DispatchIndirect`). `build_light_grid`, set 0: grid parameters, entries
-//! (`LightGridEntry`), lights (`GpuLight`). Push constants: `CachePassParams`.
+//! (`LightGridEntry`), lights (`GpuLight`), clusters (`LightCluster`). Push constants:
+//! `CachePassParams`.
 
 #![cfg(not(feature = "ray-query"))]
 
 use gi_shared::hash::pcg_chain;
 use gi_shared::indirect::{DispatchIndirect, dispatch_for_count};
+use gi_shared::light_clusters::LightCluster;
 use gi_shared::light_grid::{
     LIGHT_GRID_MAX_CELLS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams,
     light_grid_entry_from_lanes, light_grid_lane, light_grid_params, read_hit_bounds,
@@ -51,8 +54,8 @@ pub fn update_light_grid(
     }
 }
 
-/// Cell `group.x` of the grid: lane `local` streams over its share of the lights, then draws
-/// entry `local`.
+/// Cell `group.x` of the grid: lane `local` streams over its share of the light clusters, then
+/// draws entry `local`.
 #[spirv(compute(threads(64)))]
 #[allow(
     clippy::too_many_arguments,
@@ -65,6 +68,7 @@ pub fn build_light_grid(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] grid: &[LightGridParams],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] entries: &mut [LightGridEntry],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] lights: &[GpuLight],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] clusters: &[LightCluster],
     #[spirv(workgroup)] picks: &mut [u32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
     #[spirv(workgroup)] sums: &mut [f32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
 ) {
@@ -79,12 +83,12 @@ pub fn build_light_grid(
         return;
     }
     let seed = pcg_chain([params.view.seed, params.view.frame_index, PASS_LIGHT_GRID]);
-    let (pick, sum) = light_grid_lane(&g, lights, cell, local, seed);
+    let (pick, sum) = light_grid_lane(&g, lights, clusters, cell, local, seed);
     picks[local as usize] = pick;
     sums[local as usize] = sum;
     workgroup_memory_barrier_with_group_sync();
     if (i as usize) < entries.len() {
         entries[i as usize] =
-            light_grid_entry_from_lanes(&g, lights, cell, local, picks, sums, seed);
+            light_grid_entry_from_lanes(&g, lights, clusters, cell, local, picks, sums, seed);
     }
 }

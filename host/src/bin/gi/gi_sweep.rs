@@ -22,6 +22,19 @@ pub enum SweepGroup {
     Variant,
 }
 
+/// A scaling sweep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ScalingAxis {
+    /// Against pixels.
+    Pixels,
+    /// Against triangles.
+    Triangles,
+    /// Against punctual lights.
+    Lights,
+    /// Against emissive triangles.
+    Emitters,
+}
+
 /// The options of `gi sweep`.
 #[derive(clap::Args)]
 pub struct SweepArgs {
@@ -61,9 +74,18 @@ pub struct SweepArgs {
     /// skips it.
     #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(0..=1 << 16))]
     equal_time_max_spp: u32,
-    /// Also run the scaling sweeps (pixels, triangles, lights) on generated scenes.
+    /// Also run the scaling sweeps (pixels, triangles, lights, emissive triangles) on generated
+    /// scenes.
     #[arg(long)]
     scaling: bool,
+    /// With --scaling, the sweeps to run.
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "pixels,triangles,lights,emitters"
+    )]
+    scaling_axes: Vec<ScalingAxis>,
     /// Measure nothing: write the tables and plots of DIR again from its results.json.
     #[arg(long, value_name = "DIR")]
     pub replot: Option<PathBuf>,
@@ -110,9 +132,23 @@ pub fn run_sweep(
         reference_spp: args.reference_spp,
         sweeps,
         equal_time_max_spp: args.equal_time_max_spp,
-        scaling: args
-            .scaling
-            .then(|| ScalingConfig::full(args.width, args.height)),
+        scaling: args.scaling.then(|| {
+            let mut full = ScalingConfig::full(args.width, args.height);
+            let on = |a| args.scaling_axes.contains(&a);
+            if !on(ScalingAxis::Pixels) {
+                full.resolutions.clear();
+            }
+            if !on(ScalingAxis::Triangles) {
+                full.sphere_levels.clear();
+            }
+            if !on(ScalingAxis::Lights) {
+                full.light_counts.clear();
+            }
+            if !on(ScalingAxis::Emitters) {
+                full.emitter_counts.clear();
+            }
+            full
+        }),
         out: args.out.clone(),
     };
     let other_trace = match ctx.variant() {
