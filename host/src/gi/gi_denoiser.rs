@@ -30,13 +30,14 @@ pub struct DenoiserResources {
     pub blur_mask: Buffer,
     /// The dilated, cost-adapted blur radius.
     pub blur_radius: Buffer,
-    /// FilterGI's horizontal and vertical outputs.
+    /// FilterGI's horizontal and vertical outputs (placeholders without the spatial stage).
     pub filtered: [Buffer; 2],
 }
 
 impl DenoiserResources {
-    /// The buffers of a `pixels`-pixel frame.
-    pub fn new(ctx: &Context, pixels: usize) -> Result<Self> {
+    /// The buffers of a `pixels`-pixel frame; FilterGI's outputs only with `spatial` (the
+    /// setting `denoiser_spatial`; else one-element placeholders).
+    pub fn new(ctx: &Context, pixels: usize, spatial: bool) -> Result<Self> {
         let v4 = |name: &str| Buffer::device_zeroed::<[f32; 4]>(ctx, name, pixels);
         let f = |name: &str| Buffer::device_zeroed::<f32>(ctx, name, pixels);
         let trend = |name: &str| Buffer::device_zeroed::<u32>(ctx, name, TREND_WORDS);
@@ -48,10 +49,13 @@ impl DenoiserResources {
             trend: PingPong::new(trend("GI trend (a)")?, trend("GI trend (b)")?),
             blur_mask: f("blur mask")?,
             blur_radius: f("blur radius")?,
-            filtered: [
-                v4("filtered GI (horizontal)")?,
-                v4("filtered GI (vertical)")?,
-            ],
+            filtered: {
+                let n = if spatial { pixels } else { 1 };
+                [
+                    Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered GI (horizontal)", n)?,
+                    Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered GI (vertical)", n)?,
+                ]
+            },
         })
     }
 

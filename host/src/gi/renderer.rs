@@ -134,9 +134,9 @@ impl GiRenderer {
             gbuffer_kernel,
             cache,
             cache_slots,
-            probes: ScreenProbeResources::new(ctx, layout)?,
+            probes: ScreenProbeResources::new(ctx, layout, settings.probe_filter)?,
             probe_passes,
-            denoiser: DenoiserResources::new(ctx, pixels)?,
+            denoiser: DenoiserResources::new(ctx, pixels, settings.denoiser_spatial)?,
             denoiser_passes,
             primary: PrimaryResources::new(ctx, pixels)?,
             primary_passes,
@@ -339,8 +339,8 @@ impl GiRenderer {
             false => None,
         };
         let gbuffer = GBufferImages::new(ctx, width, height)?;
-        let probes = ScreenProbeResources::new(ctx, layout)?;
-        let denoiser = DenoiserResources::new(ctx, pixels)?;
+        let probes = ScreenProbeResources::new(ctx, layout, self.settings.probe_filter)?;
+        let denoiser = DenoiserResources::new(ctx, pixels, self.settings.denoiser_spatial)?;
         let primary = PrimaryResources::new(ctx, pixels)?;
         self.cache_res.resize(ctx, width, height, rays)?;
         if let Some(cache) = cache {

@@ -218,7 +218,8 @@ pub struct ScreenProbeResources {
     pub history: Buffer,
     /// One [`ProbeRay`] per probe ray.
     pub rays: Buffer,
-    /// The probe filter's horizontal and vertical outputs (64 cells per probe tile).
+    /// The probe filter's horizontal and vertical outputs (64 cells per probe tile; placeholders
+    /// without the probe filter).
     pub filtered: [Buffer; 2],
     /// Nine SH coefficients per probe tile (`[f32; 4]`).
     pub sh: Buffer,
@@ -229,8 +230,9 @@ pub struct ScreenProbeResources {
 }
 
 impl ScreenProbeResources {
-    /// The resources of `layout`, with no probe yet.
-    pub fn new(ctx: &Context, layout: ProbeLayout) -> Result<Self> {
+    /// The resources of `layout`, with no probe yet; the probe filter's outputs only with
+    /// `probe_filter` (else one-element placeholders).
+    pub fn new(ctx: &Context, layout: ProbeLayout, probe_filter: bool) -> Result<Self> {
         let probes = layout.probe_count() as usize;
         let spawns = layout.spawn_capacity() as usize;
         let cells = probes * PROBE_CELLS as usize;
@@ -269,10 +271,13 @@ impl ScreenProbeResources {
                 "probe rays",
                 spawns * PROBE_CELLS as usize,
             )?,
-            filtered: [
-                Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered probes (horizontal)", cells)?,
-                Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered probes (vertical)", cells)?,
-            ],
+            filtered: {
+                let n = if probe_filter { cells } else { 1 };
+                [
+                    Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered probes (horizontal)", n)?,
+                    Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered probes (vertical)", n)?,
+                ]
+            },
             sh: Buffer::device_zeroed::<[f32; 4]>(ctx, "probe SH", probes * SH_COEFFICIENT_COUNT)?,
             counters: Buffer::device_zeroed::<u32>(ctx, "GI counters", GI_COUNTER_WORDS)?,
             layout,

@@ -302,7 +302,9 @@ pub fn emitter_room(sphere_levels: u32, emitters: u32) -> Option<Scene> {
     let mut scene = scaling_room(sphere_levels, 1)?;
     scene.lights.clear();
     let quads = emitters / 2;
-    let cols = (1..=quads.isqrt()).rev().find(|&c| quads.is_multiple_of(c))?;
+    let cols = (1..=quads.isqrt())
+        .rev()
+        .find(|&c| quads.is_multiple_of(c))?;
     let rows = quads / cols;
     let h = ROOM_HALF_EXTENTS;
     let (x0, z0, y) = (-0.8 * h.x, -0.8 * h.z, 0.95 * h.y);

@@ -1,0 +1,151 @@
+//! The frame holds only what its settings use (issue 24): a technique switched off frees its
+//! buffers (a one-element placeholder stays where a pass still binds it) and takes its passes
+//! out of the frame.
+
+use gi_host::KernelVariant;
+use gi_host::frame::MemoryTable;
+use gi_host::gbuffer::scene_camera;
+use gi_host::gi::renderer::GiRenderer;
+use gi_host::gi::{GiSettings, Preset, ViewOptions};
+use gi_host::scene::Scene;
+use gi_host::scene::gpu_data::ShadingData;
+use gi_host::scene::lights::LightSet;
+use gi_host::scene::upload::GpuScene;
+use gi_host::vulkan::Context;
+use gi_tests::{context, finish_without_validation_messages, load_scene};
+
+const SIDE: u32 = 64;
+
+/// Largest a placeholder may be: one element of the largest record.
+const PLACEHOLDER_BYTES: u64 = 128;
+
+/// What one frame of `settings` kept: every live buffer and image by name, and the passes.
+struct Footprint {
+    rows: Vec<(String, u64)>,
+    total: u64,
+    passes: Vec<String>,
+}
+
+impl Footprint {
+    fn bytes(&self, name: &str) -> u64 {
+        self.rows
+            .iter()
+            .filter(|(n, _)| n == name)
+            .map(|(_, b)| b)
+            .sum()
+    }
+}
+
+fn footprint(
+    ctx: &Context,
+    scene: &Scene,
+    gpu: &GpuScene,
+    lights: &LightSet,
+    settings: GiSettings,
+) -> Footprint {
+    let mut gi =
+        GiRenderer::new(ctx, lights, SIDE, SIDE, settings, ViewOptions::default()).unwrap();
+    gi.render_frame(ctx, gpu, &scene_camera(scene, SIDE, SIDE))
+        .unwrap();
+    let passes = gi
+        .timings()
+        .passes()
+        .iter()
+        .map(|p| p.name.clone())
+        .collect();
+    let table = MemoryTable::of(ctx);
+    drop(gi);
+    Footprint {
+        rows: table
+            .rows
+            .iter()
+            .map(|r| (r.name.clone(), r.bytes))
+            .collect(),
+        total: table.total_bytes(),
+        passes,
+    }
+}
+
+type Switch = fn(&mut GiSettings);
+
+#[test]
+fn a_technique_switched_off_frees_its_memory_and_passes() {
+    let scene = load_scene("cornell-box.gltf");
+    let ctx = context(KernelVariant::Software);
+    let lights = LightSet::new(&scene, None, true);
+    let shading = ShadingData::new(&scene).unwrap();
+    let gpu = GpuScene::upload(&ctx, &scene, None, &shading, &lights).unwrap();
+    let all = GiSettings {
+        restir: true,
+        ..Preset::Balanced.settings(SIDE, SIDE)
+    };
+    let full = footprint(&ctx, &scene, &gpu, &lights, all);
+    let cases: [(&str, Switch, &[&str], &[&str]); 5] = [
+        (
+            "probe_filter",
+            |s| s.probe_filter = false,
+            &["filtered probes (horizontal)", "filtered probes (vertical)"],
+            &["FilterScreenProbes"],
+        ),
+        (
+            "denoiser_spatial",
+            |s| s.denoiser_spatial = false,
+            &["filtered GI (horizontal)", "filtered GI (vertical)"],
+            &["FilterGI"],
+        ),
+        (
+            "restir",
+            |s| s.restir = false,
+            &[
+                "reservoirs (a)",
+                "reservoirs (b)",
+                "reservoir hits (a)",
+                "reservoir places",
+            ],
+            &["ClearReservoirs", "CompactReservoirs", "ResampleReservoirs"],
+        ),
+        (
+            "multi_bounce",
+            |s| s.multi_bounce = false,
+            &["carried queries", "hash grid bounce values"],
+            &[],
+        ),
+        (
+            "patching",
+            |s| s.patching = false,
+            &[],
+            &["PatchScreenProbes"],
+        ),
+    ];
+    for (name, switch_off, buffers, passes) in cases {
+        let mut settings = all;
+        switch_off(&mut settings);
+        let off = footprint(&ctx, &scene, &gpu, &lights, settings);
+        let mut freed = 0;
+        for b in buffers {
+            let (with, without) = (full.bytes(b), off.bytes(b));
+            println!("{name} off: {b} {with} -> {without} bytes");
+            assert!(
+                with > 16 * PLACEHOLDER_BYTES,
+                "{name}: {b} holds {with} bytes"
+            );
+            assert!(
+                without <= PLACEHOLDER_BYTES,
+                "{name} off: {b} holds {without} bytes"
+            );
+            freed += with - without;
+        }
+        for p in passes {
+            assert!(full.passes.iter().any(|q| q == p), "{name}: no {p}");
+            assert!(!off.passes.iter().any(|q| q == p), "{name} off: {p} ran");
+        }
+        assert!(
+            off.total + freed <= full.total,
+            "{name} off: {} bytes, {} with it, {freed} freed",
+            off.total,
+            full.total
+        );
+    }
+    drop(gpu);
+    finish_without_validation_messages(ctx);
+}
