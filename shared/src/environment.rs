@@ -18,7 +18,9 @@
 
 use glam::{UVec2, Vec2, Vec3};
 
-use crate::math::{INV_PI, PI, acos, atan2, clamp, cos, min_u32, sin, sqrt, to_u32_clamped};
+use crate::math::{
+    INV_PI, PI, acos, atan2, clamp, cos, min_u32, positive_or_zero, sin, sqrt, to_u32_clamped,
+};
 
 /// Length of the distribution buffer of a `width × height` image.
 pub const fn distribution_len(width: u32, height: u32) -> usize {
@@ -139,7 +141,7 @@ fn texel_density(size: UVec2, p: f32, direction: Vec3) -> f32 {
     // From x and z, not 1 − y²: exact near the poles, where y rounds to ±1.
     let sin_theta = sqrt(direction.x * direction.x + direction.z * direction.z);
     let d = p * (size.x as f32 * size.y as f32) / (2.0 * PI * PI * sin_theta);
-    if d.is_finite() && d > 0.0 { d } else { 0.0 }
+    positive_or_zero(d)
 }
 
 #[cfg(test)]

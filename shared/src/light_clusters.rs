@@ -33,7 +33,7 @@ use crate::lights::{
     EMIT_BACK, EMIT_FRONT, GpuLight, LIGHT_DIRECTIONAL, LIGHT_ENVIRONMENT, LIGHT_POINT, LIGHT_SPOT,
     LIGHT_TRIANGLE,
 };
-use crate::math::{PI, max, min, min_u32};
+use crate::math::{PI, max, min, min_u32, positive_or_zero};
 
 /// Most clusters the light grid weighs per cell: up to this many lights each is its own cluster.
 /// A cell's build weighs this many clusters at most (× `crate::light_grid::LIGHT_GRID_MAX_CELLS`:
@@ -91,7 +91,7 @@ pub fn light_grid_power(light: &GpuLight) -> f32 {
     } else if light.kind == LIGHT_ENVIRONMENT {
         p = 0.0;
     }
-    if p.is_finite() && p > 0.0 { p } else { 0.0 }
+    positive_or_zero(p)
 }
 
 /// Groups `lights` into at most `clusters.len()` clusters of consecutive lights (see the
@@ -163,9 +163,12 @@ fn cluster_of(lights: &mut [GpuLight], first: usize, end: usize, index: u32) -> 
     let mut total = 0.0;
     let mut j = first;
     while j < end {
-        let l = &lights[j];
+        let l = &mut lights[j];
         let power = light_grid_power(l);
         total += power;
+        // The running sum for now; divided by the total below.
+        l.cluster = index;
+        l.cluster_cdf = total;
         let p0 = Vec3::from_array(l.p0);
         if l.kind == LIGHT_TRIANGLE {
             c.triangle_power += power;
@@ -191,22 +194,16 @@ fn cluster_of(lights: &mut [GpuLight], first: usize, end: usize, index: u32) -> 
     c.lo = lo.to_array();
     c.hi = hi.to_array();
     let count = (end - first) as f32;
-    let mut running = 0.0;
     j = first;
     while j < end {
-        running += if total > 0.0 {
-            light_grid_power(&lights[j])
-        } else {
-            1.0
-        };
         let l = &mut lights[j];
-        l.cluster = index;
         l.cluster_cdf = if j + 1 == end {
             1.0
         } else if total > 0.0 {
-            running / total
+            l.cluster_cdf / total
         } else {
-            running / count
+            // No power: uniform.
+            (j + 1 - first) as f32 / count
         };
         j += 1;
     }
@@ -323,7 +320,7 @@ pub fn cluster_weight(
         }
         w
     };
-    if w.is_finite() && w > 0.0 { w } else { 0.0 }
+    positive_or_zero(w)
 }
 
 /// The light of `cluster` whose interval of the cumulative probabilities holds `u ∈ [0, 1)`, and

@@ -79,7 +79,9 @@ use crate::color::luminance;
 use crate::hash::pcg_chain;
 use crate::light_clusters::{LightCluster, cluster_weight, member_probability, pick_in_cluster};
 use crate::lights::{GpuLight, LIGHT_TRIANGLE, LightSample, LightSources, sample_light};
-use crate::math::{INV_PI, floor, floor_to_i32_clamped, max, min_u32, to_u32_clamped};
+use crate::math::{
+    INV_PI, floor, floor_to_i32_clamped, max, min_u32, positive_or_zero, to_u32_clamped,
+};
 use crate::random::Random;
 use crate::reservoir::Reservoir;
 
@@ -292,12 +294,6 @@ pub struct LightGridEntry {
 
 impl crate::layout::FloatLayout for LightGridEntry {
     const FLOAT_WORDS: &'static [u32] = &[1];
-}
-
-/// `w` if positive and finite, else 0: the weights the reservoir streams.
-#[inline]
-fn clean_weight(w: f32) -> f32 {
-    if w.is_finite() && w > 0.0 { w } else { 0.0 }
 }
 
 /// Lane `lane`'s share of cell `cell`'s pass over the light clusters for this frame's `seed`
@@ -522,7 +518,7 @@ pub fn light_contribution(
     if cosine > 0.0 && sample.pdf > 0.0 {
         weight = hit.albedo * (INV_PI * cosine / sample.pdf);
     }
-    let target = clean_weight(luminance(weight * sample.radiance));
+    let target = positive_or_zero(luminance(weight * sample.radiance));
     if target == 0.0 {
         weight = Vec3::ZERO;
     }

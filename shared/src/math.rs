@@ -92,6 +92,13 @@ pub fn max(a: f32, b: f32) -> f32 {
     if a > b { a } else { b }
 }
 
+/// `x` if it is positive and finite, else 0: a weight, density or power that NaN, infinity or a
+/// negative value must not poison.
+#[inline]
+pub fn positive_or_zero(x: f32) -> f32 {
+    if x.is_finite() && x > 0.0 { x } else { 0.0 }
+}
+
 /// `x` clamped to `[lo, hi]`; NaN gives `lo`.
 #[inline]
 pub fn clamp(x: f32, lo: f32, hi: f32) -> f32 {

@@ -5,7 +5,7 @@
 //! sample `y` has unbiased contribution weight `W = w_sum / (M · p̂(y))`, so `f(y) · W` estimates
 //! `∫ f` for any `f` that is zero wherever `p̂` is.
 
-use crate::math::min;
+use crate::math::{min, positive_or_zero};
 
 /// A weighted reservoir holding one sample (a light index).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -50,16 +50,12 @@ impl Reservoir {
     #[inline]
     pub fn finalize(&mut self, target_pdf: f32) {
         let w = self.w_sum / (self.m * target_pdf);
-        self.ucw = if w.is_finite() && w > 0.0 { w } else { 0.0 };
+        self.ucw = positive_or_zero(w);
     }
 
     #[inline]
     fn add(&mut self, candidate: u32, weight: f32, m: f32, u: f32) -> bool {
-        let w = if weight.is_finite() && weight > 0.0 {
-            weight
-        } else {
-            0.0
-        };
+        let w = positive_or_zero(weight);
         self.w_sum += w;
         self.m += m;
         // P(select) = w / w_sum; `w > 0` keeps zero-weight candidates out even when u = 0.

@@ -68,10 +68,28 @@ impl ScalingConfig {
             frames: 8,
         }
     }
+
+    /// Keeps only the sweeps along `axes` (the others' lists emptied).
+    pub fn keep(mut self, axes: &[Axis]) -> Self {
+        let off = |a| !axes.contains(&a);
+        if off(Axis::Pixels) {
+            self.resolutions.clear();
+        }
+        if off(Axis::Triangles) {
+            self.sphere_levels.clear();
+        }
+        if off(Axis::Lights) {
+            self.light_counts.clear();
+        }
+        if off(Axis::Emitters) {
+            self.emitter_counts.clear();
+        }
+        self
+    }
 }
 
-/// Which sweep a point belongs to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// Which sweep a point belongs to (`gi sweep --scaling-axes` names them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
     /// Pixels.
@@ -204,18 +222,16 @@ fn point(
             times.add(gi.timings());
         }
     }
-    let tracing_ms = times
-        .passes()
-        .iter()
-        .filter(|p| TRACING_PASSES.contains(&p.pass.as_str()))
-        .map(|p| p.ms)
-        .sum();
-    let light_grid_ms = times
-        .passes()
-        .iter()
-        .filter(|p| p.pass == "UpdateLightGrid")
-        .map(|p| p.ms)
-        .sum();
+    let ms_of = |passes: &[&str]| -> f64 {
+        times
+            .passes()
+            .iter()
+            .filter(|p| passes.contains(&p.pass.as_str()))
+            .map(|p| p.ms)
+            .sum()
+    };
+    let tracing_ms = ms_of(&TRACING_PASSES);
+    let light_grid_ms = ms_of(&["UpdateLightGrid"]);
     let triangles = scene.scene.triangle_count();
     let lights = scene.scene.lights.len() as u32;
     let emitters = scene.scene.emissive_triangles.len();

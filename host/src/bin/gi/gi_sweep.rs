@@ -1,6 +1,6 @@
 //! `gi sweep`: the speed-and-accuracy sweep of `gi_host::bench` from the command line.
 
-use gi_host::bench::scaling::ScalingConfig;
+use gi_host::bench::scaling::{Axis, ScalingConfig};
 use gi_host::bench::{self, BenchConfig, BenchScene, Sweeps};
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
@@ -20,19 +20,6 @@ pub enum SweepGroup {
     Resolution,
     /// The other tracing variant.
     Variant,
-}
-
-/// A scaling sweep.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ScalingAxis {
-    /// Against pixels.
-    Pixels,
-    /// Against triangles.
-    Triangles,
-    /// Against punctual lights.
-    Lights,
-    /// Against emissive triangles.
-    Emitters,
 }
 
 /// The options of `gi sweep`.
@@ -85,7 +72,7 @@ pub struct SweepArgs {
         value_delimiter = ',',
         default_value = "pixels,triangles,lights,emitters"
     )]
-    scaling_axes: Vec<ScalingAxis>,
+    scaling_axes: Vec<Axis>,
     /// Measure nothing: write the tables and plots of DIR again from its results.json.
     #[arg(long, value_name = "DIR")]
     pub replot: Option<PathBuf>,
@@ -132,23 +119,9 @@ pub fn run_sweep(
         reference_spp: args.reference_spp,
         sweeps,
         equal_time_max_spp: args.equal_time_max_spp,
-        scaling: args.scaling.then(|| {
-            let mut full = ScalingConfig::full(args.width, args.height);
-            let on = |a| args.scaling_axes.contains(&a);
-            if !on(ScalingAxis::Pixels) {
-                full.resolutions.clear();
-            }
-            if !on(ScalingAxis::Triangles) {
-                full.sphere_levels.clear();
-            }
-            if !on(ScalingAxis::Lights) {
-                full.light_counts.clear();
-            }
-            if !on(ScalingAxis::Emitters) {
-                full.emitter_counts.clear();
-            }
-            full
-        }),
+        scaling: args
+            .scaling
+            .then(|| ScalingConfig::full(args.width, args.height).keep(&args.scaling_axes)),
         out: args.out.clone(),
     };
     let other_trace = match ctx.variant() {
