@@ -44,6 +44,13 @@ pub const EMIT_FRONT: u32 = 1;
 /// [`GpuLight::emit_sides`]: the other side emits.
 pub const EMIT_BACK: u32 = 2;
 
+/// Most lights the frame takes one by one: DirectLight sums up to this many punctual lights
+/// exactly, one shadow ray each (beyond it the host sets
+/// `crate::screen_probes::FLAG_SAMPLED_DIRECT` and one light is resampled:
+/// `crate::primary_lighting::samples_direct_light`), and a secondary hit weighs up to this many
+/// lights itself, without the light grid (`crate::light_grid::light_grid_needed`).
+pub const EXACT_DIRECT_LIGHTS: u32 = 16;
+
 /// Most light candidates one next-event estimate resamples (`PathTracerParams::light_candidates`).
 pub const MAX_LIGHT_CANDIDATES: u32 = 64;
 

@@ -38,8 +38,8 @@ use glam::Vec3;
 
 use crate::color::luminance;
 use crate::lights::{
-    GpuLight, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, punctual_incidence, sample_triangle_light_ray,
-    select_light, sky_radiance,
+    EXACT_DIRECT_LIGHTS, GpuLight, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, punctual_incidence,
+    sample_triangle_light_ray, select_light, sky_radiance,
 };
 use crate::math::{INV_PI, max, max_u32, min_u32, to_u32_clamped};
 use crate::primary_surface::PrimarySurface;
@@ -49,10 +49,6 @@ use crate::ray::Ray;
 use crate::reservoir::Reservoir;
 use crate::screen_probes::{FLAG_EMITTER_SAMPLING, FLAG_SAMPLED_DIRECT, GiFrameParams};
 use crate::world_cache::finite_sample;
-
-/// Most punctual lights DirectLight sums exactly (one shadow ray each); beyond this the host sets
-/// [`FLAG_SAMPLED_DIRECT`] and one light is resampled.
-pub const EXACT_DIRECT_LIGHTS: u32 = 16;
 
 /// What DirectLight leaves for a pixel (32 bytes), read by ResolveGI.
 ///

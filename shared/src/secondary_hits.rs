@@ -7,7 +7,8 @@
 
 use crate::elements::Elements;
 use crate::light_grid::{
-    DiffuseHit, LightGridEntry, LightGridParams, LightGridSample, sample_light_grid,
+    DiffuseHit, LightGridEntry, LightGridParams, LightGridSample, light_grid_needed,
+    sample_each_light, sample_light_grid,
 };
 use crate::lights::{LightSources, SceneLights, sky_radiance};
 use crate::math::INV_PI;
@@ -235,8 +236,9 @@ pub fn shadow_ray_radiance(shadow: &ShadowRay, occluded: bool) -> Vec3 {
     }
 }
 
-/// Light sampling at a query's hit through the light grid (RIS over its candidates, one shadow
-/// ray: [`shadow_ray`]).
+/// Light sampling at a query's hit: through the light grid (RIS over its candidates), or over
+/// every light where there are too few for a grid ([`light_grid_needed`]); one shadow ray
+/// ([`shadow_ray`]).
 #[inline]
 pub fn sample_query_light(
     grid: &LightGridParams,
@@ -245,7 +247,11 @@ pub fn sample_query_light(
     query: &CacheQuery,
     rng: &mut Random,
 ) -> LightGridSample {
-    sample_light_grid(grid, entries, lighting, &diffuse_hit(query), rng)
+    if light_grid_needed(grid.light_count) {
+        sample_light_grid(grid, entries, lighting, &diffuse_hit(query), rng)
+    } else {
+        sample_each_light(grid, lighting, &diffuse_hit(query), rng)
+    }
 }
 
 /// The footprint a secondary hit's textures are filtered for: a probe traces one ray per

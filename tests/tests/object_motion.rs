@@ -37,7 +37,7 @@ const TRAIL_FRAMES: u32 = 24;
 /// Random streams the trail test pools. One frame's noise is correlated over a probe tile and a
 /// cache cell: at 64 × 48, where the trail covered one or two tiles, a single stream read the
 /// trail's bias anywhere from −0.50 to +0.38 (streams 0–7); at 128 × 96, −0.17 to +0.27.
-const TRAIL_SEEDS: u32 = 2;
+const TRAIL_SEEDS: u32 = 3;
 /// Static frames of the trail test's reference.
 const REFERENCE_FRAMES: u32 = 48;
 /// The reference is the mean of its last this many frames.

@@ -438,7 +438,8 @@ impl Replay {
     fn new(ctx: &Context, settings: &GiSettings, side: u32) -> Self {
         let module = KernelModule::new(ctx).unwrap();
         Self {
-            res: CacheResources::new(ctx, settings, side, side, side * side, 0).unwrap(),
+            // No lights: the replay feeds its samples itself.
+            res: CacheResources::new(ctx, settings, side, side, side * side, 0, 0).unwrap(),
             restir: RestirResources::new(
                 ctx,
                 &GiSettings {

@@ -1,6 +1,6 @@
 //! The frame holds only what its settings use (issue 24): a technique switched off frees its
 //! buffers (a one-element placeholder stays where a pass still binds it) and takes its passes
-//! out of the frame.
+//! out of the frame; a scene of at most `EXACT_DIRECT_LIGHTS` lights has no light grid.
 
 use gi_host::KernelVariant;
 use gi_host::frame::MemoryTable;
@@ -12,6 +12,7 @@ use gi_host::scene::gpu_data::ShadingData;
 use gi_host::scene::lights::LightSet;
 use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::Context;
+use gi_shared::light_grid::light_grid_needed;
 use gi_tests::{context, finish_without_validation_messages, load_scene};
 
 const SIDE: u32 = 64;
@@ -147,5 +148,40 @@ fn a_technique_switched_off_frees_its_memory_and_passes() {
         );
     }
     drop(gpu);
+    finish_without_validation_messages(ctx);
+}
+
+/// A scene of at most `EXACT_DIRECT_LIGHTS` lights builds no light grid: its entries are a
+/// placeholder (the Cornell box's 2 lights), where 256 lights (`many-lights.gltf`) fill the grid.
+#[test]
+fn few_lights_build_no_light_grid() {
+    let ctx = context(KernelVariant::Software);
+    let settings = Preset::Balanced.settings(SIDE, SIDE);
+    let mut grid_bytes = Vec::new();
+    for name in ["cornell-box.gltf", "many-lights.gltf"] {
+        let scene = load_scene(name);
+        let lights = LightSet::new(&scene, None, true);
+        let shading = ShadingData::new(&scene).unwrap();
+        let gpu = GpuScene::upload(&ctx, &scene, None, &shading, &lights).unwrap();
+        let f = footprint(&ctx, &scene, &gpu, &lights, settings);
+        let bytes = f.bytes("light grid entries");
+        println!(
+            "{name}: {} lights, light grid entries {bytes} bytes",
+            lights.params().count
+        );
+        grid_bytes.push((lights.params().count, bytes));
+    }
+    let [(few, none), (many, full)] = grid_bytes[..] else {
+        unreachable!()
+    };
+    assert!(
+        !light_grid_needed(few) && light_grid_needed(many),
+        "{few}, {many}"
+    );
+    assert!(none <= PLACEHOLDER_BYTES, "{few} lights: {none} bytes");
+    assert!(
+        full > 1024 * PLACEHOLDER_BYTES,
+        "{many} lights: {full} bytes"
+    );
     finish_without_validation_messages(ctx);
 }

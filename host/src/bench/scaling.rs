@@ -1,6 +1,6 @@
 //! How a GI frame's cost scales: against pixels (expected linear), against triangles (tracing
 //! expected logarithmic: a BVH), against punctual lights (expected flat: above
-//! [`gi_shared::primary_lighting::EXACT_DIRECT_LIGHTS`] the primary hit resamples one light, and
+//! [`gi_shared::lights::EXACT_DIRECT_LIGHTS`] the primary hit resamples one light, and
 //! the cache's light grid keeps a few candidates per cell), against emissive triangles (expected
 //! flat: every light the grid weighs is a cluster of them). Each sweep renders
 //! [`procedural::scaling_room`] ([`procedural::emitter_room`] for emissive triangles) with the

@@ -11,6 +11,7 @@ use crate::frame::Scan;
 use crate::frame::indirect_offset;
 use crate::scene::lights::GpuLights;
 use crate::vulkan::{Buffer, Context, Kernel, KernelModule};
+use gi_shared::light_grid::light_grid_needed;
 use gi_shared::world_cache::{ARGS_LIGHT_GRID, ARGS_QUERIES, ARGS_SHADOW_RAYS, CachePassParams};
 
 crate::bindings! {
@@ -155,7 +156,8 @@ impl LightingPasses {
     }
 
     /// UpdateLightGrid: the grid's parameters from this frame's hit bounds (which TraceCacheRays
-    /// reported), then its entries.
+    /// reported), then its entries where the scene's lights need a grid
+    /// (`gi_shared::light_grid::light_grid_needed`).
     pub fn record_light_grid(
         &self,
         rec: &mut Recorder<'_>,
@@ -174,6 +176,11 @@ impl LightingPasses {
             push,
             [1, 1, 1],
         )?;
+        if !light_grid_needed(lights.count()) {
+            // Secondary hits weigh every light themselves: the grid's parameters are all they
+            // read.
+            return Ok(());
+        }
         let [light_buffer, ..] = lights.buffers();
         rec.dispatch_indirect(
             &self.build_grid,

@@ -29,7 +29,7 @@ use ash::vk;
 use gi_shared::camera::CameraParams;
 use gi_shared::gi_denoiser::reproject_gi::SURFACE_RECORD_FLOAT_WORDS;
 use gi_shared::hash_cells::cell_size_const;
-use gi_shared::primary_lighting::{EXACT_DIRECT_LIGHTS, PrimaryLighting};
+use gi_shared::primary_lighting::{PrimaryLighting, samples_direct_light};
 use gi_shared::screen_probes::{
     BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_SAMPLED_DIRECT, GiFrameParams, OVERRIDE_COUNT,
     PATCHED_COUNT, PROBE_CELL_PIXELS, ProbeRay, ProbeRecord, RELAXED_COUNT, REPROJECTED_COUNT,
@@ -127,7 +127,15 @@ impl GiRenderer {
             options,
             width,
             height,
-            cache_res: CacheResources::new(ctx, &settings, width, height, rays, 0)?,
+            cache_res: CacheResources::new(
+                ctx,
+                &settings,
+                width,
+                height,
+                rays,
+                0,
+                lights.params().count,
+            )?,
             restir,
             restir_history: false,
             gbuffer: GBufferImages::new(ctx, width, height)?,
@@ -227,7 +235,7 @@ impl GiRenderer {
         if previous.is_some() {
             flags |= FLAG_HISTORY;
         }
-        if self.lighting.punctual_count > EXACT_DIRECT_LIGHTS {
+        if samples_direct_light(self.lighting.punctual_count) {
             flags |= FLAG_SAMPLED_DIRECT;
         }
         GiFrameParams {
@@ -380,8 +388,10 @@ impl GiRenderer {
                 self.height,
                 rays,
                 self.frame,
+                lights.params().count,
             )?;
         }
+        self.cache_res.fit_light_grid(ctx, lights.params().count)?;
         self.lighting = SceneLighting::new(lights);
         self.restir_history = false;
         self.previous = None;

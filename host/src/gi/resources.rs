@@ -23,7 +23,7 @@ use gi_shared::hash_cells::touch::initial_last_touch;
 use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
 use gi_shared::light_grid::{
     LIGHT_GRID_BOUNDS_WORDS, LIGHT_GRID_MAX_CELLS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry,
-    LightGridParams,
+    LightGridParams, light_grid_needed,
 };
 use gi_shared::multi_bounce::carried_capacity;
 use gi_shared::radiance_feedback::FeedbackTexel;
@@ -33,6 +33,16 @@ use gi_shared::world_cache::{
 };
 use gi_shared::world_restir::reservoir_grid_buckets;
 use gi_shared::world_restir::{PackedReservoir, RESERVOIR_GRID_SLOTS_PER_BUCKET, ReservoirHit};
+
+/// Entries of the light grid for `light_count` lights: the largest grid's, or one placeholder
+/// where there is no grid.
+fn light_grid_entries(light_count: u32) -> usize {
+    if light_grid_needed(light_count) {
+        (LIGHT_GRID_MAX_CELLS * LIGHT_GRID_RESERVOIRS_PER_CELL) as usize
+    } else {
+        1
+    }
+}
 
 /// Every buffer of a cache-view frame.
 pub struct CacheResources {
@@ -69,7 +79,8 @@ pub struct CacheResources {
     pub bounds: Buffer,
     /// The light grid's [`LightGridParams`].
     pub light_grid: Buffer,
-    /// The light grid's entries, for the largest grid.
+    /// The light grid's entries, for the largest grid; one placeholder where the scene's lights
+    /// need no grid (`gi_shared::light_grid::light_grid_needed`).
     pub light_grid_entries: Buffer,
     /// Indirect dispatch arguments (`ARGS_COUNT` of them).
     pub args: Buffer,
@@ -116,6 +127,7 @@ impl CacheResources {
         height: u32,
         rays: u32,
         first_frame: u32,
+        light_count: u32,
     ) -> Result<Self> {
         settings.validate(width, height)?;
         let tiles = settings.tile_count() as usize;
@@ -126,7 +138,7 @@ impl CacheResources {
         let cells = tiles * CELLS_PER_TILE as usize;
         let accumulator_words = tiles * TILE_ACCUMULATOR_WORDS;
         debug_assert!(accumulator_words * 4 <= MAX_STORAGE_BUFFER_BYTES);
-        let entries = (LIGHT_GRID_MAX_CELLS * LIGHT_GRID_RESERVOIRS_PER_CELL) as usize;
+        let entries = light_grid_entries(light_count);
         Ok(Self {
             camera: Buffer::parameters(ctx, "camera", &[CameraParams::default()])?,
             keys: Buffer::device_zeroed::<u32>(ctx, "hash grid keys", tiles)?,
@@ -185,6 +197,17 @@ impl CacheResources {
             ray_capacity: rays as u32,
             carried_capacity: carried as u32,
         })
+    }
+
+    /// Makes the light grid's entries fit a scene of `light_count` lights (the largest grid, or
+    /// one placeholder where it needs none): after a change of scene.
+    pub fn fit_light_grid(&mut self, ctx: &Context, light_count: u32) -> Result<()> {
+        let entries = light_grid_entries(light_count);
+        if self.light_grid_entries.size != (entries * size_of::<LightGridEntry>()) as u64 {
+            self.light_grid_entries =
+                Buffer::device_zeroed::<LightGridEntry>(ctx, "light grid entries", entries)?;
+        }
+        Ok(())
     }
 
     /// Reallocates what depends on the frame's size (queries, shadow rays, ray records and
