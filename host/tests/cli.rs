@@ -368,3 +368,50 @@ fn generate_writes_a_scene_that_renders() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("is not a count"), "{err}");
 }
+
+/// `gi memory` prints a row per preset and resolution whose bytes per pixel and totals add up,
+/// names a malformed resolution, and a larger frame takes more memory.
+#[test]
+fn memory_reports_each_preset_and_resolution() {
+    let out = succeeded(&gi(
+        &[
+            "--validation",
+            "memory",
+            CORNELL_BOX,
+            "--preset",
+            "fast,quality",
+            "--resolution",
+            "64x64,128x64",
+        ],
+        &[],
+    ));
+    let rows: Vec<Vec<f64>> = out
+        .lines()
+        .filter(|l| l.starts_with("| Fast") || l.starts_with("| Quality"))
+        .map(|l| {
+            l.split('|')
+                .skip(3)
+                .filter_map(|c| c.trim().parse().ok())
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 4, "{out}");
+    for r in &rows {
+        let [per_pixel, tiles, cache, total] = r[..] else {
+            panic!("{out}")
+        };
+        assert!(
+            per_pixel > 100.0 && tiles >= 2048.0 && cache > 0.0 && total > cache,
+            "{out}"
+        );
+    }
+    // 128 × 64 has twice the pixels of 64 × 64; `quality` traces four times the rays of `fast`.
+    assert!(rows[1][3] > rows[0][3] && rows[2][0] > rows[0][0], "{out}");
+    let bad = gi(&["memory", CORNELL_BOX, "--resolution", "64by64"], &[]);
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("64by64") && err.contains("WIDTHxHEIGHT"),
+        "{err}"
+    );
+}

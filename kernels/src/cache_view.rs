@@ -133,14 +133,17 @@ pub fn composite(
         return;
     }
     let i = (pixel.y * camera.image_size[0] + pixel.x) as usize;
-    if i >= pixels.len() || i >= accumulation.len() || i >= history.len() {
+    if i >= pixels.len() || i >= accumulation.len() {
         return;
     }
     let a: Vec4 = albedo.read(pixel);
-    let d: f32 = depth.read(pixel);
-    let gn: Vec4 = geometric_normal.read(pixel);
     let record = pixels[i];
     let sum = accumulate_sample(accumulation[i], composite(&record, a.truncate()));
     accumulation[i] = sum;
-    history[i] = feedback_texel(&record, sum, d, gn.truncate());
+    // Without temporal feedback the history is a one-texel placeholder nobody reads.
+    if i < history.len() {
+        let d: f32 = depth.read(pixel);
+        let gn: Vec4 = geometric_normal.read(pixel);
+        history[i] = feedback_texel(&record, sum, d, gn.truncate());
+    }
 }

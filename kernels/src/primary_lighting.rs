@@ -119,20 +119,18 @@ pub fn resolve_gi(
         return;
     }
     let i = (pixel.y * camera.image_size[0] + pixel.x) as usize;
-    if i >= lighting.len()
-        || i >= irradiance.len()
-        || i >= color.len()
-        || i >= history.len()
-        || i >= undenoised.len()
-    {
+    if i >= lighting.len() || i >= irradiance.len() || i >= color.len() {
         return;
     }
     let record = lighting[i];
     let a: Vec4 = albedo.read(pixel);
-    let d: f32 = depth.read(pixel);
-    let gn: Vec4 = geometric_normal.read(pixel);
     let c = resolve_color(&record, a.truncate(), irradiance[i]);
     color[i] = [c.x, c.y, c.z, 1.0];
-    let fed_back = resolve_color(&record, a.truncate(), undenoised[i]);
-    history[i] = resolve_feedback(&record, fed_back, d, gn.truncate().normalize_or_zero());
+    // Without temporal feedback the history is a one-texel placeholder nobody reads.
+    if i < history.len() && i < undenoised.len() {
+        let d: f32 = depth.read(pixel);
+        let gn: Vec4 = geometric_normal.read(pixel);
+        let fed_back = resolve_color(&record, a.truncate(), undenoised[i]);
+        history[i] = resolve_feedback(&record, fed_back, d, gn.truncate().normalize_or_zero());
+    }
 }

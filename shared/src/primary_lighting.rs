@@ -414,12 +414,12 @@ pub fn resolve_feedback(
     if lighting.surface == 0 || depth <= 0.0 {
         return FeedbackTexel::default();
     }
-    FeedbackTexel {
-        radiance: finite_sample(color).to_array(),
+    FeedbackTexel::new(
+        finite_sample(color),
         depth,
-        normal: geometric_normal.to_array(),
-        valid: if lighting.emissive == 0 { 1 } else { 0 },
-    }
+        geometric_normal,
+        lighting.emissive == 0,
+    )
 }
 
 #[cfg(test)]
@@ -761,15 +761,15 @@ mod tests {
         assert_eq!(resolve_color(&sky, albedo, gi), Vec3::new(1.0, 2.0, 3.0));
         // Feedback: emitters and sky are no source.
         let f = resolve_feedback(&lighting, c, 2.0, Vec3::Z);
-        assert_eq!((f.valid, f.depth), (0, 2.0));
+        assert_eq!((f.is_source(), f.depth), (false, 2.0));
         let plain = PrimaryLighting {
             emissive: 0,
             ..lighting
         };
         let f = resolve_feedback(&plain, Vec3::ONE, 2.0, Vec3::Z);
-        assert_eq!(f.valid, 1);
+        assert!(f.is_source());
         assert_eq!(f.radiance, [1.0; 3]);
-        assert_eq!(f.normal, [0.0, 0.0, 1.0]);
+        assert_eq!(f.geometric_normal(), Vec3::Z);
         assert_eq!(
             resolve_feedback(&sky, Vec3::ONE, 0.0, Vec3::Z),
             FeedbackTexel::default()

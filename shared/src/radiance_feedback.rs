@@ -19,7 +19,7 @@ use glam::{UVec2, Vec3};
 use crate::cache_view::running_mean;
 use crate::camera::{CameraParams, to_clip, uv_of_clip};
 use crate::math::{abs, to_u32_clamped};
-use crate::packing::unpack_snorm10x3;
+use crate::packing::{pack_snorm10x3, unpack_snorm10x3};
 use crate::world_cache::{CacheQuery, RayRecord};
 use bytemuck::{Pod, Zeroable};
 
@@ -81,8 +81,10 @@ pub fn accepts(
     same_depth && hit_normal.dot(previous_normal) > RADIANCE_FEEDBACK_MIN_NORMAL_DOT
 }
 
-/// One pixel of the previous frame's image as temporal feedback reads it (32 bytes), written by the
-/// composite after feedback has read it.
+/// One pixel of the previous frame's image as temporal feedback reads it (20 bytes), written by the
+/// composite after feedback has read it. The normal travels as `pack_snorm10x3` (feedback only
+/// compares it with a hit's normal, [`RADIANCE_FEEDBACK_MIN_NORMAL_DOT`]), the source flag in its
+/// free bit 30 ([`FEEDBACK_SOURCE_BIT`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct FeedbackTexel {
@@ -91,14 +93,40 @@ pub struct FeedbackTexel {
     pub radiance: [f32; 3],
     /// Linear depth; 0 for sky.
     pub depth: f32,
-    /// Unit geometric normal facing the camera.
-    pub normal: [f32; 3],
-    /// 1 when the pixel saw a surface.
-    pub valid: u32,
+    /// Unit geometric normal facing the camera (`pack_snorm10x3`), with [`FEEDBACK_SOURCE_BIT`].
+    pub normal: u32,
 }
 
+/// Bit of [`FeedbackTexel::normal`] set when the pixel is a source of feedback: it saw a
+/// surface that does not emit toward the camera. `pack_snorm10x3` leaves it zero.
+pub const FEEDBACK_SOURCE_BIT: u32 = 1 << 30;
+
 impl crate::layout::FloatLayout for FeedbackTexel {
-    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 3, 4, 5, 6];
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 3];
+}
+
+impl FeedbackTexel {
+    /// A texel of `radiance` at `depth` facing `normal`; `source` when feedback may read it.
+    #[inline]
+    pub fn new(radiance: Vec3, depth: f32, normal: Vec3, source: bool) -> Self {
+        Self {
+            radiance: radiance.to_array(),
+            depth,
+            normal: pack_snorm10x3(normal) | if source { FEEDBACK_SOURCE_BIT } else { 0 },
+        }
+    }
+
+    /// Whether feedback may read this texel.
+    #[inline]
+    pub fn is_source(&self) -> bool {
+        self.normal & FEEDBACK_SOURCE_BIT != 0
+    }
+
+    /// The geometric normal (within `0.5 / 511` per component).
+    #[inline]
+    pub fn geometric_normal(&self) -> Vec3 {
+        unpack_snorm10x3(self.normal)
+    }
 }
 
 /// What temporal radiance feedback found for a query.
@@ -132,9 +160,9 @@ pub fn feedback_lookup(
     }
     let texel = history[i];
     let normal = unpack_snorm10x3(query.geometric_normal);
-    if texel.valid == 0
+    if !texel.is_source()
         || texel.depth <= 0.0
-        || !accepts(&at, normal, texel.depth, Vec3::from_array(texel.normal))
+        || !accepts(&at, normal, texel.depth, texel.geometric_normal())
     {
         return out;
     }
@@ -151,16 +179,12 @@ pub fn feedback_lookup(
 /// emitter.
 #[inline]
 pub fn feedback_texel(pixel: &RayRecord, sum: [f32; 4], depth: f32, normal: Vec3) -> FeedbackTexel {
-    FeedbackTexel {
-        radiance: running_mean(sum).to_array(),
+    FeedbackTexel::new(
+        running_mean(sum),
         depth,
-        normal: normal.to_array(),
-        valid: if pixel.surface != 0 && pixel.emissive == 0 && depth > 0.0 {
-            1
-        } else {
-            0
-        },
-    }
+        normal,
+        pixel.surface != 0 && pixel.emissive == 0 && depth > 0.0,
+    )
 }
 
 #[cfg(test)]
@@ -252,12 +276,7 @@ mod tests {
         let c = wall_camera();
         let [w, h] = c.image_size;
         let history: Vec<FeedbackTexel> = (0..w * h)
-            .map(|i| FeedbackTexel {
-                radiance: [i as f32, 1.0, 2.0],
-                depth: 5.0,
-                normal: [0.0, 0.0, 1.0],
-                valid: 1,
-            })
+            .map(|i| FeedbackTexel::new(Vec3::new(i as f32, 1.0, 2.0), 5.0, Vec3::Z, true))
             .collect();
         let p = Vec3::new(0.1, -0.2, 0.0);
         let hit = feedback_lookup(&c, &query_at(p, Vec3::Z), &history);
@@ -285,10 +304,17 @@ mod tests {
             FeedbackTexel::FLOAT_WORDS,
             float_field_words(&[
                 (offset_of!(FeedbackTexel, radiance), 3),
-                (offset_of!(FeedbackTexel, depth), 1),
-                (offset_of!(FeedbackTexel, normal), 3)
+                (offset_of!(FeedbackTexel, depth), 1)
             ])
         );
-        assert_eq!(core::mem::size_of::<FeedbackTexel>(), 32);
+        assert_eq!(core::mem::size_of::<FeedbackTexel>(), 20);
+        // The source bit survives every normal, and no normal sets it.
+        for n in [Vec3::X, -Vec3::ONE, Vec3::NAN, Vec3::splat(1e6)] {
+            for source in [false, true] {
+                let t = FeedbackTexel::new(Vec3::ONE, 1.0, n, source);
+                assert_eq!(t.is_source(), source, "{n}");
+                assert_eq!(t.geometric_normal(), unpack_snorm10x3(pack_snorm10x3(n)));
+            }
+        }
     }
 }

@@ -12,7 +12,7 @@ use crate::light_grid::{
 };
 use crate::lights::{LightSources, SceneLights, sky_radiance};
 use crate::math::INV_PI;
-use crate::packing::pack_snorm10x3;
+use crate::packing::{pack_albedo10x3, pack_octahedral16, pack_snorm10x3};
 use crate::path_tracer::{
     PathTracerParams, STRATEGY_BSDF_ONLY, STRATEGY_MIS, bsdf_mis_weight, environment_light_pdf,
     folded_cosine, hit_emission,
@@ -150,15 +150,14 @@ pub fn surface_query(
     let query = CacheQuery {
         hit_position: offset_ray_origin(surface.position, ng, surface.size).to_array(),
         ray_index,
-        direction: direction.to_array(),
+        direction: pack_octahedral16(direction),
         hit_distance: distance,
-        normal: ns.to_array(),
+        normal: pack_octahedral16(ns),
         geometric_normal: pack_snorm10x3(ng),
-        albedo: material.base_color.truncate().to_array(),
+        albedo: pack_albedo10x3(material.base_color.truncate()),
         tile: NO_TILE,
         cell: 0,
         flags: 0,
-        _pad: [0; 2],
     };
     if distance.is_finite() && query.position().is_finite() {
         Some(query)
@@ -193,8 +192,8 @@ pub fn path_params(view: &CacheFrameParams) -> PathTracerParams {
 pub fn diffuse_hit(query: &CacheQuery) -> DiffuseHit {
     DiffuseHit {
         position: query.position(),
-        normal: Vec3::from_array(query.normal),
-        albedo: Vec3::from_array(query.albedo),
+        normal: query.shading_normal(),
+        albedo: query.albedo(),
     }
 }
 

@@ -78,6 +78,7 @@ use crate::hash_cells::read::filtered_radiance;
 use crate::hash_cells::storage::{TileInsert, insert_tile};
 use crate::hash_cells::touch::{clear_tile_values, touch_tile};
 use crate::hash_cells::{CellDescriptor, TILE_CELL_RATIO, cell_descriptor};
+use crate::packing::{unpack_albedo10x3, unpack_octahedral16};
 use crate::random::Random;
 use crate::ray::Ray;
 use bytemuck::{Pod, Zeroable};
@@ -320,21 +321,23 @@ pub struct CachePassParams {
     pub view: CacheFrameParams,
 }
 
-/// One secondary hit that queries the cache (80 bytes), appended by TraceCacheRays.
+/// One secondary hit that queries the cache (48 bytes), appended by TraceCacheRays. Directions
+/// and normals travel packed (`crate::packing`: 16:16 octahedral, 10:10:10 snorm), the albedo as
+/// gamma-2 10:10:10: a query is written once per ray and read by every cache pass, and the
+/// query lists are the largest per-ray buffers (two per ray with multi-bounce).
 ///
 /// | offset | field              |
 /// |--------|--------------------|
 /// | 0      | `hit_position`     |
 /// | 12     | `ray_index`        |
 /// | 16     | `direction`        |
-/// | 28     | `hit_distance`     |
-/// | 32     | `normal`           |
-/// | 44     | `geometric_normal` |
-/// | 48     | `albedo`           |
-/// | 60     | `tile`             |
-/// | 64     | `cell`             |
-/// | 68     | `flags`            |
-/// | 72     | `_pad`             |
+/// | 20     | `hit_distance`     |
+/// | 24     | `normal`           |
+/// | 28     | `geometric_normal` |
+/// | 32     | `albedo`           |
+/// | 36     | `tile`             |
+/// | 40     | `cell`             |
+/// | 44     | `flags`            |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct CacheQuery {
@@ -343,16 +346,18 @@ pub struct CacheQuery {
     pub hit_position: [f32; 3],
     /// The pixel whose ray hit: `y · width + x`.
     pub ray_index: u32,
-    /// Unit direction of the ray.
-    pub direction: [f32; 3],
+    /// Unit direction of the ray, as `pack_octahedral16` ([`Self::ray_direction`]).
+    pub direction: u32,
     /// Distance from the ray's origin to the hit.
     pub hit_distance: f32,
-    /// Unit shading normal, facing the ray's origin.
-    pub normal: [f32; 3],
+    /// Unit shading normal facing the ray's origin, as `pack_octahedral16`
+    /// ([`Self::shading_normal`]).
+    pub normal: u32,
     /// Unit geometric normal facing the ray's origin, as `pack_snorm10x3`.
     pub geometric_normal: u32,
-    /// Diffuse albedo (the secondary material is forced diffuse).
-    pub albedo: [f32; 3],
+    /// Diffuse albedo (the secondary material is forced diffuse), as `pack_albedo10x3`
+    /// ([`Self::albedo`]).
+    pub albedo: u32,
     /// The tile (slot) of the hit's cell, written by InsertRadianceCache; [`NO_TILE`] before or
     /// when the bucket was full.
     pub tile: u32,
@@ -360,12 +365,10 @@ pub struct CacheQuery {
     pub cell: u32,
     /// [`QUERY_FED_BACK`], [`QUERY_BYPASS`].
     pub flags: u32,
-    /// Explicit padding.
-    pub _pad: [u32; 2],
 }
 
 impl crate::layout::FloatLayout for CacheQuery {
-    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 4, 5, 6, 7, 8, 9, 10, 12, 13, 14];
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 5];
 }
 
 impl CacheQuery {
@@ -375,10 +378,22 @@ impl CacheQuery {
         Vec3::from_array(self.hit_position)
     }
 
-    /// Ray direction.
+    /// Ray direction (unit).
     #[inline]
     pub fn ray_direction(&self) -> Vec3 {
-        Vec3::from_array(self.direction)
+        unpack_octahedral16(self.direction)
+    }
+
+    /// Shading normal (unit).
+    #[inline]
+    pub fn shading_normal(&self) -> Vec3 {
+        unpack_octahedral16(self.normal)
+    }
+
+    /// Diffuse albedo.
+    #[inline]
+    pub fn albedo(&self) -> Vec3 {
+        unpack_albedo10x3(self.albedo)
     }
 
     /// The mip-0 cell as `[x, y]`.
@@ -737,10 +752,7 @@ pub(crate) mod tests {
             CacheQuery::FLOAT_WORDS,
             float_field_words(&[
                 (offset_of!(CacheQuery, hit_position), 3),
-                (offset_of!(CacheQuery, direction), 3),
-                (offset_of!(CacheQuery, hit_distance), 1),
-                (offset_of!(CacheQuery, normal), 3),
-                (offset_of!(CacheQuery, albedo), 3)
+                (offset_of!(CacheQuery, hit_distance), 1)
             ])
         );
         assert_eq!(size_of::<CacheFrameParams>(), 80);
@@ -754,14 +766,16 @@ pub(crate) mod tests {
         assert_eq!(size_of::<CachePassParams>(), 128);
         assert!(size_of::<CachePassParams>() <= crate::layout::MAX_PUSH_CONSTANT_BYTES);
         assert_eq!(offset_of!(CachePassParams, view), 48);
-        assert_eq!(size_of::<CacheQuery>(), 80);
+        assert_eq!(size_of::<CacheQuery>(), 48);
         assert_eq!(offset_of!(CacheQuery, ray_index), 12);
-        assert_eq!(offset_of!(CacheQuery, hit_distance), 28);
-        assert_eq!(offset_of!(CacheQuery, geometric_normal), 44);
-        assert_eq!(offset_of!(CacheQuery, albedo), 48);
-        assert_eq!(offset_of!(CacheQuery, tile), 60);
-        assert_eq!(offset_of!(CacheQuery, cell), 64);
-        assert_eq!(offset_of!(CacheQuery, flags), 68);
+        assert_eq!(offset_of!(CacheQuery, direction), 16);
+        assert_eq!(offset_of!(CacheQuery, hit_distance), 20);
+        assert_eq!(offset_of!(CacheQuery, normal), 24);
+        assert_eq!(offset_of!(CacheQuery, geometric_normal), 28);
+        assert_eq!(offset_of!(CacheQuery, albedo), 32);
+        assert_eq!(offset_of!(CacheQuery, tile), 36);
+        assert_eq!(offset_of!(CacheQuery, cell), 40);
+        assert_eq!(offset_of!(CacheQuery, flags), 44);
         assert_eq!(size_of::<ShadowRay>(), 48);
         assert_eq!(offset_of!(ShadowRay, query), 12);
         assert_eq!(offset_of!(ShadowRay, t_max), 28);
@@ -817,8 +831,8 @@ pub(crate) mod tests {
         CacheQuery {
             hit_position: p.to_array(),
             geometric_normal: pack_snorm10x3(n),
-            normal: n.to_array(),
-            direction: (-n).to_array(),
+            normal: crate::packing::pack_octahedral16(n),
+            direction: crate::packing::pack_octahedral16(-n),
             hit_distance: 1.0,
             tile: NO_TILE,
             ..Default::default()

@@ -407,7 +407,7 @@ pub fn reservoir_grid_cell(
     rng: &mut Random,
 ) -> ReservoirCell {
     let p = query.position();
-    let n = Vec3::from_array(query.normal);
+    let n = query.shading_normal();
     let cell = reservoir_cell(p, eye, view.reservoir_cell_const, view.reservoir_buckets);
     let jittered = jitter_in_tangent_plane(p, n, cell.size, rng.next_vec2());
     reservoir_cell(

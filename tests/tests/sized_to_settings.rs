@@ -78,20 +78,21 @@ fn a_technique_switched_off_frees_its_memory_and_passes() {
     let gpu = GpuScene::upload(&ctx, &scene, None, &shading, &lights).unwrap();
     let all = GiSettings {
         restir: true,
+        temporal_feedback: true,
         ..Preset::Balanced.settings(SIDE, SIDE)
     };
     let full = footprint(&ctx, &scene, &gpu, &lights, all);
-    let cases: [(&str, Switch, &[&str], &[&str]); 5] = [
+    let cases: [(&str, Switch, &[&str], &[&str]); 6] = [
         (
             "probe_filter",
             |s| s.probe_filter = false,
-            &["filtered probes (horizontal)", "filtered probes (vertical)"],
+            &["filtered probes (horizontal)"],
             &["FilterScreenProbes"],
         ),
         (
             "denoiser_spatial",
             |s| s.denoiser_spatial = false,
-            &["filtered GI (horizontal)", "filtered GI (vertical)"],
+            &["filtered GI (horizontal)"],
             &["FilterGI"],
         ),
         (
@@ -116,6 +117,12 @@ fn a_technique_switched_off_frees_its_memory_and_passes() {
             |s| s.patching = false,
             &[],
             &["PatchScreenProbes"],
+        ),
+        (
+            "temporal_feedback",
+            |s| s.temporal_feedback = false,
+            &["feedback history"],
+            &[],
         ),
     ];
     for (name, switch_off, buffers, passes) in cases {

@@ -16,6 +16,7 @@
 pub mod equal_time;
 pub mod light_change;
 pub mod measure;
+pub mod memory;
 pub mod plot;
 pub mod reference;
 pub mod report;

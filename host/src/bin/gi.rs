@@ -2,6 +2,8 @@
 
 #[path = "gi/gi_lag.rs"]
 mod gi_lag;
+#[path = "gi/gi_memory.rs"]
+mod gi_memory;
 #[path = "gi/gi_render.rs"]
 mod gi_render;
 #[path = "gi/gi_soak.rs"]
@@ -27,6 +29,7 @@ use gi_host::scene::upload::GpuScene;
 use gi_host::vulkan::{Context, ContextOptions};
 use gi_host::{KernelVariant, TraceMode};
 use gi_lag::{LagArgs, run_lag};
+use gi_memory::{MemoryArgs, run_memory};
 use gi_render::{GiArgs, Method, render_gi};
 use gi_shared::camera::CameraParams;
 use gi_soak::{SoakArgs, run_soak};
@@ -211,6 +214,9 @@ enum Command {
     /// switched on and moved, for every preset; prints the share of the change still missing
     /// after 5, 15 and 30 frames and the frames until it stays within 5 %.
     Lag(LagArgs),
+    /// Report what the GI frame allocates for each preset at each resolution (default 720p,
+    /// 1080p and 4K), without rendering: bytes per pixel, the world cache and the total.
+    Memory(MemoryArgs),
     /// Open a scene in a window: a fly camera (WASD, mouse drag), GI or the path tracer
     /// (accumulating while the camera stands still) or the cache view, every technique's
     /// toggle and debug view, a timing overlay; drop a scene or an environment on the window
@@ -456,6 +462,9 @@ fn run(cli: &Cli) -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(Command::Lag(args)) = &cli.command {
         run_lag(&ctx, args)?;
+    }
+    if let Some(Command::Memory(args)) = &cli.command {
+        run_memory(&ctx, args)?;
     }
     if let Some(Command::CacheView {
         scene,

@@ -90,6 +90,9 @@ pub struct CacheView {
     width: u32,
     height: u32,
     res: CacheResources,
+    /// The running sums of the frames since the last restart (`[r, g, b, count]` per pixel):
+    /// the cache view's alone, so the GI frame, which shares [`CacheResources`], has none.
+    accumulation: Buffer,
     restir: RestirResources,
     /// Whether the previous frame filled a reservoir grid.
     restir_history: bool,
@@ -152,6 +155,11 @@ impl CacheView {
                 width * height,
                 0,
                 lights.params().count,
+            )?,
+            accumulation: Buffer::device_zeroed::<[f32; 4]>(
+                ctx,
+                "cache-view accumulation",
+                width as usize * height as usize,
             )?,
             restir,
             restir_history: false,
@@ -272,7 +280,7 @@ impl CacheView {
         restart: bool,
     ) -> Result<()> {
         if restart {
-            rec.fill(&self.res.accumulation, 0);
+            rec.fill(&self.accumulation, 0);
         }
         let res = &self.res;
         let images = &self.gbuffer;
@@ -321,7 +329,7 @@ impl CacheView {
                     geometric_normal: &images.geometric_normal,
                     albedo: &images.albedo,
                     pixels: &res.ray_records,
-                    accumulation: &res.accumulation,
+                    accumulation: &self.accumulation,
                     history: &res.history,
                 },
                 &[],
@@ -333,7 +341,7 @@ impl CacheView {
 
     /// The running mean of the frames since the last restart.
     pub fn image(&self, ctx: &Context) -> Result<HdrImage> {
-        let sums: Vec<[f32; 4]> = self.res.accumulation.read_back(ctx)?;
+        let sums: Vec<[f32; 4]> = self.accumulation.read_back(ctx)?;
         HdrImage::from_pixels(
             self.width,
             self.height,

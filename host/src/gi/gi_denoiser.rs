@@ -30,8 +30,9 @@ pub struct DenoiserResources {
     pub blur_mask: Buffer,
     /// The dilated, cost-adapted blur radius.
     pub blur_radius: Buffer,
-    /// FilterGI's horizontal and vertical outputs (placeholders without the spatial stage).
-    pub filtered: [Buffer; 2],
+    /// FilterGI's horizontal output (a placeholder without the spatial stage). Its vertical
+    /// output is the previous history ([`Self::output`]).
+    pub filtered: Buffer,
 }
 
 impl DenoiserResources {
@@ -49,13 +50,11 @@ impl DenoiserResources {
             trend: PingPong::new(trend("GI trend (a)")?, trend("GI trend (b)")?),
             blur_mask: f("blur mask")?,
             blur_radius: f("blur radius")?,
-            filtered: {
-                let n = if spatial { pixels } else { 1 };
-                [
-                    Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered GI (horizontal)", n)?,
-                    Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered GI (vertical)", n)?,
-                ]
-            },
+            filtered: Buffer::device_zeroed::<[f32; 4]>(
+                ctx,
+                "filtered GI (horizontal)",
+                if spatial { pixels } else { 1 },
+            )?,
         })
     }
 
@@ -67,10 +66,12 @@ impl DenoiserResources {
         self.trend.swap();
     }
 
-    /// The irradiance `stage` wrote.
+    /// The irradiance `stage` wrote. FilterGI writes its vertical output over the previous
+    /// history, which ReprojectGI has read by then and overwrites in full next frame: no buffer
+    /// of its own.
     pub fn output(&self, stage: DenoiserStage) -> &Buffer {
         match stage {
-            DenoiserStage::Spatial => &self.filtered[1],
+            DenoiserStage::Spatial => self.history.previous(),
             DenoiserStage::Temporal => self.history.current(),
             DenoiserStage::Interpolated => &self.irradiance,
         }
@@ -282,11 +283,11 @@ impl DenoiserPasses {
             pixel_groups(gbuffer),
         )?;
         let g = gbuffer;
-        for (direction, (from, to)) in [input, &res.filtered[0]]
-            .into_iter()
-            .zip(&res.filtered)
-            .enumerate()
-        {
+        let steps = [
+            (input, &res.filtered),
+            (&res.filtered, res.output(DenoiserStage::Spatial)),
+        ];
+        for (direction, (from, to)) in steps.into_iter().enumerate() {
             rec.dispatch(
                 &self.filter,
                 &FilterGi {

@@ -71,10 +71,10 @@ pub struct CacheResources {
     /// One [`RayRecord`] per ray: the cache passes complete its `ray_radiance` (the cache
     /// view traces one ray per pixel, the GI frame one per probe cell it spawns).
     pub ray_records: Buffer,
-    /// One [`FeedbackTexel`] per pixel: the previous frame's image for temporal feedback.
+    /// One [`FeedbackTexel`] per pixel: the previous frame's image for temporal feedback; a
+    /// one-texel placeholder without it (`GiSettings::temporal_feedback`), which the composite
+    /// then leaves alone.
     pub history: Buffer,
-    /// Running sum and count per pixel (`[f32; 4]`): the output.
-    pub accumulation: Buffer,
     /// The light grid's hit bounds ([`LIGHT_GRID_BOUNDS_WORDS`] words).
     pub bounds: Buffer,
     /// The light grid's [`LightGridParams`].
@@ -94,6 +94,14 @@ pub struct CacheResources {
     pixel_count: u32,
     ray_capacity: u32,
     carried_capacity: u32,
+    /// Whether temporal feedback reads the history (else it is a placeholder).
+    feedback: bool,
+}
+
+/// Texels of the feedback history for `pixels` pixels: one each with temporal feedback, else
+/// one placeholder.
+fn feedback_texels(feedback: bool, pixels: usize) -> usize {
+    if feedback { pixels } else { 1 }
 }
 
 /// Queries the carried list holds for `rays` rays: none without multi-bounce, whose carried
@@ -168,11 +176,10 @@ impl CacheResources {
             queries: Buffer::device_zeroed::<CacheQuery>(ctx, "cache queries", queries)?,
             shadow_rays: Buffer::device_zeroed::<ShadowRay>(ctx, "shadow rays", queries)?,
             ray_records: Buffer::device_zeroed::<RayRecord>(ctx, "ray records", rays)?,
-            history: Buffer::device_zeroed::<FeedbackTexel>(ctx, "feedback history", pixels)?,
-            accumulation: Buffer::device_zeroed::<[f32; 4]>(
+            history: Buffer::device_zeroed::<FeedbackTexel>(
                 ctx,
-                "cache-view accumulation",
-                pixels,
+                "feedback history",
+                feedback_texels(settings.temporal_feedback, pixels),
             )?,
             bounds: Buffer::device_zeroed::<u32>(
                 ctx,
@@ -196,6 +203,7 @@ impl CacheResources {
             pixel_count: pixels as u32,
             ray_capacity: rays as u32,
             carried_capacity: carried as u32,
+            feedback: settings.temporal_feedback,
         })
     }
 
@@ -211,7 +219,7 @@ impl CacheResources {
     }
 
     /// Reallocates what depends on the frame's size (queries, shadow rays, ray records and
-    /// carried queries for `rays` rays; feedback history and accumulation for `width × height`
+    /// carried queries for `rays` rays; feedback history for `width × height`
     /// pixels, zeroed; the counters, zeroed, so that no query is carried into the new lists) and
     /// keeps the hash grid and the light grid: the world cache survives a resize. On an error
     /// nothing changed.
@@ -228,9 +236,11 @@ impl CacheResources {
         let shadow_rays =
             Buffer::device_zeroed::<ShadowRay>(ctx, self.shadow_rays.name(), capacity)?;
         let ray_records = Buffer::device_zeroed::<RayRecord>(ctx, self.ray_records.name(), rays)?;
-        let history = Buffer::device_zeroed::<FeedbackTexel>(ctx, self.history.name(), pixels)?;
-        let accumulation =
-            Buffer::device_zeroed::<[f32; 4]>(ctx, self.accumulation.name(), pixels)?;
+        let history = Buffer::device_zeroed::<FeedbackTexel>(
+            ctx,
+            self.history.name(),
+            feedback_texels(self.feedback, pixels),
+        )?;
         let carried_queries =
             Buffer::device_zeroed::<CacheQuery>(ctx, self.carried.name(), carried.max(1))?;
         self.counters = counters;
@@ -238,7 +248,6 @@ impl CacheResources {
         self.shadow_rays = shadow_rays;
         self.ray_records = ray_records;
         self.history = history;
-        self.accumulation = accumulation;
         self.carried = carried_queries;
         self.pixel_count = pixels as u32;
         self.ray_capacity = rays as u32;
@@ -251,7 +260,7 @@ impl CacheResources {
         self.tile_count
     }
 
-    /// Pixels of the frame: the feedback history's and the accumulation's size.
+    /// Pixels of the frame: the feedback history's size with temporal feedback.
     pub fn pixel_count(&self) -> u32 {
         self.pixel_count
     }
@@ -274,7 +283,7 @@ impl CacheResources {
     }
 
     /// Every buffer.
-    pub fn buffers(&self) -> [&Buffer; 19] {
+    pub fn buffers(&self) -> [&Buffer; 18] {
         [
             &self.camera,
             &self.keys,
@@ -288,7 +297,6 @@ impl CacheResources {
             &self.shadow_rays,
             &self.ray_records,
             &self.history,
-            &self.accumulation,
             &self.bounds,
             &self.light_grid,
             &self.light_grid_entries,
@@ -338,7 +346,6 @@ impl CacheResources {
             (&self.shadow_rays, FloatWords::of::<ShadowRay>()?),
             (&self.ray_records, FloatWords::of::<RayRecord>()?),
             (&self.history, FloatWords::of::<FeedbackTexel>()?),
-            (&self.accumulation, FloatWords::ALL),
             (&self.light_grid, FloatWords::of::<LightGridParams>()?),
             (
                 &self.light_grid_entries,

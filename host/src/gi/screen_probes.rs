@@ -218,9 +218,9 @@ pub struct ScreenProbeResources {
     pub history: Buffer,
     /// One [`ProbeRay`] per probe ray.
     pub rays: Buffer,
-    /// The probe filter's horizontal and vertical outputs (64 cells per probe tile; placeholders
-    /// without the probe filter).
-    pub filtered: [Buffer; 2],
+    /// The probe filter's horizontal output (64 cells per probe tile; a placeholder without the
+    /// probe filter). Its vertical output is the previous atlas ([`Self::projected_cells`]).
+    pub filtered: Buffer,
     /// Nine SH coefficients per probe tile (`[f32; 4]`).
     pub sh: Buffer,
     /// The GI counter words (`gi_shared::screen_probes::SPAWN_COUNT` ...).
@@ -271,13 +271,11 @@ impl ScreenProbeResources {
                 "probe rays",
                 spawns * PROBE_CELLS as usize,
             )?,
-            filtered: {
-                let n = if probe_filter { cells } else { 1 };
-                [
-                    Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered probes (horizontal)", n)?,
-                    Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered probes (vertical)", n)?,
-                ]
-            },
+            filtered: Buffer::device_zeroed::<[f32; 4]>(
+                ctx,
+                "filtered probes (horizontal)",
+                if probe_filter { cells } else { 1 },
+            )?,
             sh: Buffer::device_zeroed::<[f32; 4]>(ctx, "probe SH", probes * SH_COEFFICIENT_COUNT)?,
             counters: Buffer::device_zeroed::<u32>(ctx, "GI counters", GI_COUNTER_WORDS)?,
             layout,
@@ -292,9 +290,11 @@ impl ScreenProbeResources {
     }
 
     /// The cells SH projection reads: the probe filter's output when it ran, else the atlas.
+    /// The filter writes its vertical output over the previous atlas, which ReprojectScreenProbes
+    /// has read by then and overwrites in full next frame: no buffer of its own.
     pub fn projected_cells(&self, filtered: bool) -> &Buffer {
         if filtered {
-            &self.filtered[1]
+            self.atlas.previous()
         } else {
             self.atlas.current()
         }
@@ -597,11 +597,15 @@ impl ScreenProbePasses {
         Ok(())
     }
 
-    /// FilterScreenProbes, horizontal then vertical, from the atlas into `filtered`.
+    /// FilterScreenProbes, horizontal then vertical, from the atlas through `filtered` into
+    /// [`ScreenProbeResources::projected_cells`].
     pub fn record_filter(&self, rec: &mut Recorder<'_>, res: &ScreenProbeResources) -> Result<()> {
         let g = res.layout.probe_grid;
-        let inputs = [res.atlas.current(), &res.filtered[0]];
-        for (direction, (input, output)) in inputs.into_iter().zip(&res.filtered).enumerate() {
+        let steps = [
+            (res.atlas.current(), &res.filtered),
+            (&res.filtered, res.projected_cells(true)),
+        ];
+        for (direction, (input, output)) in steps.into_iter().enumerate() {
             rec.dispatch(
                 &self.filter,
                 &FilterScreenProbes {

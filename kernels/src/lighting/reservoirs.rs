@@ -110,6 +110,6 @@ pub fn generate_reservoirs(
             &mut rng,
         );
         reservoirs[s] = PackedReservoir::pack(&sample.reservoir, sample.params);
-        hits[s] = ReservoirHit::new(query.position(), Vec3::from_array(query.normal));
+        hits[s] = ReservoirHit::new(query.position(), query.shading_normal());
     }
 }

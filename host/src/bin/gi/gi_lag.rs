@@ -32,7 +32,7 @@ pub struct LagArgs {
     pub after: u32,
     /// Measure these presets only (default: all three).
     #[arg(long, value_enum, value_delimiter = ',')]
-    pub preset: Vec<LagPreset>,
+    pub preset: Vec<PresetName>,
     /// Techniques to switch off in every preset (to find where the lag comes from).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub no: Vec<Technique>,
@@ -49,9 +49,9 @@ pub struct LagArgs {
     pub sample_cap: Option<u32>,
 }
 
-/// A preset `gi lag` measures.
+/// A preset named on the command line (`gi lag`, `gi memory`).
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum LagPreset {
+pub enum PresetName {
     /// `Preset::Fast`.
     Fast,
     /// `Preset::Balanced`.
@@ -60,12 +60,12 @@ pub enum LagPreset {
     Quality,
 }
 
-impl From<LagPreset> for Preset {
-    fn from(p: LagPreset) -> Self {
+impl From<PresetName> for Preset {
+    fn from(p: PresetName) -> Self {
         match p {
-            LagPreset::Fast => Preset::Fast,
-            LagPreset::Balanced => Preset::Balanced,
-            LagPreset::Quality => Preset::Quality,
+            PresetName::Fast => Preset::Fast,
+            PresetName::Balanced => Preset::Balanced,
+            PresetName::Quality => Preset::Quality,
         }
     }
 }
