@@ -16,10 +16,11 @@ use gi_shared::gbuffer::in_image;
 use gi_shared::packing::unpack_seed;
 use gi_shared::screen_probes::LANES;
 use gi_shared::screen_probes::blend::{
-    blend_cell, cell_estimate, finish_cell, gather_rays, ray_source, spawned_record,
+    blend_cell, cell_estimate, gather_rays, ray_source, spawned_record,
 };
 use gi_shared::screen_probes::hemisphere::UNMAPPED;
 use gi_shared::screen_probes::hysteresis::{cell_change, other_cells};
+use gi_shared::screen_probes::radiance_backup::{backed_up_cell, probe_backup};
 use gi_shared::screen_probes::spawn::spawned_seed;
 use gi_shared::screen_probes::{EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord};
 use gi_shared::world_cache::RayRecord;
@@ -53,6 +54,7 @@ pub fn blend_screen_probes(
     #[spirv(workgroup)] blended: &mut [[f32; 4]; LANES],
     #[spirv(workgroup)] changes: &mut [[f32; 2]; LANES],
     #[spirv(workgroup)] probabilities: &mut [f32; LANES],
+    #[spirv(workgroup)] backup: &mut [[f32; 4]; 1],
 ) {
     let spawn = group.y * frame.spawn_grid[0] + group.x;
     // Uniform over the workgroup: the whole group leaves before any barrier.
@@ -106,8 +108,13 @@ pub fn blend_screen_probes(
     blended[l] = blend_cell(frame, new, history, other_cells(changes, lane));
     workgroup_memory_barrier_with_group_sync();
 
-    // Phase 4: backup, then the probe tile's cell, record and mask texel.
-    let out = finish_cell(frame, blended[l], blended);
+    // Phase 4: one lane takes the probe's backup, then the probe tile's cell, record and mask
+    // texel.
+    if lane == 0 {
+        backup[0] = probe_backup(frame, blended);
+    }
+    workgroup_memory_barrier_with_group_sync();
+    let out = backed_up_cell(frame, blended[l], backup[0]);
     let i = (tile * PROBE_CELLS + lane) as usize;
     if i < atlas.len() {
         atlas[i] = out;

@@ -1,7 +1,8 @@
 //! ReprojectScreenProbes (`gi_shared::screen_probes::reproject`): one workgroup of 8 × 8 lanes per
 //! probe tile picks, among its pixels, the best one to carry last frame's probe (workgroup
 //! minimum of the reuse key), re-bins the old probe's cells into the new seed's hemisphere
-//! (map, then gather, through workgroup memory), fills empty cells with the radiance backup and
+//! (map, link, then gather, through workgroup memory), fills empty cells with the radiance
+//! backup (taken once per probe) and
 //! writes the tile's record, mask texel and cells; a tile without a probe that no spawn fills
 //! joins the empty-tile list.
 //!
@@ -14,9 +15,10 @@ use crate::gbuffer::{DepthImage, FloatImage, HalfImage};
 use gi_shared::atomics::AtomicWords;
 use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::ReprojectionTexel;
-use gi_shared::screen_probes::hemisphere::gather_mapped;
+use gi_shared::screen_probes::hemisphere::{gather_linked, link_mapped};
+use gi_shared::screen_probes::radiance_backup::{backed_up_cell, probe_backup};
 use gi_shared::screen_probes::reproject::{
-    NO_WINNER, PreviousProbes, Reprojection, finish_tile, lane_pixel, map_source_cell, output_cell,
+    NO_WINNER, PreviousProbes, Reprojection, finish_tile, lane_pixel, map_source_cell,
     reprojection, reuse_candidate, source_cell, spawn_fills, winner_lane,
 };
 use gi_shared::screen_probes::spawn::probe_tile_spawn_seed;
@@ -77,6 +79,9 @@ pub fn reproject_screen_probes(
     #[spirv(workgroup)] mapped: &mut [u32; LANES],
     #[spirv(workgroup)] moved: &mut [[f32; 4]; LANES],
     #[spirv(workgroup)] gathered: &mut [[f32; 4]; LANES],
+    #[spirv(workgroup)] heads: &mut [u32; LANES],
+    #[spirv(workgroup)] next: &mut [u32; LANES],
+    #[spirv(workgroup)] backup: &mut [[f32; 4]; 1],
 ) {
     let tile = UVec2::new(group.x, group.y);
     // Uniform over the workgroup: the whole group leaves before any barrier.
@@ -128,10 +133,19 @@ pub fn reproject_screen_probes(
     moved[l] = moved_cell;
     workgroup_memory_barrier_with_group_sync();
 
-    // Phase 3: this lane gathers target cell `lane`, then backs it up and writes it.
-    gathered[l] = gather_mapped(mapped, moved, lane);
+    // Phase 3: one lane links each cell's sources; this lane gathers target cell `lane`; one
+    // lane takes the probe's backup; this lane backs its cell up and writes it.
+    if lane == 0 {
+        link_mapped(mapped, heads, next);
+    }
     workgroup_memory_barrier_with_group_sync();
-    let out = output_cell(frame, gathered, lane);
+    gathered[l] = gather_linked(heads, next, moved, lane);
+    workgroup_memory_barrier_with_group_sync();
+    if lane == 0 {
+        backup[0] = probe_backup(frame, gathered);
+    }
+    workgroup_memory_barrier_with_group_sync();
+    let out = backed_up_cell(frame, gathered[l], backup[0]);
     let i = (tile_index * PROBE_CELLS + lane) as usize;
     if i < atlas.len() {
         atlas[i] = out;

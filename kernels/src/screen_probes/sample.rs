@@ -1,7 +1,7 @@
 //! SampleScreenProbes (`gi_shared::screen_probes::ray_guiding`): one workgroup of 8 × 8 lanes per
 //! spawned probe gathers the probe's history hemisphere from the current probes of the 3 × 3
-//! tiles around its seed (map, then gather, through workgroup memory, neighbour after
-//! neighbour), builds the ray-guiding CDF over its 64 cells from their mean and draws one ray per
+//! tiles around its seed (map, link each cell's sources, then gather, through workgroup memory,
+//! neighbour after neighbour), builds the ray-guiding CDF over its 64 cells from their mean and draws one ray per
 //! lane; the history it writes is the own tile's probe's cells, the mean where those are empty.
 //!
 //! Set 0: frame (`GiFrameParams`), camera, G-buffer depth and geometric normal, spawns (packed
@@ -14,7 +14,7 @@ use gi_shared::camera::CameraParams;
 use gi_shared::gbuffer::in_image;
 use gi_shared::packing::unpack_seed;
 use gi_shared::screen_probes::blend::spawned_record;
-use gi_shared::screen_probes::hemisphere::{gather_mapped, record_frame};
+use gi_shared::screen_probes::hemisphere::{gather_linked, link_mapped, record_frame};
 use gi_shared::screen_probes::ray_guiding::{
     HISTORY_NEIGHBOURS, HistorySum, OWN_NEIGHBOUR, blend_history, guiding_active, guiding_cdf,
     guiding_raw_weight, history_neighbour, map_history_source, sample_ray, untraced_ray,
@@ -46,6 +46,8 @@ pub fn sample_screen_probes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] probe_rays: &mut [ProbeRay],
     #[spirv(workgroup)] mapped: &mut [u32; LANES],
     #[spirv(workgroup)] moved: &mut [[f32; 4]; LANES],
+    #[spirv(workgroup)] heads: &mut [u32; LANES],
+    #[spirv(workgroup)] next: &mut [u32; LANES],
     #[spirv(workgroup)] raw: &mut [f32; LANES],
     #[spirv(workgroup)] cdf: &mut [f32; LANES],
 ) {
@@ -88,7 +90,12 @@ pub fn sample_screen_probes(
         mapped[l] = target;
         moved[l] = cell;
         workgroup_memory_barrier_with_group_sync();
-        let gathered = gather_mapped(mapped, moved, lane);
+        // One lane links each cell's sources, so that every lane walks only its own.
+        if lane == 0 {
+            link_mapped(mapped, heads, next);
+        }
+        workgroup_memory_barrier_with_group_sync();
+        let gathered = gather_linked(heads, next, moved, lane);
         if k == OWN_NEIGHBOUR {
             own = gathered;
         }

@@ -14,15 +14,15 @@
 //! 3. lane = cell: [`blend_cell`] blends it with the history cell (hysteresis,
 //!    [`FLAG_HYSTERESIS`], weighted by how much the probe's other cells changed:
 //!    [`super::hysteresis::other_cells`]) or keeps the history cell where no ray landed;
-//! 4. lane = cell: [`finish_cell`] fills a cell still empty with the radiance backup
-//!    ([`FLAG_RADIANCE_BACKUP`]) and the lane writes it to the probe tile's atlas cell; lane 0
+//! 4. lane = cell: a cell still empty takes the radiance backup ([`FLAG_RADIANCE_BACKUP`](super::FLAG_RADIANCE_BACKUP):
+//!    `radiance_backup::probe_backup` once per probe, `radiance_backup::backed_up_cell` per lane)
+//!    and the lane writes it to the probe tile's atlas cell; lane 0
 //!    writes the record ([`spawned_record`]) and the mask's mip-0 word (the seed).
 //!
 //! The ray radiance is not quantised: workgroup memory holds plain floats and each cell sums its
 //! rays in lane order (the reference bins with fixed-point atomics, ×1e4).
 
 use super::hemisphere::gather_mapped_counted;
-use super::radiance_backup::radiance_backup;
 use glam::{UVec2, Vec3, Vec4};
 
 use super::LANES;
@@ -30,10 +30,9 @@ use super::hemisphere::UNMAPPED;
 use super::hysteresis::{apply_hysteresis, hysteresis_weight};
 #[cfg(not(target_arch = "spirv"))]
 use super::hysteresis::{cell_change, other_cells};
-use super::radiance_backup::with_backup;
 use super::{
-    EMPTY, FLAG_HYSTERESIS, FLAG_RADIANCE_BACKUP, GiFrameParams, PROBE_CELLS, ProbeRay,
-    ProbeRecord, cell_is_filled, cell_radiance, make_cell,
+    EMPTY, FLAG_HYSTERESIS, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord, cell_is_filled,
+    cell_radiance, make_cell,
 };
 use crate::camera::CameraParams;
 use crate::packing::{pack_seed, pack_snorm10x3, unpack_seed};
@@ -171,21 +170,6 @@ pub fn blend_cell(
     new
 }
 
-/// Phase 4, lane = cell: the cell (`blended[cell]`) to write, a cell still empty taking the
-/// radiance backup (`radiance_backup`) of the 64 `blended` cells with [`FLAG_RADIANCE_BACKUP`].
-#[inline]
-pub fn finish_cell(
-    params: &GiFrameParams,
-    cell: [f32; 4],
-    blended: &[[f32; 4]; LANES],
-) -> [f32; 4] {
-    if cell_is_filled(cell) || !params.has(FLAG_RADIANCE_BACKUP) {
-        cell
-    } else {
-        with_backup(cell, radiance_backup(blended))
-    }
-}
-
 /// The CPU model of one BlendScreenProbes workgroup: the probe's 64 atlas cells from its rays,
 /// their per-ray records (`ray_records[spawn × 64 + lane]`) and its history cells. Runs the
 /// kernel's phases in order, each over the lanes in lane order.
@@ -219,9 +203,10 @@ pub fn blend_workgroup(
         let others = other_cells(&changes, lane as u32);
         blended[lane] = blend_cell(params, new[lane], h(lane), others);
     }
+    let backup = super::radiance_backup::probe_backup(params, &blended);
     let mut out = [EMPTY; LANES];
     for lane in 0..LANES {
-        out[lane] = finish_cell(params, blended[lane], &blended);
+        out[lane] = super::radiance_backup::backed_up_cell(params, blended[lane], backup);
     }
     out
 }
@@ -229,7 +214,7 @@ pub fn blend_workgroup(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::screen_probes::{FLAG_HISTORY, MISS_DISTANCE};
+    use crate::screen_probes::{FLAG_HISTORY, FLAG_RADIANCE_BACKUP, MISS_DISTANCE};
 
     fn ray(cell: u32, hit_distance: f32) -> ProbeRay {
         ProbeRay {

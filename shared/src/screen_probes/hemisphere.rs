@@ -155,17 +155,111 @@ pub fn gather_mapped_counted(
         }
         i += 1;
     }
+    (mean_cell(sum, distance, n), n, last)
+}
+
+/// The mean cell of `n` sources whose radiance and hit distance sum to `sum` and `distance`;
+/// [`EMPTY`] when `n` is 0.
+#[inline]
+fn mean_cell(sum: Vec3, distance: f32, n: u32) -> [f32; 4] {
     if n == 0 {
-        (EMPTY, 0, LANES)
+        EMPTY
     } else {
         let inv = 1.0 / n as f32;
-        (make_cell(sum * inv, distance * inv), n, last)
+        make_cell(sum * inv, distance * inv)
     }
+}
+
+/// The sources of each target cell as lists in ascending source order, so that a lane walks its
+/// own sources ([`gather_linked`]) instead of scanning all 64 ([`gather_mapped`], 64 × 64 reads
+/// per workgroup): `heads[t]` is the first source mapped to cell `t` ([`LANES`] when none),
+/// `next[i]` the source after `i` in its list. One lane builds them (64 steps) between two
+/// barriers.
+#[inline]
+pub fn link_mapped(mapped: &[u32; LANES], heads: &mut [u32; LANES], next: &mut [u32; LANES]) {
+    let mut t = 0;
+    while t < LANES {
+        heads[t] = LANES as u32;
+        t += 1;
+    }
+    let mut i = LANES;
+    while i > 0 {
+        i -= 1;
+        let target = mapped[i] as usize;
+        if target < LANES {
+            next[i] = heads[target];
+            heads[target] = i as u32;
+        }
+    }
+}
+
+/// [`gather_mapped`] through the lists of [`link_mapped`]: the same sources added in the same
+/// order, so the same bits.
+#[inline]
+pub fn gather_linked(
+    heads: &[u32; LANES],
+    next: &[u32; LANES],
+    cells: &[[f32; 4]; LANES],
+    target_cell: u32,
+) -> [f32; 4] {
+    let mut sum = Vec3::ZERO;
+    let mut distance = 0.0;
+    let mut n = 0u32;
+    let mut i = if (target_cell as usize) < LANES {
+        heads[target_cell as usize] as usize
+    } else {
+        LANES
+    };
+    while i < LANES {
+        let c = cells[i];
+        sum += cell_radiance(c);
+        distance += c[3];
+        n += 1;
+        i = next[i] as usize;
+    }
+    mean_cell(sum, distance, n)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The linked gather gives the scanning gather's bits for every target cell, whatever the
+    /// map: random targets, unmapped sources, every source on one cell, none anywhere.
+    #[test]
+    fn linked_gather_is_the_scanning_gather() {
+        let mut rng = crate::random::Random::new(3, 0);
+        for case in 0..200 {
+            let mut mapped = [UNMAPPED; LANES];
+            let mut cells = [EMPTY; LANES];
+            for i in 0..LANES {
+                mapped[i] = match case % 4 {
+                    0 => (rng.next_f32() * 64.0) as u32,
+                    1 if rng.next_f32() < 0.5 => UNMAPPED,
+                    1 => (rng.next_f32() * 8.0) as u32,
+                    2 => 17,
+                    _ => UNMAPPED,
+                };
+                cells[i] = [
+                    rng.next_f32() * 1e3,
+                    rng.next_f32(),
+                    1e-6,
+                    rng.next_f32() * 50.0,
+                ];
+            }
+            let (mut heads, mut next) = ([0; LANES], [0; LANES]);
+            link_mapped(&mapped, &mut heads, &mut next);
+            for t in 0..LANES as u32 + 1 {
+                let a = gather_mapped(&mapped, &cells, t);
+                let b = gather_linked(&heads, &next, &cells, t);
+                assert_eq!(
+                    a.map(f32::to_bits),
+                    b.map(f32::to_bits),
+                    "case {case}, cell {t}"
+                );
+            }
+        }
+    }
 
     fn frame(p: Vec3, n: Vec3) -> ProbeFrame {
         ProbeFrame {

@@ -8,7 +8,10 @@
 
 use glam::Vec3;
 
-use super::{EMPTY, LANES, MISS_DISTANCE, cell_is_filled, cell_radiance, make_cell};
+use super::{
+    EMPTY, FLAG_RADIANCE_BACKUP, GiFrameParams, LANES, MISS_DISTANCE, cell_is_filled,
+    cell_radiance, make_cell,
+};
 
 /// The backup of a probe's cells (one `[r, g, b, distance]` per cell, a workgroup array in the
 /// kernels): the mean of the filled
@@ -30,6 +33,30 @@ pub fn radiance_backup(cells: &[[f32; 4]; LANES]) -> [f32; 4] {
         EMPTY
     } else {
         make_cell(sum / n as f32, MISS_DISTANCE)
+    }
+}
+
+/// The backup every empty cell of a probe with `cells` takes where `params` turns it on
+/// ([`FLAG_RADIANCE_BACKUP`]): [`radiance_backup`], else [`EMPTY`]. One value per probe: the
+/// kernels compute it once, on one lane between two barriers, not once per empty cell (64 reads
+/// each).
+#[inline]
+pub fn probe_backup(params: &GiFrameParams, cells: &[[f32; 4]; LANES]) -> [f32; 4] {
+    if params.has(FLAG_RADIANCE_BACKUP) {
+        radiance_backup(cells)
+    } else {
+        EMPTY
+    }
+}
+
+/// A probe's cell as written: `cell`, or where it is empty and `params` turns the backup on,
+/// the probe's `backup` ([`probe_backup`]).
+#[inline]
+pub fn backed_up_cell(params: &GiFrameParams, cell: [f32; 4], backup: [f32; 4]) -> [f32; 4] {
+    if params.has(FLAG_RADIANCE_BACKUP) {
+        with_backup(cell, backup)
+    } else {
+        cell
     }
 }
 

@@ -13,10 +13,11 @@
 //!    winner's surface, its depth, age + 1) and the old probe as the source. Per lane = source
 //!    cell ([`source_cell`], [`map_source_cell`]): where the cell lands in the new hemisphere
 //!    (parallax-corrected with [`FLAG_PARALLAX`]).
-//! 3. Per lane = target cell: [`gather_mapped`] (`hemisphere::gather_mapped` over the
-//!    workgroup's arrays), then ([`output_cell`]) the radiance backup of empty cells with
-//!    [`FLAG_RADIANCE_BACKUP`]; lane 0 writes the record and the mask texel and counts
-//!    ([`finish_tile`]).
+//! 3. Per lane = target cell: [`gather_mapped`] (`hemisphere::gather_linked` in the kernel, over
+//!    the lists one lane links: the same sums, 64 reads per workgroup instead of 64 × 64), then
+//!    the radiance backup of empty cells with [`FLAG_RADIANCE_BACKUP`](super::FLAG_RADIANCE_BACKUP)
+//!    (`radiance_backup::probe_backup` once per probe, `radiance_backup::backed_up_cell` per
+//!    lane); lane 0 writes the record and the mask texel and counts ([`finish_tile`]).
 //!
 //! A tile without a winner (or with reprojection or history off) gets no probe
 //! ([`ProbeRecord::NONE`], [`NO_PROBE`], empty cells) and joins the empty-tile list when no spawn
@@ -27,17 +28,14 @@
 
 use super::LANES;
 use super::hemisphere::{gather_mapped, record_frame};
-use super::radiance_backup::radiance_backup;
 use glam::{UVec2, Vec2, Vec3, Vec4};
 
 use super::hemisphere::{ProbeFrame, UNMAPPED, map_cell};
-use super::radiance_backup::with_backup;
 use super::reuse::reuse_score;
 use super::spawn::{probe_tile_spawn_seed, sees_surface};
 use super::{
-    EMPTY, EMPTY_COUNT, FLAG_HISTORY, FLAG_OBJECT_MOTION, FLAG_PARALLAX, FLAG_RADIANCE_BACKUP,
-    FLAG_REPROJECTION, GiFrameParams, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRecord,
-    REPROJECTED_COUNT, cell_is_filled,
+    EMPTY, EMPTY_COUNT, FLAG_HISTORY, FLAG_OBJECT_MOTION, FLAG_PARALLAX, FLAG_REPROJECTION,
+    GiFrameParams, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRecord, REPROJECTED_COUNT,
 };
 use crate::append_list::append;
 use crate::atomics::AtomicWords;
@@ -290,18 +288,6 @@ pub fn map_source_cell(
     }
 }
 
-/// Phase 3, after the gather: the cell the new probe keeps at `lane`, `gathered[lane]` or, with
-/// [`FLAG_RADIANCE_BACKUP`] when it is empty, the backup of the 64 `gathered` cells.
-#[inline]
-pub fn output_cell(frame: &GiFrameParams, gathered: &[[f32; 4]; LANES], lane: u32) -> [f32; 4] {
-    let cell = gathered[lane as usize % LANES];
-    if frame.has(FLAG_RADIANCE_BACKUP) && !cell_is_filled(cell) {
-        with_backup(cell, radiance_backup(gathered))
-    } else {
-        cell
-    }
-}
-
 /// Whether a spawn will fill a probe tile this frame: a spawn seed falls into it (`has_seed`,
 /// see [`probe_tile_spawn_seed`]) and its G-buffer texel (`depth`, `geometric_normal`) sees a
 /// surface.
@@ -432,10 +418,12 @@ pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4, Vec4)>(
     for (lane, cell) in gathered.iter_mut().enumerate() {
         *cell = gather_mapped(&mapped, &moved, lane as u32);
     }
+    let backup = super::radiance_backup::probe_backup(frame, &gathered);
     for lane in 0..PROBE_CELLS {
         let i = (tile_index * PROBE_CELLS + lane) as usize;
         if i < current.atlas.len() {
-            current.atlas[i] = output_cell(frame, &gathered, lane);
+            current.atlas[i] =
+                super::radiance_backup::backed_up_cell(frame, gathered[lane as usize], backup);
         }
     }
     let spawn_seed = probe_tile_spawn_seed(frame, tile_index);
@@ -461,6 +449,7 @@ mod tests {
     use crate::camera::view_projection;
     use crate::hash_cells::cell_size_const;
     use crate::packing::unpack_seed;
+    use crate::screen_probes::FLAG_RADIANCE_BACKUP;
     use crate::screen_probes::GI_COUNTER_WORDS;
     use crate::screen_probes::spawn::tests::frame as base_frame;
     use crate::screen_probes::{MISS_DISTANCE, cell_radiance, make_cell};
