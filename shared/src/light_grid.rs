@@ -625,6 +625,14 @@ pub fn sample_light_grid(
         }
         segment += 1;
     }
+    finish_sample(reservoir, chosen)
+}
+
+/// The sample RIS chose (`chosen`, its contribution and sample bits) with its finalized
+/// `reservoir` and radiance; [`LightGridSample::NONE`] (with the reservoir) when nothing usable
+/// was drawn.
+#[inline]
+fn finish_sample(mut reservoir: Reservoir, mut chosen: LightGridSample) -> LightGridSample {
     reservoir.finalize(chosen.contribution.target);
     if reservoir.ucw <= 0.0 {
         return LightGridSample {
@@ -678,17 +686,7 @@ pub fn sample_each_light(
         }
         i += 1;
     }
-    reservoir.finalize(chosen.contribution.target);
-    if reservoir.ucw <= 0.0 {
-        return LightGridSample {
-            reservoir,
-            ..LightGridSample::NONE
-        };
-    }
-    chosen.reservoir = reservoir;
-    chosen.radiance =
-        chosen.contribution.weight * chosen.contribution.sample.radiance * reservoir.ucw;
-    chosen
+    finish_sample(reservoir, chosen)
 }
 
 #[cfg(test)]

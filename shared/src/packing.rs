@@ -121,44 +121,44 @@ pub fn unpack_half4(packed: [u32; 2]) -> Vec4 {
     Vec4::new(lo.x, lo.y, hi.x, hi.y)
 }
 
-/// Largest magnitude of a 10-bit snorm component.
-const SNORM10_MAX: f32 = 511.0;
+/// `x` clamped to `[-1, 1]` (NaN → 0) as a `bits`-bit two's-complement snorm, rounded to the
+/// nearest of `2^bits − 1` levels (off by at most half a level, `0.5 / (2^(bits−1) − 1)`).
+#[inline]
+fn snorm(x: f32, bits: u32) -> u32 {
+    let max = ((1u32 << (bits - 1)) - 1) as f32;
+    let x = if x.is_nan() { 0.0 } else { x };
+    // Offset by `max` so the rounding works on non-negative values, then back to two's complement.
+    let level = to_u32_clamped(floor(clamp(x, -1.0, 1.0) * max + max + 0.5));
+    level.wrapping_sub(max as u32) & ((1u32 << bits) - 1)
+}
+
+/// Inverse of [`snorm`] for the low `bits` bits of `packed`.
+#[inline]
+fn unsnorm(packed: u32, bits: u32) -> f32 {
+    let max = ((1u32 << (bits - 1)) - 1) as f32;
+    // Sign-extend the field.
+    let shift = 32 - bits;
+    let v = ((packed << shift) as i32) >> shift;
+    clamp(v as f32 / max, -1.0, 1.0)
+}
 
 /// Packs a normal as 10:10:10 snorm (x in bits 0–9, y 10–19, z 20–29; bits 30–31 zero).
 /// Components are clamped to `[-1, 1]` (NaN → 0) and rounded to the nearest of 1023 levels, so each
 /// is off by at most `0.5 / 511`.
 #[inline]
 pub fn pack_snorm10x3(n: Vec3) -> u32 {
-    snorm10(n.x) | (snorm10(n.y) << 10) | (snorm10(n.z) << 20)
-}
-
-#[inline]
-fn snorm10(x: f32) -> u32 {
-    let x = if x.is_nan() { 0.0 } else { x };
-    // Offset by 511 so the rounding works on non-negative values, then back to two's complement.
-    let level = to_u32_clamped(floor(clamp(x, -1.0, 1.0) * SNORM10_MAX + SNORM10_MAX + 0.5));
-    level.wrapping_sub(511) & 0x3ff
+    snorm(n.x, 10) | (snorm(n.y, 10) << 10) | (snorm(n.z, 10) << 20)
 }
 
 /// Inverse of [`pack_snorm10x3`] (not renormalised).
 #[inline]
 pub fn unpack_snorm10x3(packed: u32) -> Vec3 {
     Vec3::new(
-        unsnorm10(packed),
-        unsnorm10(packed >> 10),
-        unsnorm10(packed >> 20),
+        unsnorm(packed, 10),
+        unsnorm(packed >> 10, 10),
+        unsnorm(packed >> 20, 10),
     )
 }
-
-#[inline]
-fn unsnorm10(bits: u32) -> f32 {
-    // Sign-extend the 10-bit field.
-    let v = ((bits << 22) as i32) >> 22;
-    clamp(v as f32 / SNORM10_MAX, -1.0, 1.0)
-}
-
-/// Largest magnitude of a 16-bit snorm component.
-const SNORM16_MAX: f32 = 32767.0;
 
 /// Packs a direction as its octahedral coordinates ([`octahedral_encode`]), each a 16-bit snorm
 /// (x in bits 0–15, y in 16–31): a unit vector comes back within [`OCTAHEDRAL16_MAX_ERROR`]
@@ -166,31 +166,18 @@ const SNORM16_MAX: f32 = 32767.0;
 #[inline]
 pub fn pack_octahedral16(dir: Vec3) -> u32 {
     let e = octahedral_encode(dir);
-    snorm16(e.x) | (snorm16(e.y) << 16)
+    snorm(e.x, 16) | (snorm(e.y, 16) << 16)
 }
 
 /// Inverse of [`pack_octahedral16`]: a unit vector.
 #[inline]
 pub fn unpack_octahedral16(packed: u32) -> Vec3 {
-    octahedral_decode(Vec2::new(unsnorm16(packed), unsnorm16(packed >> 16)))
+    octahedral_decode(Vec2::new(unsnorm(packed, 16), unsnorm(packed >> 16, 16)))
 }
 
 /// Largest angle, in radians, between a unit vector and its [`pack_octahedral16`] round trip:
 /// half a step of 1/32767 in each coordinate, stretched at most √2 × 2 by the map.
 pub const OCTAHEDRAL16_MAX_ERROR: f32 = 1e-4;
-
-#[inline]
-fn snorm16(x: f32) -> u32 {
-    let x = if x.is_nan() { 0.0 } else { x };
-    let level = to_u32_clamped(floor(clamp(x, -1.0, 1.0) * SNORM16_MAX + SNORM16_MAX + 0.5));
-    level.wrapping_sub(32767) & 0xffff
-}
-
-#[inline]
-fn unsnorm16(bits: u32) -> f32 {
-    let v = ((bits << 16) as i32) >> 16;
-    clamp(v as f32 / SNORM16_MAX, -1.0, 1.0)
-}
 
 /// Largest 10-bit unorm level.
 const UNORM10_MAX: f32 = 1023.0;
