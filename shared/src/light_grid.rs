@@ -7,8 +7,9 @@
 //!    min/max of [`ordered_bits`] words ([`LIGHT_GRID_BOUNDS_WORDS`] of them, cleared with
 //!    [`clear_hit_bounds`]).
 //! 2. **Grid.** One invocation reads them ([`read_hit_bounds`]) and computes the
-//!    [`LightGridParams`] ([`light_grid_params`]): at most [`LIGHT_GRID_MAX_CELLS_PER_AXIS`] cubic
-//!    cells along the longest axis, the other axes rounded up. Hits outside the grid use the
+//!    [`LightGridParams`] ([`light_grid_params`]): cubic cells, [`light_grid_cells_per_axis`]
+//!    along the longest axis (at most [`LIGHT_GRID_MAX_CELLS_PER_AXIS`], fewer for fewer lights),
+//!    the other axes rounded up. Hits outside the grid use the
 //!    nearest border cell.
 //! 3. **Build.** Each cell holds [`LIGHT_GRID_RESERVOIRS_PER_CELL`] entries, each a light drawn
 //!    by weight (an irradiance estimate over the cell's volume) from the light clusters
@@ -94,6 +95,36 @@ pub const LIGHT_GRID_MAX_CELLS: u32 =
     LIGHT_GRID_MAX_CELLS_PER_AXIS * LIGHT_GRID_MAX_CELLS_PER_AXIS * LIGHT_GRID_MAX_CELLS_PER_AXIS;
 /// Entries ("reservoirs") per cell, each one light drawn from the cell's distribution.
 pub const LIGHT_GRID_RESERVOIRS_PER_CELL: u32 = 64;
+/// Cells a grid has per light, about: [`light_grid_cells_per_axis`] gives `N` lights
+/// `⌈∛(16 N)⌉` cells along the longest axis, so that 256 lights and more keep the reference's
+/// 16³ and fewer lights a coarser grid (17 lights: 7³), whose build costs a twelfth.
+pub const LIGHT_GRID_CELLS_PER_LIGHT: u32 = 16;
+
+/// Cells along the grid's longest axis for `light_count` lights: the least `a` with
+/// `a³ ≥` [`LIGHT_GRID_CELLS_PER_LIGHT`] `× light_count`, from 1 to
+/// [`LIGHT_GRID_MAX_CELLS_PER_AXIS`]. The grid's resolution follows the lights (a cell's entries
+/// are drawn from the same few lights wherever it is) and its extent this frame's hits.
+#[inline]
+pub fn light_grid_cells_per_axis(light_count: u32) -> u32 {
+    // Past `MAX_CELLS / CELLS_PER_LIGHT` lights the largest grid it is (no overflow).
+    let wanted = min_u32(
+        light_count,
+        LIGHT_GRID_MAX_CELLS / LIGHT_GRID_CELLS_PER_LIGHT,
+    ) * LIGHT_GRID_CELLS_PER_LIGHT;
+    let mut a = 1;
+    while a < LIGHT_GRID_MAX_CELLS_PER_AXIS && a * a * a < wanted {
+        a += 1;
+    }
+    a
+}
+
+/// Most cells a grid for `light_count` lights has ([`light_grid_cells_per_axis`] cubed): what its
+/// entry buffer holds, × [`LIGHT_GRID_RESERVOIRS_PER_CELL`].
+#[inline]
+pub fn light_grid_max_cells(light_count: u32) -> u32 {
+    let a = light_grid_cells_per_axis(light_count);
+    a * a * a
+}
 /// Segments of a cell's entries in the fast merge: one candidate each, so this is the number of
 /// RIS candidates per lookup (the talk's "random subset (8 in our implementation)").
 pub const LIGHT_GRID_SEGMENTS: u32 = 8;
@@ -241,8 +272,8 @@ pub fn read_hit_bounds<W: AtomicWords + ?Sized>(words: &W, base: usize) -> (Vec3
     )
 }
 
-/// The grid over the box `[lo, hi]`: cubic cells, [`LIGHT_GRID_MAX_CELLS_PER_AXIS`] along the
-/// longest axis, the other axes rounded up. An empty or non-finite box gives one unit cell at the
+/// The grid over the box `[lo, hi]` for `light_count` lights: cubic cells,
+/// [`light_grid_cells_per_axis`] along the longest axis, the other axes rounded up. An empty or non-finite box gives one unit cell at the
 /// origin (every lookup then uses it: still unbiased, see the [module](self)); a flat or point box
 /// gets cells of at least `10⁻⁶ ×` its magnitude. The other fields are copied in.
 pub fn light_grid_params(
@@ -267,14 +298,15 @@ pub fn light_grid_params(
     }
     let extent = hi - lo;
     let magnitude = max(lo.abs().max_element(), hi.abs().max_element());
+    let cells = light_grid_cells_per_axis(light_count);
     let cell = max(
-        extent.max_element() / LIGHT_GRID_MAX_CELLS_PER_AXIS as f32,
+        extent.max_element() / cells as f32,
         1e-6 * max(magnitude, 1.0),
     );
     let axis = |e: f32| {
         // Ceil, at least one cell, and rounding can never push the longest axis past the maximum.
         let n = to_u32_clamped(-floor(-e / cell));
-        min_u32(if n == 0 { 1 } else { n }, LIGHT_GRID_MAX_CELLS_PER_AXIS)
+        min_u32(if n == 0 { 1 } else { n }, cells)
     };
     params.origin = lo.to_array();
     params.cell_size = cell;
@@ -747,7 +779,7 @@ mod tests {
         assert_eq!(LIGHT_GRID_BOUNDS_MIN_CLEAR, ordered_bits(f32::INFINITY));
         assert_eq!(LIGHT_GRID_BOUNDS_MAX_CLEAR, ordered_bits(f32::NEG_INFINITY));
         // Nothing reported: one unit cell.
-        let empty = light_grid_params(lo, hi, 3, UVec2::ZERO, 0.0, 1.0);
+        let empty = light_grid_params(lo, hi, 256, UVec2::ZERO, 0.0, 1.0);
         assert_eq!(
             (empty.dims, empty.cell_size, empty.origin),
             ([1; 3], 1.0, [0.0; 3])
@@ -765,8 +797,9 @@ mod tests {
         let (lo, hi) = read_hit_bounds(&words[..], 2);
         assert_eq!(lo, Vec3::new(-1.0, 2.0, -0.5));
         assert_eq!(hi, Vec3::new(7.0, 3.0, 0.5));
-        let g = light_grid_params(lo, hi, 3, UVec2::new(8, 4), 2.0, 1.0);
-        // 8 m along x in 16 cells of 0.5 m; 1 m along y and z in 2 cells.
+        // 256 lights: the full 16 cells. 8 m along x in 16 cells of 0.5 m; 1 m along y and z in
+        // 2 cells.
+        let g = light_grid_params(lo, hi, 256, UVec2::new(8, 4), 2.0, 1.0);
         assert_eq!(g.cell_size, 0.5);
         assert_eq!(g.dims, [16, 2, 2]);
         assert_eq!(g.cell_count(), 64);
@@ -788,13 +821,51 @@ mod tests {
         let odd = light_grid_params(
             Vec3::splat(0.1),
             Vec3::new(0.7, 0.3, 0.69999),
-            1,
+            1000,
             UVec2::ZERO,
             0.0,
             1.0,
         );
         assert_eq!(odd.dims[0], 16);
         assert!(odd.dims[2] <= 16 && odd.dims[1] == 6);
+    }
+
+    /// The grid's resolution follows the light count: about 16 cells per light, the reference's
+    /// 16³ from 256 lights on, never more; the grid's cells never exceed what its entry buffer
+    /// holds for that many lights.
+    #[test]
+    fn the_grid_follows_the_light_count() {
+        let cases = [
+            (0, 1),
+            (1, 3),
+            (17, 7),
+            (64, 11),
+            (255, 16),
+            (256, 16),
+            (100_000, 16),
+            (u32::MAX, 16),
+        ];
+        for (lights, axis) in cases {
+            assert_eq!(light_grid_cells_per_axis(lights), axis, "{lights} lights");
+            let a = light_grid_cells_per_axis(lights);
+            assert!(a * a * a >= (lights.saturating_mul(LIGHT_GRID_CELLS_PER_LIGHT)).min(4096));
+            for (lo, hi) in [
+                (Vec3::ZERO, Vec3::new(8.0, 1.0, 1.0)),
+                (Vec3::splat(-1e5), Vec3::splat(1e5)),
+                (Vec3::ZERO, Vec3::new(1e-3, 7.0, 3.0)),
+            ] {
+                let g = light_grid_params(lo, hi, lights, UVec2::ZERO, 0.0, 1.0);
+                assert_eq!(
+                    g.dims.into_iter().max(),
+                    Some(axis),
+                    "{lights}: {:?}",
+                    g.dims
+                );
+                assert!(g.cell_count() <= light_grid_max_cells(lights));
+            }
+        }
+        assert_eq!(light_grid_max_cells(17), 343);
+        assert_eq!(light_grid_max_cells(256), LIGHT_GRID_MAX_CELLS);
     }
 
     #[test]

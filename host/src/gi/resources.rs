@@ -22,8 +22,8 @@ use gi_shared::hash_cells::lists::{
 use gi_shared::hash_cells::touch::initial_last_touch;
 use gi_shared::layout::MAX_STORAGE_BUFFER_BYTES;
 use gi_shared::light_grid::{
-    LIGHT_GRID_BOUNDS_WORDS, LIGHT_GRID_MAX_CELLS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry,
-    LightGridParams, light_grid_needed,
+    LIGHT_GRID_BOUNDS_WORDS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams,
+    light_grid_max_cells, light_grid_needed,
 };
 use gi_shared::multi_bounce::carried_capacity;
 use gi_shared::radiance_feedback::FeedbackTexel;
@@ -34,11 +34,11 @@ use gi_shared::world_cache::{
 use gi_shared::world_restir::reservoir_grid_buckets;
 use gi_shared::world_restir::{PackedReservoir, RESERVOIR_GRID_SLOTS_PER_BUCKET, ReservoirHit};
 
-/// Entries of the light grid for `light_count` lights: the largest grid's, or one placeholder
-/// where there is no grid.
+/// Entries of the light grid for `light_count` lights: the largest grid's for that many lights
+/// (`light_grid_max_cells`), or one placeholder where there is no grid.
 fn light_grid_entries(light_count: u32) -> usize {
     if light_grid_needed(light_count) {
-        (LIGHT_GRID_MAX_CELLS * LIGHT_GRID_RESERVOIRS_PER_CELL) as usize
+        (light_grid_max_cells(light_count) * LIGHT_GRID_RESERVOIRS_PER_CELL) as usize
     } else {
         1
     }
@@ -79,8 +79,9 @@ pub struct CacheResources {
     pub bounds: Buffer,
     /// The light grid's [`LightGridParams`].
     pub light_grid: Buffer,
-    /// The light grid's entries, for the largest grid; one placeholder where the scene's lights
-    /// need no grid (`gi_shared::light_grid::light_grid_needed`).
+    /// The light grid's entries, for the largest grid of the scene's lights
+    /// (`gi_shared::light_grid::light_grid_max_cells`); one placeholder where they need no grid
+    /// (`gi_shared::light_grid::light_grid_needed`).
     pub light_grid_entries: Buffer,
     /// Indirect dispatch arguments (`ARGS_COUNT` of them).
     pub args: Buffer,

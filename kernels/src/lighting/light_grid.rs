@@ -14,8 +14,8 @@ use gi_shared::hash::pcg_chain;
 use gi_shared::indirect::{DispatchIndirect, dispatch_for_count};
 use gi_shared::light_clusters::LightCluster;
 use gi_shared::light_grid::{
-    LIGHT_GRID_MAX_CELLS, LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams,
-    light_grid_entry_from_lanes, light_grid_lane, light_grid_params, read_hit_bounds,
+    LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams, light_grid_entry_from_lanes,
+    light_grid_lane, light_grid_max_cells, light_grid_params, read_hit_bounds,
 };
 use gi_shared::lights::GpuLight;
 use gi_shared::world_cache::{ARGS_LIGHT_GRID, CachePassParams, PASS_LIGHT_GRID};
@@ -48,7 +48,7 @@ pub fn update_light_grid(
     if a < args.len() {
         args[a] = dispatch_for_count(
             g.entry_count(),
-            LIGHT_GRID_MAX_CELLS * LIGHT_GRID_RESERVOIRS_PER_CELL,
+            light_grid_max_cells(view.light_count) * LIGHT_GRID_RESERVOIRS_PER_CELL,
             view.max_groups,
         );
     }
