@@ -30,8 +30,7 @@ use glam::Vec3;
 
 use crate::color::luminance;
 use crate::lights::{
-    EMIT_BACK, EMIT_FRONT, GpuLight, LIGHT_DIRECTIONAL, LIGHT_ENVIRONMENT, LIGHT_POINT, LIGHT_SPOT,
-    LIGHT_TRIANGLE,
+    GpuLight, LIGHT_DIRECTIONAL, LIGHT_ENVIRONMENT, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE,
 };
 use crate::math::{PI, max, min, min_u32, positive_or_zero};
 
@@ -85,9 +84,7 @@ impl crate::layout::FloatLayout for LightCluster {
 pub fn light_grid_power(light: &GpuLight) -> f32 {
     let mut p = luminance(Vec3::from_array(light.intensity));
     if light.kind == LIGHT_TRIANGLE {
-        let front = (light.emit_sides & EMIT_FRONT != 0) as u32;
-        let back = (light.emit_sides & EMIT_BACK != 0) as u32;
-        p *= light.area * (front + back) as f32;
+        p *= light.area * light.emitting_sides();
     } else if light.kind == LIGHT_ENVIRONMENT {
         p = 0.0;
     }
@@ -259,15 +256,10 @@ pub fn light_grid_weight(
             crate::math::sqrt(box_distance_squared(centre, cell_min, cell_size)) - radius,
             0.0,
         );
-        let side = |bit: u32| {
-            if light.emit_sides & bit != 0 {
-                1.0
-            } else {
-                0.0
-            }
-        };
-        let sides = side(crate::lights::EMIT_FRONT) + side(crate::lights::EMIT_BACK);
-        power * emissive_multiplier * sides * min(PI, light.area / max(d * d, floor))
+        power
+            * emissive_multiplier
+            * light.emitting_sides()
+            * min(PI, light.area / max(d * d, floor))
     } else if light.kind == LIGHT_DIRECTIONAL {
         power
     } else if light.kind == LIGHT_ENVIRONMENT {
@@ -372,6 +364,7 @@ pub fn member_probability(cluster: &LightCluster, lights: &[GpuLight], index: u3
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lights::EMIT_FRONT;
     use core::mem::{offset_of, size_of};
 
     #[test]

@@ -333,9 +333,9 @@ impl crate::layout::FloatLayout for LightGridEntry {
 /// Lane `lane`'s share of cell `cell`'s pass over the light clusters for this frame's `seed`
 /// (`crate::light_clusters`; one light each up to
 /// [`LIGHT_GRID_MAX_CLUSTERS`](crate::light_clusters::LIGHT_GRID_MAX_CLUSTERS) lights): a
-/// streaming-RIS pick among clusters `lane`, `lane + 64`, … by [`cluster_weight`], and the sum of
-/// their weights `W_lane` (0 and cluster 0 when they weigh nothing). The `build` kernel runs one
-/// workgroup of [`LIGHT_GRID_RESERVOIRS_PER_CELL`] lanes per cell, then
+/// streaming-RIS pick among clusters `lane`, `lane + 64`, … by [`cluster_weight`], its weight,
+/// and the sum of their weights `W_lane` (0 and cluster 0 when they weigh nothing). The `build`
+/// kernel runs one workgroup of [`LIGHT_GRID_RESERVOIRS_PER_CELL`] lanes per cell, then
 /// [`light_grid_entry_from_lanes`] per lane.
 pub fn light_grid_lane(
     params: &LightGridParams,
@@ -344,17 +344,36 @@ pub fn light_grid_lane(
     cell: u32,
     lane: u32,
     seed: u32,
-) -> (u32, f32) {
+) -> LanePick {
     let cell_min = params.cell_min(params.cell_coords(cell));
     let mut rng = Random::new(pcg_chain([cell, lane, LANE_STREAM]), seed);
     let mut reservoir = Reservoir::EMPTY;
+    let mut weight = 0.0;
     let mut i = lane;
     while (i as usize) < clusters.len() {
         let w = weight_of_cluster(params, lights, clusters, cell_min, i);
-        reservoir.update(i, w, rng.next_f32());
+        if reservoir.update(i, w, rng.next_f32()) {
+            weight = w;
+        }
         i += LIGHT_GRID_RESERVOIRS_PER_CELL;
     }
-    (reservoir.sample, reservoir.w_sum)
+    LanePick {
+        cluster: reservoir.sample,
+        weight,
+        sum: reservoir.w_sum,
+    }
+}
+
+/// One lane's share of a cell's pass over the clusters ([`light_grid_lane`]), kept in workgroup
+/// memory for the entries to draw from.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LanePick {
+    /// The cluster the lane picked.
+    pub cluster: u32,
+    /// Its weight for the cell: an entry drawn from it needs no second evaluation.
+    pub weight: f32,
+    /// The sum of the weights the lane streamed, `W_lane`.
+    pub sum: f32,
 }
 
 /// Distinguishes the lanes' random streams from the entries'.
@@ -388,18 +407,13 @@ fn weight_of_cluster(
 /// with probability `w_c / W` exactly, then a light of it with its share of the cluster
 /// ([`pick_in_cluster`]); with probability [`LIGHT_GRID_DEFENSIVE_FRACTION`], a uniformly drawn
 /// light instead. Stores that probability (see the [module](self)).
-#[allow(
-    clippy::too_many_arguments,
-    reason = "the lanes' results and the lights the entry is drawn from"
-)]
 pub fn light_grid_entry_from_lanes(
     params: &LightGridParams,
     lights: &[GpuLight],
     clusters: &[LightCluster],
     cell: u32,
     entry: u32,
-    picks: &[u32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
-    sums: &[f32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
+    lanes: &[LanePick; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
     seed: u32,
 ) -> LightGridEntry {
     let n = min_u32(params.light_count, lights.len() as u32);
@@ -409,7 +423,7 @@ pub fn light_grid_entry_from_lanes(
     let mut total = 0.0;
     let mut k = 0;
     while k < LIGHT_GRID_RESERVOIRS_PER_CELL as usize {
-        total += sums[k];
+        total += lanes[k].sum;
         k += 1;
     }
     let mut rng = Random::new(pcg_chain([cell, entry]), seed);
@@ -422,18 +436,22 @@ pub fn light_grid_entry_from_lanes(
     // leaves `u · W` past the running sum).
     let target = rng.next_f32() * total;
     let mut cluster = 0;
+    let mut cluster_weight = 0.0;
     let mut running = 0.0;
     let mut found = false;
     k = 0;
     while k < LIGHT_GRID_RESERVOIRS_PER_CELL as usize {
-        if sums[k] > 0.0 && !found {
-            cluster = picks[k];
-            running += sums[k];
+        let lane = lanes[k];
+        if lane.sum > 0.0 && !found {
+            cluster = lane.cluster;
+            cluster_weight = lane.weight;
+            running += lane.sum;
             found = target < running;
         }
         k += 1;
     }
-    let light = if rng.next_f32() < alpha {
+    let defensive = rng.next_f32() < alpha;
+    let light = if defensive {
         min_u32(to_u32_clamped(rng.next_f32() * n as f32), n - 1)
     } else if (cluster as usize) < clusters.len() {
         let c = &clusters[cluster as usize];
@@ -447,9 +465,15 @@ pub fn light_grid_entry_from_lanes(
     let from_weights = if alpha < 1.0 {
         let c = lights[light as usize].cluster;
         if (c as usize) < clusters.len() {
-            let cell_min = params.cell_min(params.cell_coords(cell));
-            (1.0 - alpha) * weight_of_cluster(params, lights, clusters, cell_min, c) / total
-                * member_probability(&clusters[c as usize], lights, light)
+            // A light of the lane's cluster has the lane's weight; a defensive draw's own
+            // cluster is weighed again.
+            let w = if !defensive && c == cluster {
+                cluster_weight
+            } else {
+                let cell_min = params.cell_min(params.cell_coords(cell));
+                weight_of_cluster(params, lights, clusters, cell_min, c)
+            };
+            (1.0 - alpha) * w / total * member_probability(&clusters[c as usize], lights, light)
         } else {
             0.0
         }
@@ -471,23 +495,11 @@ pub fn build_light_grid_cell(
     cell: u32,
     seed: u32,
 ) -> [LightGridEntry; LIGHT_GRID_RESERVOIRS_PER_CELL as usize] {
-    let mut picks = [0u32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize];
-    let mut sums = [0.0f32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize];
-    for lane in 0..LIGHT_GRID_RESERVOIRS_PER_CELL {
-        (picks[lane as usize], sums[lane as usize]) =
-            light_grid_lane(params, lights, clusters, cell, lane, seed);
-    }
+    let lanes: [LanePick; LIGHT_GRID_RESERVOIRS_PER_CELL as usize] = core::array::from_fn(|lane| {
+        light_grid_lane(params, lights, clusters, cell, lane as u32, seed)
+    });
     core::array::from_fn(|entry| {
-        light_grid_entry_from_lanes(
-            params,
-            lights,
-            clusters,
-            cell,
-            entry as u32,
-            &picks,
-            &sums,
-            seed,
-        )
+        light_grid_entry_from_lanes(params, lights, clusters, cell, entry as u32, &lanes, seed)
     })
 }
 

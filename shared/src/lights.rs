@@ -220,6 +220,15 @@ impl GpuLight {
         (c > 0.0 && self.emit_sides & EMIT_FRONT != 0)
             || (c < 0.0 && self.emit_sides & EMIT_BACK != 0)
     }
+
+    /// How many sides of a triangle light emit (0, 1 or 2), by [`GpuLight::emit_sides`]: its
+    /// power counts each.
+    #[inline]
+    pub fn emitting_sides(&self) -> f32 {
+        let front = (self.emit_sides & EMIT_FRONT != 0) as u32;
+        let back = (self.emit_sides & EMIT_BACK != 0) as u32;
+        (front + back) as f32
+    }
 }
 
 /// The lights that next-event estimation samples: the light buffer, and the environment image

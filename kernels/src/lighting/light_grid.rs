@@ -14,8 +14,9 @@ use gi_shared::hash::pcg_chain;
 use gi_shared::indirect::{DispatchIndirect, dispatch_for_count};
 use gi_shared::light_clusters::LightCluster;
 use gi_shared::light_grid::{
-    LIGHT_GRID_RESERVOIRS_PER_CELL, LightGridEntry, LightGridParams, light_grid_entry_from_lanes,
-    light_grid_lane, light_grid_max_cells, light_grid_params, read_hit_bounds,
+    LIGHT_GRID_RESERVOIRS_PER_CELL, LanePick, LightGridEntry, LightGridParams,
+    light_grid_entry_from_lanes, light_grid_lane, light_grid_max_cells, light_grid_params,
+    read_hit_bounds,
 };
 use gi_shared::lights::GpuLight;
 use gi_shared::world_cache::{ARGS_LIGHT_GRID, CachePassParams, PASS_LIGHT_GRID};
@@ -69,8 +70,7 @@ pub fn build_light_grid(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] entries: &mut [LightGridEntry],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] lights: &[GpuLight],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] clusters: &[LightCluster],
-    #[spirv(workgroup)] picks: &mut [u32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
-    #[spirv(workgroup)] sums: &mut [f32; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
+    #[spirv(workgroup)] lanes: &mut [LanePick; LIGHT_GRID_RESERVOIRS_PER_CELL as usize],
 ) {
     // The whole workgroup is in or out of the grid together: no lane leaves before the barrier.
     if grid.is_empty() {
@@ -83,12 +83,10 @@ pub fn build_light_grid(
         return;
     }
     let seed = pcg_chain([params.view.seed, params.view.frame_index, PASS_LIGHT_GRID]);
-    let (pick, sum) = light_grid_lane(&g, lights, clusters, cell, local, seed);
-    picks[local as usize] = pick;
-    sums[local as usize] = sum;
+    lanes[local as usize] = light_grid_lane(&g, lights, clusters, cell, local, seed);
     workgroup_memory_barrier_with_group_sync();
     if (i as usize) < entries.len() {
         entries[i as usize] =
-            light_grid_entry_from_lanes(&g, lights, clusters, cell, local, picks, sums, seed);
+            light_grid_entry_from_lanes(&g, lights, clusters, cell, local, lanes, seed);
     }
 }

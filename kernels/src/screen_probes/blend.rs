@@ -18,7 +18,7 @@ use gi_shared::screen_probes::LANES;
 use gi_shared::screen_probes::blend::{
     blend_cell, cell_estimate, gather_rays, ray_source, spawned_record,
 };
-use gi_shared::screen_probes::hemisphere::UNMAPPED;
+use gi_shared::screen_probes::hemisphere::{UNMAPPED, link_mapped};
 use gi_shared::screen_probes::hysteresis::{cell_change, other_cells};
 use gi_shared::screen_probes::radiance_backup::{backed_up_cell, probe_backup};
 use gi_shared::screen_probes::spawn::spawned_seed;
@@ -50,6 +50,8 @@ pub fn blend_screen_probes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] mask: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] atlas: &mut [[f32; 4]],
     #[spirv(workgroup)] mapped: &mut [u32; LANES],
+    #[spirv(workgroup)] heads: &mut [u32; LANES],
+    #[spirv(workgroup)] next: &mut [u32; LANES],
     #[spirv(workgroup)] cells: &mut [[f32; 4]; LANES],
     #[spirv(workgroup)] blended: &mut [[f32; 4]; LANES],
     #[spirv(workgroup)] changes: &mut [[f32; 2]; LANES],
@@ -92,6 +94,11 @@ pub fn blend_screen_probes(
     cells[l] = cell;
     probabilities[l] = probability;
     workgroup_memory_barrier_with_group_sync();
+    // One lane links each cell's rays, so that every lane walks only its own.
+    if lane == 0 {
+        link_mapped(mapped, heads, next);
+    }
+    workgroup_memory_barrier_with_group_sync();
 
     // Phase 2, lane = cell: the rays' mean and its change from the history.
     let history = if ray_index < probe_history.len() {
@@ -99,7 +106,7 @@ pub fn blend_screen_probes(
     } else {
         EMPTY
     };
-    let (mean, rays, probability) = gather_rays(mapped, cells, probabilities, lane);
+    let (mean, rays, probability) = gather_rays(heads, next, cells, probabilities, lane);
     changes[l] = cell_change(mean, history);
     let new = cell_estimate(probabilities[0] > 0.0, mean, rays, probability, history);
     workgroup_memory_barrier_with_group_sync();

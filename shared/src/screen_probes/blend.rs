@@ -22,11 +22,10 @@
 //! The ray radiance is not quantised: workgroup memory holds plain floats and each cell sums its
 //! rays in lane order (the reference bins with fixed-point atomics, ×1e4).
 
-use super::hemisphere::gather_mapped_counted;
 use glam::{UVec2, Vec3, Vec4};
 
 use super::LANES;
-use super::hemisphere::UNMAPPED;
+use super::hemisphere::{UNMAPPED, gather_linked_counted};
 use super::hysteresis::{apply_hysteresis, hysteresis_weight};
 #[cfg(not(target_arch = "spirv"))]
 use super::hysteresis::{cell_change, other_cells};
@@ -88,17 +87,18 @@ pub fn ray_source(ray: ProbeRay, record: RayRecord) -> (u32, [f32; 4]) {
     }
 }
 
-/// Phase 2, lane = cell `target`: the mean of the rays in `mapped` that landed in it ([`EMPTY`]
-/// when none), how many did, and the probability (`probabilities`, per ray) they were drawn with
+/// Phase 2, lane = cell `target`: the mean of the rays that landed in it, on its list of
+/// `hemisphere::link_mapped` (`heads`, `next`; [`EMPTY`] when none), how many did, and the probability (`probabilities`, per ray) they were drawn with
 /// (0: not guided, or no ray), in one pass over the rays.
 #[inline]
 pub fn gather_rays(
-    mapped: &[u32; LANES],
+    heads: &[u32; LANES],
+    next: &[u32; LANES],
     cells: &[[f32; 4]; LANES],
     probabilities: &[f32; LANES],
     target: u32,
 ) -> ([f32; 4], u32, f32) {
-    let (mean, n, last) = gather_mapped_counted(mapped, cells, target);
+    let (mean, n, last) = gather_linked_counted(heads, next, cells, target);
     let probability = if last < LANES {
         probabilities[last]
     } else {
@@ -193,8 +193,9 @@ pub fn blend_workgroup(
     let mut new = [EMPTY; LANES];
     let mut changes = [[0.0; 2]; LANES];
     let h = |lane: usize| history.get(lane).copied().unwrap_or(EMPTY);
+    let (heads, next) = super::hemisphere::linked(&mapped);
     for lane in 0..LANES {
-        let (mean, n, p) = gather_rays(&mapped, &cells, &probabilities, lane as u32);
+        let (mean, n, p) = gather_rays(&heads, &next, &cells, &probabilities, lane as u32);
         changes[lane] = cell_change(mean, h(lane));
         new[lane] = cell_estimate(guided, mean, n, p, h(lane));
     }

@@ -4,9 +4,10 @@
 //! (used by reprojection, by ray guiding's neighbour gather and by the probe filter).
 //!
 //! Re-binning without atomics: each source cell is *mapped* to the target cell its hit point is
-//! seen through from the target ([`map_cell`]), then each target cell averages the sources
-//! mapped to it ([`gather_mapped`]). A kernel keeps the 64 mapped cells in workgroup memory, one
-//! per lane; the CPU runs the same two steps in loops, so both sum in the same order.
+//! seen through from the target ([`map_cell`]), one lane links each target cell's sources
+//! ([`link_mapped`]), then each target cell averages the sources on its list
+//! ([`gather_linked`]). A kernel keeps the 64 mapped cells and the lists in workgroup memory, one
+//! per lane; the CPU runs the same steps in loops, so both sum in the same order.
 
 use super::{LANES, ProbeRecord};
 use glam::{UVec2, Vec2, Vec3};
@@ -119,45 +120,6 @@ pub fn map_cell(
 /// Marker of a source cell that maps nowhere ([`map_cell`] gave `None`).
 pub const UNMAPPED: u32 = u32::MAX;
 
-/// Target cell `target_cell`'s share of the mapped sources: the mean radiance and the mean hit
-/// distance of the sources `mapped[i] == target_cell` (`cells[i]` as mapped), or [`EMPTY`] when
-/// none lands there. `mapped` and `cells` hold one entry per source cell, [`UNMAPPED`] for none:
-/// workgroup arrays in the kernels (rust-gpu cannot turn them into slices).
-#[inline]
-pub fn gather_mapped(
-    mapped: &[u32; LANES],
-    cells: &[[f32; 4]; LANES],
-    target_cell: u32,
-) -> [f32; 4] {
-    gather_mapped_counted(mapped, cells, target_cell).0
-}
-
-/// [`gather_mapped`], with how many sources landed in the cell and the last of them (`LANES`
-/// when none), in the same pass over the sources.
-#[inline]
-pub fn gather_mapped_counted(
-    mapped: &[u32; LANES],
-    cells: &[[f32; 4]; LANES],
-    target_cell: u32,
-) -> ([f32; 4], u32, usize) {
-    let mut sum = Vec3::ZERO;
-    let mut distance = 0.0;
-    let mut n = 0u32;
-    let mut last = LANES;
-    let mut i = 0;
-    while i < LANES {
-        if mapped[i] == target_cell {
-            let c = cells[i];
-            sum += cell_radiance(c);
-            distance += c[3];
-            n += 1;
-            last = i;
-        }
-        i += 1;
-    }
-    (mean_cell(sum, distance, n), n, last)
-}
-
 /// The mean cell of `n` sources whose radiance and hit distance sum to `sum` and `distance`;
 /// [`EMPTY`] when `n` is 0.
 #[inline]
@@ -171,10 +133,11 @@ fn mean_cell(sum: Vec3, distance: f32, n: u32) -> [f32; 4] {
 }
 
 /// The sources of each target cell as lists in ascending source order, so that a lane walks its
-/// own sources ([`gather_linked`]) instead of scanning all 64 ([`gather_mapped`], 64 × 64 reads
-/// per workgroup): `heads[t]` is the first source mapped to cell `t` ([`LANES`] when none),
-/// `next[i]` the source after `i` in its list. One lane builds them (64 steps) between two
-/// barriers.
+/// own sources ([`gather_linked`]) instead of scanning all 64 (64 × 64 reads per workgroup):
+/// `heads[t]` is the first source mapped to cell `t` ([`LANES`] when none), `next[i]` the
+/// source after `i` in its list. `mapped` holds one target per source cell, [`UNMAPPED`] for
+/// none. One lane builds them (64 steps) between two barriers. The arrays are workgroup arrays
+/// in the kernels (rust-gpu cannot turn them into slices).
 #[inline]
 pub fn link_mapped(mapped: &[u32; LANES], heads: &mut [u32; LANES], next: &mut [u32; LANES]) {
     let mut t = 0;
@@ -193,8 +156,9 @@ pub fn link_mapped(mapped: &[u32; LANES], heads: &mut [u32; LANES], next: &mut [
     }
 }
 
-/// [`gather_mapped`] through the lists of [`link_mapped`]: the same sources added in the same
-/// order, so the same bits.
+/// Target cell `target_cell`'s share of the sources [`link_mapped`] listed: the mean radiance
+/// and the mean hit distance of the sources mapped to it (`cells[i]` as mapped), or [`EMPTY`]
+/// when none lands there.
 #[inline]
 pub fn gather_linked(
     heads: &[u32; LANES],
@@ -202,9 +166,22 @@ pub fn gather_linked(
     cells: &[[f32; 4]; LANES],
     target_cell: u32,
 ) -> [f32; 4] {
+    gather_linked_counted(heads, next, cells, target_cell).0
+}
+
+/// [`gather_linked`], with how many sources landed in the cell and the last of them (`LANES`
+/// when none), in the same walk.
+#[inline]
+pub fn gather_linked_counted(
+    heads: &[u32; LANES],
+    next: &[u32; LANES],
+    cells: &[[f32; 4]; LANES],
+    target_cell: u32,
+) -> ([f32; 4], u32, usize) {
     let mut sum = Vec3::ZERO;
     let mut distance = 0.0;
     let mut n = 0u32;
+    let mut last = LANES;
     let mut i = if (target_cell as usize) < LANES {
         heads[target_cell as usize] as usize
     } else {
@@ -215,17 +192,48 @@ pub fn gather_linked(
         sum += cell_radiance(c);
         distance += c[3];
         n += 1;
+        last = i;
         i = next[i] as usize;
     }
-    mean_cell(sum, distance, n)
+    (mean_cell(sum, distance, n), n, last)
+}
+
+/// The lists of `mapped` ([`link_mapped`]), for the CPU models of the kernels.
+#[inline]
+pub fn linked(mapped: &[u32; LANES]) -> ([u32; LANES], [u32; LANES]) {
+    let (mut heads, mut next) = ([0; LANES], [0; LANES]);
+    link_mapped(mapped, &mut heads, &mut next);
+    (heads, next)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// The linked gather gives the scanning gather's bits for every target cell, whatever the
-    /// map: random targets, unmapped sources, every source on one cell, none anywhere.
+    /// The gather the kernels did before the lists: every lane scanning all 64 sources.
+    fn scanning_gather(
+        mapped: &[u32; LANES],
+        cells: &[[f32; 4]; LANES],
+        target_cell: u32,
+    ) -> ([f32; 4], u32, usize) {
+        let mut sum = Vec3::ZERO;
+        let mut distance = 0.0;
+        let mut n = 0u32;
+        let mut last = LANES;
+        for i in 0..LANES {
+            if mapped[i] == target_cell {
+                sum += cell_radiance(cells[i]);
+                distance += cells[i][3];
+                n += 1;
+                last = i;
+            }
+        }
+        (mean_cell(sum, distance, n), n, last)
+    }
+
+    /// The linked gather gives the scanning gather's bits, count and last source for every
+    /// target cell, whatever the map: random targets, unmapped sources, every source on one
+    /// cell, none anywhere.
     #[test]
     fn linked_gather_is_the_scanning_gather() {
         let mut rng = crate::random::Random::new(3, 0);
@@ -247,16 +255,16 @@ mod tests {
                     rng.next_f32() * 50.0,
                 ];
             }
-            let (mut heads, mut next) = ([0; LANES], [0; LANES]);
-            link_mapped(&mapped, &mut heads, &mut next);
+            let (heads, next) = linked(&mapped);
             for t in 0..LANES as u32 + 1 {
-                let a = gather_mapped(&mapped, &cells, t);
-                let b = gather_linked(&heads, &next, &cells, t);
+                let (a, an, al) = scanning_gather(&mapped, &cells, t);
+                let (b, bn, bl) = gather_linked_counted(&heads, &next, &cells, t);
                 assert_eq!(
                     a.map(f32::to_bits),
                     b.map(f32::to_bits),
                     "case {case}, cell {t}"
                 );
+                assert_eq!((an, al), (bn, bl), "case {case}, cell {t}");
             }
         }
     }
@@ -292,8 +300,9 @@ mod tests {
             mapped[i as usize] = t;
             cells[i as usize] = moved;
         }
+        let (heads, next) = linked(&mapped);
         for i in 0..PROBE_CELLS {
-            let g = gather_mapped(&mapped, &cells, i);
+            let g = gather_linked(&heads, &next, &cells, i);
             assert!((g[0] - i as f32).abs() < 1e-6, "{i}: {g:?}");
             assert!((g[3] - 2.0).abs() < 1e-4);
         }

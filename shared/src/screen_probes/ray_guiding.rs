@@ -4,13 +4,13 @@
 //! current (reprojected) probes of the 3 × 3 probe tiles around the seed's tile that pass the
 //! reuse test: neighbour after neighbour, each lane maps one source cell into the new probe's
 //! hemisphere ([`map_history_source`], into workgroup memory), then each lane gathers its target
-//! cell (`hemisphere::gather_mapped`) and adds it to its running [`HistorySum`], the mean over
-//! the neighbours that filled the cell. *Ray guiding* turns that mean into a CDF over the 64
-//! cells (weight = luminance × cos θ, plus [`GUIDING_UNIFORM_FRACTION`] of the mean weight
-//! everywhere so that no cell is ever unreachable) and every lane draws one cell from it and a
-//! uniform direction inside that cell, recording the cell's probability ([`cell_share`]) for
-//! BlendScreenProbes' estimate; without guiding, lane `i` traces a uniform direction inside cell
-//! `i`. The history that BlendScreenProbes' hysteresis blends with is the probe's own: the cell
+//! cell (`hemisphere::gather_linked` over the lists of `hemisphere::link_mapped`) and adds it to
+//! its running [`HistorySum`], the mean over the neighbours that filled the cell. *Ray guiding*
+//! turns that mean into a CDF over the 64 cells (weight = luminance × cos θ, plus
+//! [`GUIDING_UNIFORM_FRACTION`] of the mean weight everywhere so that no cell is ever
+//! unreachable) and every lane draws one cell from it and a uniform direction inside that cell,
+//! recording the cell's probability ([`cell_share`]) for BlendScreenProbes' estimate; without
+//! guiding, lane `i` traces a uniform direction inside cell `i`. The history that BlendScreenProbes' hysteresis blends with is the probe's own: the cell
 //! of the spawn's own tile's probe ([`OWN_NEIGHBOUR`]), the neighbourhood's mean only where that
 //! is empty ([`blend_history`]). Averaging the neighbours over frames blurred the probe and moved
 //! the converged mean by −6 to +4 points (README, "Bias budget").
@@ -18,7 +18,8 @@
 //! Phases of the workgroup, with a barrier after each (the kernel and [`sample_workgroup`] run
 //! the same functions in the same order):
 //! 1. for each of the [`HISTORY_NEIGHBOURS`] neighbours: [`map_history_source`] per lane (source
-//!    cell), barrier, `hemisphere::gather_mapped` + [`HistorySum::add`] per lane (target cell,
+//!    cell), barrier, one lane links the cells' sources (`hemisphere::link_mapped`), barrier,
+//!    `hemisphere::gather_linked` + [`HistorySum::add`] per lane (target cell,
 //!    kept apart for the own tile), barrier;
 //! 2. [`guiding_raw_weight`] per lane into workgroup memory, barrier;
 //! 3. [`guiding_cdf`] per lane (inclusive prefix sum, each lane summing `0..=lane`), barrier;
@@ -26,8 +27,6 @@
 
 use glam::{UVec2, Vec3};
 
-#[cfg(not(target_arch = "spirv"))]
-use super::hemisphere::gather_mapped;
 use super::hemisphere::{ProbeFrame, UNMAPPED, cell_coords, map_cell, record_frame};
 use super::reuse::reuse_score;
 use super::{
@@ -344,8 +343,9 @@ pub fn sample_workgroup(
             mapped[lane as usize] = m;
             moved[lane as usize] = c;
         }
+        let (heads, next) = super::hemisphere::linked(&mapped);
         for lane in 0..PROBE_CELLS {
-            let gathered = gather_mapped(&mapped, &moved, lane);
+            let gathered = super::hemisphere::gather_linked(&heads, &next, &moved, lane);
             if k == OWN_NEIGHBOUR {
                 own[lane as usize] = gathered;
             }

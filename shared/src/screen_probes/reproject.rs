@@ -13,8 +13,8 @@
 //!    winner's surface, its depth, age + 1) and the old probe as the source. Per lane = source
 //!    cell ([`source_cell`], [`map_source_cell`]): where the cell lands in the new hemisphere
 //!    (parallax-corrected with [`FLAG_PARALLAX`]).
-//! 3. Per lane = target cell: [`gather_mapped`] (`hemisphere::gather_linked` in the kernel, over
-//!    the lists one lane links: the same sums, 64 reads per workgroup instead of 64 × 64), then
+//! 3. One lane links each target cell's sources (`hemisphere::link_mapped`), then per lane =
+//!    target cell: `hemisphere::gather_linked` (64 reads per workgroup, not 64 × 64), then
 //!    the radiance backup of empty cells with [`FLAG_RADIANCE_BACKUP`](super::FLAG_RADIANCE_BACKUP)
 //!    (`radiance_backup::probe_backup` once per probe, `radiance_backup::backed_up_cell` per
 //!    lane); lane 0 writes the record and the mask texel and counts ([`finish_tile`]).
@@ -27,10 +27,9 @@
 //! same order.
 
 use super::LANES;
-use super::hemisphere::{gather_mapped, record_frame};
 use glam::{UVec2, Vec2, Vec3, Vec4};
 
-use super::hemisphere::{ProbeFrame, UNMAPPED, map_cell};
+use super::hemisphere::{ProbeFrame, UNMAPPED, map_cell, record_frame};
 use super::reuse::reuse_score;
 use super::spawn::{probe_tile_spawn_seed, sees_surface};
 use super::{
@@ -414,9 +413,10 @@ pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4, Vec4)>(
         moved[lane as usize] = c;
     }
     // Phase 3.
+    let (heads, next) = super::hemisphere::linked(&mapped);
     let mut gathered = [EMPTY; LANES];
     for (lane, cell) in gathered.iter_mut().enumerate() {
-        *cell = gather_mapped(&mapped, &moved, lane as u32);
+        *cell = super::hemisphere::gather_linked(&heads, &next, &moved, lane as u32);
     }
     let backup = super::radiance_backup::probe_backup(frame, &gathered);
     for lane in 0..PROBE_CELLS {
