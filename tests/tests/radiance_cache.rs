@@ -288,11 +288,11 @@ fn the_cache_converges_to_the_furnace_radiance() {
             }
             for c in 0..MIP0_CELLS_PER_TILE {
                 let v = state.values[tile * CELLS_PER_TILE as usize + c as usize];
-                if v.count <= 0.0 {
+                if v.count() <= 0.0 {
                     continue;
                 }
-                let n = f64::from(v.count);
-                let m = v.radiance_sum() / v.count;
+                let n = f64::from(v.count());
+                let m = v.radiance_sum() / v.count();
                 for (k, (m, e)) in m.to_array().iter().zip(expected.to_array()).enumerate() {
                     let rel = f64::from(*m) / f64::from(e) - 1.0;
                     let z = rel * n.sqrt() / FURNACE_SIGMA;
@@ -301,7 +301,7 @@ fn the_cache_converges_to_the_furnace_radiance() {
                     pooled[k] += n * f64::from(*m);
                 }
                 cells += 1;
-                capped += usize::from(v.count >= MAX_SAMPLE_COUNT as f32);
+                capped += usize::from(v.count() >= MAX_SAMPLE_COUNT as f32);
                 samples += n;
             }
         }
@@ -554,7 +554,7 @@ fn read_mip(values: &[HashCellValue], tile: u32, cell: [u32; 2]) -> usize {
     (0..NUM_MIPS)
         .find(|&mip| {
             let v = values[cell_index(tile, mip, cell[0] >> mip, cell[1] >> mip) as usize];
-            v.count >= MAX_SAMPLE_COUNT as f32
+            v.count() >= MAX_SAMPLE_COUNT as f32
         })
         .unwrap_or(NUM_MIPS - 1) as usize
 }

@@ -131,7 +131,7 @@ fn pixel_cell(
             }
             if let Some(tile) = find_tile(keys, &desc, grid) {
                 let v = filtered_value(values, tile, desc.cell, grid.read_min_samples());
-                if best.value.is_none_or(|b| v.count > b.count) {
+                if best.value.is_none_or(|b| v.count() > b.count()) {
                     best.desc = desc;
                     best.value = Some(v);
                 }
@@ -191,7 +191,7 @@ pub fn debug_views(
                         ramp((c.desc.lod - lo) as f32 / (hi - lo).max(1) as f32)
                     }
                     (DebugView::SampleCount, Some(c)) => {
-                        let n = c.value.map_or(0.0, |v| v.count);
+                        let n = c.value.map_or(0.0, |v| v.count());
                         [(n / grid.sample_cap.max(1) as f32).min(1.0); 3]
                     }
                     (DebugView::Radiance, Some(c)) => {

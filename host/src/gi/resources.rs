@@ -338,11 +338,10 @@ impl CacheResources {
 
     /// The buffers that hold floats, with which of their words are floats (each record's
     /// [`FloatLayout`](gi_shared::layout::FloatLayout)): what a NaN check reads. Keys, lists,
-    /// counters, marks and the host's parameters are left out.
+    /// counters, marks, the host's parameters and the cell values (packed
+    /// [`gi_shared::packing::pack_wide16`]s, which cannot hold a NaN) are left out.
     pub fn float_buffers(&self) -> Result<Vec<(&Buffer, FloatWords)>> {
         Ok(vec![
-            (&self.values, FloatWords::ALL),
-            (&self.bounce_values, FloatWords::ALL),
             (&self.queries, FloatWords::of::<CacheQuery>()?),
             (&self.shadow_rays, FloatWords::of::<ShadowRay>()?),
             (&self.ray_records, FloatWords::of::<RayRecord>()?),

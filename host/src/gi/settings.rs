@@ -11,7 +11,7 @@ use gi_shared::lights::MAX_LIGHT_CANDIDATES;
 use gi_shared::screen_probes::PROBE_SIZE;
 use gi_shared::screen_probes::interpolate::MAX_INTERPOLATION_JITTER_PIXELS;
 
-/// Fewest tiles [`GiSettings::for_resolution`] gives a cache (2^11 = 2048 tiles: 2.8 MB of
+/// Fewest tiles [`GiSettings::for_resolution`] gives a cache (2^11 = 2048 tiles: 1.4 MB of
 /// values), so that a tiny image still has room for a whole small scene: with multi-bounce, the
 /// cells that bounce rays reach about double a closed room's live tiles (a 64 × 64 view of
 /// `indirect-room` overflowed 1024).

@@ -15,7 +15,7 @@ use crate::layout::{MAX_PUSH_CONSTANT_BYTES, MAX_STORAGE_BUFFER_BYTES};
 
 /// Largest hash-grid tile count the buffers allow (2^16 = 4096 buckets × 16 tiles by default).
 pub const MAX_HASH_GRID_TILES: usize = 1 << MAX_NUM_TILES_LOG2;
-/// Largest hash-grid cell count: tiles × 85 (5 570 560; the value buffer is 89 MB).
+/// Largest hash-grid cell count: tiles × 85 (5 570 560; the value buffer is 45 MB).
 pub const MAX_HASH_GRID_CELLS: usize = MAX_HASH_GRID_TILES * CELLS_PER_TILE as usize;
 /// `u32` words of one mip-0 cell's per-frame accumulator: `r`, `g`, `b` as 64-bit fixed point
 /// (`lo`, `hi`, see [`crate::fixed_point`]) and the sample count. Seven, not a padded eight: eight
@@ -32,58 +32,54 @@ pub const MAX_HASH_GRID_ACCUMULATOR_WORDS: usize = MAX_HASH_GRID_TILES * TILE_AC
 
 /// One hash-grid cell value: `(r · n, g · n, b · n, n)`, the running mean premultiplied by its
 /// sample count `n` so that coarser mips are plain sums. Mip-0 counts are integers ≤
-/// [`crate::hash_cells::MAX_SAMPLE_COUNT`]; a mip sums its children (≤ 16 · 4^mip). `f32`
-/// throughout: unlike half floats these neither saturate at 65504 nor lose the count's integrality.
+/// [`crate::hash_cells::MAX_SAMPLE_COUNT`]; a mip sums its children (≤ 16 · 4^mip). Stored as four
+/// [`crate::packing::pack_wide16`]s, 8 bytes instead of 16: unlike half floats they neither
+/// saturate at 65504 (a 10⁶ emitter's reflected light) nor lose a count's integrality below 1024
+/// (10 significant bits); sums and counts keep 0.1 % of precision
+/// ([`crate::packing::WIDE16_MAX_RELATIVE_ERROR`]), the mean 0.2 %. NaN and negative sums store 0.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct HashCellValue {
-    /// `r · n`.
-    pub r: f32,
-    /// `g · n`.
-    pub g: f32,
-    /// `b · n`.
-    pub b: f32,
-    /// Sample count `n`.
-    pub count: f32,
+    /// `r · n | g · n << 16`, `b · n | n << 16`.
+    words: [u32; 2],
 }
 
 impl HashCellValue {
     /// An empty cell.
-    pub const ZERO: Self = Self {
-        r: 0.0,
-        g: 0.0,
-        b: 0.0,
-        count: 0.0,
-    };
+    pub const ZERO: Self = Self { words: [0; 2] };
 
     /// A radiance sum `rgb · n` and its sample count `n`.
     #[inline]
     pub fn new(radiance_sum: Vec3, count: f32) -> Self {
         Self {
-            r: radiance_sum.x,
-            g: radiance_sum.y,
-            b: radiance_sum.z,
-            count,
+            words: crate::packing::pack_wide16x4(radiance_sum.extend(count)),
         }
     }
 
     /// `(rgb · n, n)`.
     #[inline]
     pub fn sum_and_count(&self) -> Vec4 {
-        Vec4::new(self.r, self.g, self.b, self.count)
+        crate::packing::unpack_wide16x4(self.words)
     }
 
     /// Radiance sum `rgb · n`.
     #[inline]
     pub fn radiance_sum(&self) -> Vec3 {
-        Vec3::new(self.r, self.g, self.b)
+        self.sum_and_count().truncate()
+    }
+
+    /// Sample count `n`.
+    #[inline]
+    pub fn count(&self) -> f32 {
+        crate::packing::unpack_wide16(self.words[1] >> 16)
     }
 
     /// Mean radiance, zero for an empty cell.
     #[inline]
     pub fn mean(&self) -> Vec3 {
-        if self.count > 0.0 {
-            self.radiance_sum() / self.count
+        let v = self.sum_and_count();
+        if v.w > 0.0 {
+            v.truncate() / v.w
         } else {
             Vec3::ZERO
         }
@@ -96,12 +92,8 @@ impl core::ops::Add for HashCellValue {
 
     #[inline]
     fn add(self, other: Self) -> Self {
-        Self {
-            r: self.r + other.r,
-            g: self.g + other.g,
-            b: self.b + other.b,
-            count: self.count + other.count,
-        }
+        let v = self.sum_and_count() + other.sum_and_count();
+        Self::new(v.truncate(), v.w)
     }
 }
 
@@ -330,11 +322,15 @@ mod tests {
 
     #[test]
     fn sizes_and_offsets() {
-        assert_eq!(size_of::<HashCellValue>(), 16);
-        assert_eq!(offset_of!(HashCellValue, r), 0);
-        assert_eq!(offset_of!(HashCellValue, g), 4);
-        assert_eq!(offset_of!(HashCellValue, b), 8);
-        assert_eq!(offset_of!(HashCellValue, count), 12);
+        assert_eq!(size_of::<HashCellValue>(), 8);
+        let v = HashCellValue::new(Vec3::new(3.0, 1e6, 0.0), 16.0);
+        assert_eq!(v.count(), 16.0);
+        assert_eq!(v.radiance_sum(), Vec3::new(3.0, 1_000_448.0, 0.0));
+        assert_eq!((v + v).count(), 32.0);
+        assert_eq!(
+            HashCellValue::new(Vec3::splat(f32::NAN), 1.0).mean(),
+            Vec3::ZERO
+        );
 
         assert_eq!(size_of::<HashCellAccumulator>(), 28);
         assert_eq!(offset_of!(HashCellAccumulator, r), 0);
@@ -369,8 +365,8 @@ mod tests {
     #[test]
     fn capacities() {
         assert_eq!(MAX_HASH_GRID_CELLS, 5_570_560);
-        // 89 MB of values and 117 MB of accumulators, each under the 128 MiB binding.
-        assert_eq!(MAX_HASH_GRID_CELLS * size_of::<HashCellValue>(), 89_128_960);
+        // 45 MB of values and 117 MB of accumulators, each under the 128 MiB binding.
+        assert_eq!(MAX_HASH_GRID_CELLS * size_of::<HashCellValue>(), 44_564_480);
         assert_eq!(MAX_HASH_GRID_ACCUMULATOR_WORDS * 4, 117_702_656);
         assert!(HashGridParams::new(Vec3::ZERO, 0.03, 0).fits_buffers());
         assert_eq!(
@@ -394,10 +390,11 @@ mod tests {
         assert_eq!(v + v, HashCellValue::new(Vec3::new(16.0, 8.0, 4.0), 32.0));
         assert_eq!(HashCellValue::ZERO, HashCellValue::default());
         assert_eq!(HashCellValue::ZERO.mean(), Vec3::ZERO);
-        // Large sums do not saturate.
-        assert_eq!(
-            HashCellValue::new(Vec3::splat(1e9), 1.0).radiance_sum(),
-            Vec3::splat(1e9)
+        // Large sums do not saturate; they keep 2^-10 of precision.
+        let big = HashCellValue::new(Vec3::splat(1e9), 1.0).radiance_sum();
+        assert!(
+            (big - 1e9).abs().max_element() <= 1e9 * crate::packing::WIDE16_MAX_RELATIVE_ERROR,
+            "{big}"
         );
 
         let a = HashCellAccumulator {

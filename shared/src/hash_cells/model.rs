@@ -327,14 +327,17 @@ mod tests {
         assert!(model.list(&p, live_list(8)).len() > 10);
         for q in &batch {
             let r = model.filtered_radiance(&p, q).expect("cached");
-            assert!(((r - l).abs() / l).max_element() <= 1e-5, "{r}");
+            // The packed sums' rounding, in a mip-0 cell and again in the mip it may read (the
+            // counts, integers, are exact).
+            let bound = 2.0 * crate::packing::WIDE16_MAX_RELATIVE_ERROR;
+            assert!(((r - l).abs() / l).max_element() <= bound, "{r}");
         }
         // Every mip-0 cell is capped at 16 samples.
         assert!(
             model
                 .values
                 .chunks(CELLS_PER_TILE as usize)
-                .all(|t| t[..64].iter().all(|v| v.count <= 16.0))
+                .all(|t| t[..64].iter().all(|v| v.count() <= 16.0))
         );
         assert_eq!(model.snapshot(&p).dangling_list_entries, 0);
     }

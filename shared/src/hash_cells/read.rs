@@ -34,7 +34,7 @@ pub fn filtered_index(
     let (mut x, mut y) = (cell[0], cell[1]);
     let mut mip = 0;
     let mut index = cell_index(tile, 0, x, y) as usize;
-    while values[index].count < min_samples && mip + 1 < NUM_MIPS {
+    while values[index].count() < min_samples && mip + 1 < NUM_MIPS {
         mip += 1;
         x /= 2;
         y /= 2;
@@ -69,13 +69,13 @@ pub fn bounce_filtered_radiance(
 ) -> Option<Vec3> {
     let index = filtered_index(values, tile, cell, min_samples);
     let own = values[index];
-    let value = if index < bounce.len() && bounce[index].count > 0.0 {
+    let value = if index < bounce.len() && bounce[index].count() > 0.0 {
         bounce[index]
     } else {
         own
     };
-    if own.count > 0.0 && value.count > 0.0 {
-        Some(value.radiance_sum() / value.count)
+    if own.count() > 0.0 && value.count() > 0.0 {
+        Some(value.radiance_sum() / value.count())
     } else {
         None
     }
@@ -91,8 +91,8 @@ pub fn filtered_radiance(
     min_samples: f32,
 ) -> Option<Vec3> {
     let value = filtered_value(values, tile, cell, min_samples);
-    if value.count > 0.0 {
-        Some(value.radiance_sum() / value.count)
+    if value.count() > 0.0 {
+        Some(value.radiance_sum() / value.count())
     } else {
         None
     }
@@ -138,7 +138,7 @@ mod tests {
             filtered_radiance(&values, 1, [5, 6], 1.0),
             Some(Vec3::splat(2.0))
         );
-        assert_eq!(filtered_value(&values, 1, [5, 6], 1.0).count, 2.0);
+        assert_eq!(filtered_value(&values, 1, [5, 6], 1.0).count(), 2.0);
         // A mip-0 cell with one sample answers itself.
         set(&mut values, 0, 5, 6, 0.5, 1.0);
         assert_eq!(
