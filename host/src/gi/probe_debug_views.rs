@@ -14,7 +14,7 @@ use gi_shared::hash_cells::layout::HashCellValue;
 use gi_shared::packing::{SEED_NONE, unpack_seed};
 use gi_shared::screen_probes::hemisphere::{ProbeFrame, cell_coords};
 use gi_shared::screen_probes::{
-    EMPTY_COUNT, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRecord, cell_is_filled,
+    EMPTY_COUNT, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRecord, StoredCell, cell_is_filled,
 };
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -87,11 +87,12 @@ pub fn gi_debug_views(ctx: &Context, gi: &GiRenderer) -> Result<Vec<GiDebugView>
     let layout = probes.layout;
     let [gx, gy] = layout.probe_grid;
     let records: Vec<ProbeRecord> = probes.records.current().read_back(ctx)?;
-    let atlas: Vec<[f32; 4]> = probes.atlas.current().read_back(ctx)?;
+    let unpack = |v: Vec<StoredCell>| v.iter().map(|c| c.unpack()).collect::<Vec<_>>();
+    let atlas = unpack(probes.atlas.current().read_back(ctx)?);
     let mask: Vec<u32> = probes.mask.current().read_back(ctx)?;
     let spawns: Vec<u32> = probes.spawns.read_back(ctx)?;
     let empty: Vec<u32> = probes.empty_tiles.read_back(ctx)?;
-    let history: Vec<[f32; 4]> = probes.history.read_back(ctx)?;
+    let history = unpack(probes.history.read_back(ctx)?);
     let counters: Vec<u32> = probes.counters.read_back(ctx)?;
     let mut views = vec![];
     let mut push = |name: &str, width: u32, height: u32, pixels: Vec<[f32; 3]>, radiance| {

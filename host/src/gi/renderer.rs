@@ -578,7 +578,8 @@ impl GiRenderer {
 
     /// Every buffer of the frame that holds floats, with which of its words are floats: what
     /// [`FiniteCheck`](crate::frame::FiniteCheck) reads to prove a frame clean. Parameters the
-    /// host writes, counters, keys, lists and packed integers are left out.
+    /// host writes, counters, keys, lists and packed integers (the probe cells:
+    /// [`gi_shared::screen_probes::StoredCell`]) are left out.
     pub fn float_buffers(&self) -> Result<Vec<(&Buffer, FloatWords)>> {
         let all = FloatWords::ALL;
         let (p, d) = (&self.probes, &self.denoiser);
@@ -586,13 +587,9 @@ impl GiRenderer {
         let probe_ray = FloatWords::of::<ProbeRay>()?;
         let surface = FloatWords::new(4, SURFACE_RECORD_FLOAT_WORDS)?;
         let mut buffers = vec![
-            (p.atlas.current(), all),
-            (p.atlas.previous(), all),
             (p.records.current(), probe_record),
             (p.records.previous(), probe_record),
-            (&p.history, all),
             (&p.rays, probe_ray),
-            (&p.filtered, all),
             (&p.sh, all),
             (&d.irradiance, all),
             (d.history.current(), all),

@@ -13,8 +13,8 @@ use crate::frame::Recorder;
 use crate::vulkan::{Buffer, Context, Image, Kernel, KernelModule, PingPong, SceneSets};
 use ash::vk;
 use gi_shared::screen_probes::{
-    EMPTY, GI_COUNTER_WORDS, GiFrameParams, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRay,
-    ProbeRecord, mask_mip_count, mask_mip_size, mask_words,
+    GI_COUNTER_WORDS, GiFrameParams, NO_PROBE, PROBE_CELLS, PROBE_SIZE, ProbeRay, ProbeRecord,
+    StoredCell, mask_mip_count, mask_mip_size, mask_words,
 };
 use gi_shared::sh::SH_COEFFICIENT_COUNT;
 use gi_shared::world_cache::CachePassParams;
@@ -205,7 +205,7 @@ pub struct ScreenProbeResources {
     pub records: PingPong<Buffer>,
     /// The probe mask's mip chain (packed seeds), this frame's and the previous frame's.
     pub mask: PingPong<Buffer>,
-    /// 64 cells per probe tile (`[f32; 4]`), this frame's and the previous frame's.
+    /// 64 cells per probe tile ([`StoredCell`]), this frame's and the previous frame's.
     pub atlas: PingPong<Buffer>,
     /// The spawn list (packed seeds).
     pub spawns: Buffer,
@@ -238,7 +238,6 @@ impl ScreenProbeResources {
         let cells = probes * PROBE_CELLS as usize;
         let mask = vec![NO_PROBE; mask_words(layout.probe_grid) as usize];
         let none = vec![ProbeRecord::NONE; probes];
-        let empty = vec![EMPTY; cells];
         let usage = vk::BufferUsageFlags::empty();
         let pair =
             |name: &str, make: &dyn Fn(&str) -> Result<Buffer>| -> Result<PingPong<Buffer>> {
@@ -256,12 +255,12 @@ impl ScreenProbeResources {
                 Buffer::device_local(ctx, n, &mask, usage)
             })?,
             atlas: pair("probe atlas", &|n| {
-                Buffer::device_local(ctx, n, &empty, usage)
+                Buffer::device_zeroed::<StoredCell>(ctx, n, cells)
             })?,
             spawns: Buffer::device_zeroed::<u32>(ctx, "probe spawns", spawns)?,
             empty_tiles: Buffer::device_zeroed::<u32>(ctx, "empty tiles", probes)?,
             overrides: Buffer::device_zeroed::<u32>(ctx, "override tiles", spawns)?,
-            history: Buffer::device_zeroed::<[f32; 4]>(
+            history: Buffer::device_zeroed::<StoredCell>(
                 ctx,
                 "probe history",
                 spawns * PROBE_CELLS as usize,
@@ -271,7 +270,7 @@ impl ScreenProbeResources {
                 "probe rays",
                 spawns * PROBE_CELLS as usize,
             )?,
-            filtered: Buffer::device_zeroed::<[f32; 4]>(
+            filtered: Buffer::device_zeroed::<StoredCell>(
                 ctx,
                 "filtered probes (horizontal)",
                 if probe_filter { cells } else { 1 },

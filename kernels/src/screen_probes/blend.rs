@@ -22,7 +22,9 @@ use gi_shared::screen_probes::hemisphere::{UNMAPPED, link_mapped};
 use gi_shared::screen_probes::hysteresis::{cell_change, other_cells};
 use gi_shared::screen_probes::radiance_backup::{backed_up_cell, probe_backup};
 use gi_shared::screen_probes::spawn::spawned_seed;
-use gi_shared::screen_probes::{EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord};
+use gi_shared::screen_probes::{
+    EMPTY, GiFrameParams, PROBE_CELLS, ProbeRay, ProbeRecord, StoredCell,
+};
 use gi_shared::world_cache::RayRecord;
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::{UVec3, Vec4};
@@ -45,10 +47,10 @@ pub fn blend_screen_probes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spawns: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] probe_rays: &[ProbeRay],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] ray_records: &[RayRecord],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] probe_history: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] probe_history: &[StoredCell],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] records: &mut [ProbeRecord],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] mask: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] atlas: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] atlas: &mut [StoredCell],
     #[spirv(workgroup)] mapped: &mut [u32; LANES],
     #[spirv(workgroup)] heads: &mut [u32; LANES],
     #[spirv(workgroup)] next: &mut [u32; LANES],
@@ -102,7 +104,7 @@ pub fn blend_screen_probes(
 
     // Phase 2, lane = cell: the rays' mean and its change from the history.
     let history = if ray_index < probe_history.len() {
-        probe_history[ray_index]
+        probe_history[ray_index].unpack()
     } else {
         EMPTY
     };
@@ -124,7 +126,7 @@ pub fn blend_screen_probes(
     let out = backed_up_cell(frame, blended[l], backup[0]);
     let i = (tile * PROBE_CELLS + lane) as usize;
     if i < atlas.len() {
-        atlas[i] = out;
+        atlas[i] = StoredCell::pack(out);
     }
     if lane == 0 {
         let t = tile as usize;

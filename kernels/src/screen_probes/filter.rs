@@ -7,7 +7,7 @@
 //! `[probe_grid.x, probe_grid.y, 1]` workgroups of 8 × 8.
 
 use gi_shared::screen_probes::probe_filter::filter_cell;
-use gi_shared::screen_probes::{GiFrameParams, PROBE_CELLS, ProbeRecord};
+use gi_shared::screen_probes::{GiFrameParams, PROBE_CELLS, ProbeRecord, StoredCell};
 use spirv_std::glam::UVec3;
 use spirv_std::spirv;
 
@@ -24,8 +24,8 @@ pub fn filter_screen_probes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &GiFrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] records: &[ProbeRecord],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] mask: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] input: &[[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] output: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] input: &[StoredCell],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] output: &mut [StoredCell],
 ) {
     if group.x >= frame.probe_grid[0] || group.y >= frame.probe_grid[1] {
         return;
@@ -34,6 +34,6 @@ pub fn filter_screen_probes(
     let cell = local % PROBE_CELLS;
     let i = (tile * PROBE_CELLS + cell) as usize;
     if i < output.len() {
-        output[i] = filter_cell(frame, records, mask, input, tile, *axis, cell);
+        output[i] = StoredCell::pack(filter_cell(frame, records, mask, input, tile, *axis, cell));
     }
 }

@@ -10,7 +10,7 @@ use gi_shared::screen_probes::hemisphere::record_frame;
 use gi_shared::screen_probes::sh_projection::{
     SH_TERMS, cell_sh_terms, sh_term_index, sum_sh_coefficient,
 };
-use gi_shared::screen_probes::{EMPTY, GiFrameParams, PROBE_CELLS, ProbeRecord};
+use gi_shared::screen_probes::{EMPTY, GiFrameParams, PROBE_CELLS, ProbeRecord, StoredCell};
 use gi_shared::sh::SH_COEFFICIENT_COUNT;
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::UVec3;
@@ -23,7 +23,7 @@ pub fn project_screen_probes(
     #[spirv(local_invocation_index)] local: u32,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] frame: &GiFrameParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] records: &[ProbeRecord],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] cells: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] cells: &[StoredCell],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] sh: &mut [[f32; 4]],
     #[spirv(workgroup)] terms: &mut [[f32; 4]; SH_TERMS],
 ) {
@@ -46,7 +46,11 @@ pub fn project_screen_probes(
         return;
     }
     let i = (tile * PROBE_CELLS + lane) as usize;
-    let cell = if i < cells.len() { cells[i] } else { EMPTY };
+    let cell = if i < cells.len() {
+        cells[i].unpack()
+    } else {
+        EMPTY
+    };
     let t = cell_sh_terms(&record_frame(&record), lane, cell);
     let mut k = 0;
     while k < SH_COEFFICIENT_COUNT {

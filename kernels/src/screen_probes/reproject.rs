@@ -22,7 +22,7 @@ use gi_shared::screen_probes::reproject::{
     reprojection, reuse_candidate, source_cell, spawn_fills, winner_lane,
 };
 use gi_shared::screen_probes::spawn::probe_tile_spawn_seed;
-use gi_shared::screen_probes::{GiFrameParams, LANES, PROBE_CELLS, ProbeRecord};
+use gi_shared::screen_probes::{GiFrameParams, LANES, PROBE_CELLS, ProbeRecord, StoredCell};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::{UVec2, UVec3, Vec4};
 use spirv_std::spirv;
@@ -67,10 +67,10 @@ pub fn reproject_screen_probes(
     #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] previous_records: &[ProbeRecord],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] previous_mask: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] previous_atlas: &[[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] previous_atlas: &[StoredCell],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] records: &mut [ProbeRecord],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] mask: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] atlas: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] atlas: &mut [StoredCell],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] empty_tiles: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] counters: &mut [u32],
     #[spirv(descriptor_set = 0, binding = 12)] motion: &FloatImage,
@@ -148,7 +148,7 @@ pub fn reproject_screen_probes(
     let out = backed_up_cell(frame, gathered[l], backup[0]);
     let i = (tile_index * PROBE_CELLS + lane) as usize;
     if i < atlas.len() {
-        atlas[i] = out;
+        atlas[i] = StoredCell::pack(out);
     }
     if lane == 0 {
         let spawn_seed = probe_tile_spawn_seed(frame, tile_index);

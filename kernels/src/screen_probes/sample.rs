@@ -20,7 +20,9 @@ use gi_shared::screen_probes::ray_guiding::{
     guiding_raw_weight, history_neighbour, map_history_source, sample_ray, untraced_ray,
 };
 use gi_shared::screen_probes::spawn::spawned_seed;
-use gi_shared::screen_probes::{EMPTY, GiFrameParams, LANES, PROBE_CELLS, ProbeRay, ProbeRecord};
+use gi_shared::screen_probes::{
+    EMPTY, GiFrameParams, LANES, PROBE_CELLS, ProbeRay, ProbeRecord, StoredCell,
+};
 use spirv_std::arch::workgroup_memory_barrier_with_group_sync;
 use spirv_std::glam::{UVec3, Vec4};
 use spirv_std::spirv;
@@ -41,8 +43,8 @@ pub fn sample_screen_probes(
     #[spirv(descriptor_set = 0, binding = 3)] geometric_normal: &HalfImage,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spawns: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] records: &[ProbeRecord],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] atlas: &[[f32; 4]],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] probe_history: &mut [[f32; 4]],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] atlas: &[StoredCell],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] probe_history: &mut [StoredCell],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] probe_rays: &mut [ProbeRay],
     #[spirv(workgroup)] mapped: &mut [u32; LANES],
     #[spirv(workgroup)] moved: &mut [[f32; 4]; LANES],
@@ -71,7 +73,7 @@ pub fn sample_screen_probes(
     // Uniform too (every lane reads the same seed): a seed that sees no surface traces nothing.
     if !record.is_valid() {
         if out < probe_history.len() {
-            probe_history[out] = EMPTY;
+            probe_history[out] = StoredCell::EMPTY;
         }
         if out < probe_rays.len() {
             probe_rays[out] = untraced_ray(lane);
@@ -105,7 +107,7 @@ pub fn sample_screen_probes(
     }
     let history = history.cell();
     if out < probe_history.len() {
-        probe_history[out] = blend_history(own, history);
+        probe_history[out] = StoredCell::pack(blend_history(own, history));
     }
 
     // Phases 2 and 3: raw weights, then the CDF.

@@ -178,7 +178,7 @@ pub fn blend_workgroup(
     params: &GiFrameParams,
     rays: &[ProbeRay],
     ray_records: &[RayRecord],
-    history: &[[f32; 4]],
+    history: &[super::StoredCell],
 ) -> [[f32; 4]; LANES] {
     let mut mapped = [UNMAPPED; LANES];
     let mut cells = [EMPTY; LANES];
@@ -192,7 +192,7 @@ pub fn blend_workgroup(
     let guided = probabilities[0] > 0.0;
     let mut new = [EMPTY; LANES];
     let mut changes = [[0.0; 2]; LANES];
-    let h = |lane: usize| history.get(lane).copied().unwrap_or(EMPTY);
+    let h = |lane: usize| history.get(lane).map_or(EMPTY, |c| c.unpack());
     let (heads, next) = super::hemisphere::linked(&mapped);
     for lane in 0..LANES {
         let (mean, n, p) = gather_rays(&heads, &next, &cells, &probabilities, lane as u32);
@@ -268,7 +268,12 @@ mod tests {
                 rays[lane].cell_probability = cell_share(&cdf, c);
                 records[lane] = radiance(truth(c as usize));
             }
-            let out = blend_workgroup(&params(0), &rays, &records, &history);
+            let out = blend_workgroup(
+                &params(0),
+                &rays,
+                &records,
+                &crate::screen_probes::stored_cells(&history),
+            );
             for c in 0..64 {
                 sums[c] += f64::from(out[c][0]);
             }
@@ -292,8 +297,9 @@ mod tests {
             r.cell_probability = 1.0;
             r
         });
+        let history = crate::screen_probes::stored_cells(&history);
         let out = blend_workgroup(&params(0), &rays, &[radiance(1.0); 64], &history);
-        assert_eq!(out[5], make_cell(Vec3::ZERO, history[5][3]));
+        assert_eq!(out[5], make_cell(Vec3::ZERO, history[5].unpack()[3]));
         assert!((out[3][0] - 1.0).abs() < 1e-6, "{:?}", out[3]);
     }
 
@@ -342,7 +348,12 @@ mod tests {
                     let seen = if rng.next_f32() < 0.5 { 0.0 } else { 2.0 };
                     radiance(truth(r.cell) * seen)
                 });
-                history = blend_workgroup(&p, &rays, &records, &history);
+                history = blend_workgroup(
+                    &p,
+                    &rays,
+                    &records,
+                    &crate::screen_probes::stored_cells(&history),
+                );
                 if frame_index >= 100 {
                     sum += history.iter().map(|c| f64::from(c[0])).sum::<f64>();
                     frames += 1;
@@ -375,7 +386,12 @@ mod tests {
         records[5].ray_radiance[2] = -1.0;
         rays[6].direction = [0.0; 3];
         let history = [EMPTY; 64];
-        let out = blend_workgroup(&params(0), &rays, &records, &history);
+        let out = blend_workgroup(
+            &params(0),
+            &rays,
+            &records,
+            &crate::screen_probes::stored_cells(&history),
+        );
         // Cell 10: its own ray (lane 10) and lanes 0..4: radiance mean of 0, 1, 2, 3, 10.
         let mean = (0.0 + 1.0 + 2.0 + 3.0 + 10.0) / 5.0;
         let expected = make_cell(
@@ -396,7 +412,12 @@ mod tests {
         }
         assert_eq!(out[40], make_cell(Vec3::new(40.0, 20.0, 10.0), 42.0));
         // With the backup, the empty cells take the mean of the filled ones at the sky's distance.
-        let out = blend_workgroup(&params(FLAG_RADIANCE_BACKUP), &rays, &records, &history);
+        let out = blend_workgroup(
+            &params(FLAG_RADIANCE_BACKUP),
+            &rays,
+            &records,
+            &crate::screen_probes::stored_cells(&history),
+        );
         assert_eq!(out[0][3], MISS_DISTANCE);
         assert_eq!(out[0], out[6]);
         assert!(out.iter().all(|&c| cell_is_filled(c)));
@@ -415,7 +436,12 @@ mod tests {
         records[11] = radiance(0.01);
         let history = [make_cell(Vec3::new(1.0, 0.5, 0.25), 3.0); 64];
         let flags = FLAG_HISTORY | FLAG_HYSTERESIS;
-        let out = blend_workgroup(&params(flags), &rays, &records, &history);
+        let out = blend_workgroup(
+            &params(flags),
+            &rays,
+            &records,
+            &crate::screen_probes::stored_cells(&history),
+        );
         assert_eq!(out[7], history[7]);
         // The other cells held still (cell 9 is left out of its own change; cell 11's shadow
         // counts 0.99 of 62 cells): the firefly is averaged in with weight about 7/8; its
@@ -431,7 +457,12 @@ mod tests {
         let expected = 0.01 + (1.0 - 0.01) * w;
         assert!((out[11][0] - expected).abs() < 1e-4, "{:?}", out[11]);
         // Without hysteresis the firefly stays.
-        let out = blend_workgroup(&params(FLAG_HISTORY), &rays, &records, &history);
+        let out = blend_workgroup(
+            &params(FLAG_HISTORY),
+            &rays,
+            &records,
+            &crate::screen_probes::stored_cells(&history),
+        );
         assert_eq!(out[9][0], 1000.0);
     }
 

@@ -15,13 +15,13 @@
 //! |-------------------|----------------------|-------------|------------|
 //! | probe records ×2  | [`ProbeRecord`]      | `P`         | ReprojectScreenProbes, BlendScreenProbes |
 //! | probe mask ×2     | `u32` packed seed    | [`mask_words`] | Reproject/Blend (mip 0), FilterProbeMask |
-//! | probe atlas ×2    | `[f32; 4]` cell      | `P × 64`    | Reproject, Blend |
+//! | probe atlas ×2    | [`StoredCell`]       | `P × 64`    | Reproject, Blend |
 //! | spawns            | `u32` packed seed    | `S`         | SpawnScreenProbes, PatchScreenProbes |
 //! | empty tiles       | `u32` probe tile     | `P`         | ReprojectScreenProbes |
 //! | overrides         | `u32` spawn index    | `S`         | SpawnScreenProbes |
-//! | probe history     | `[f32; 4]` cell      | `S × 64`    | SampleScreenProbes (ray guiding) |
+//! | probe history     | [`StoredCell`]       | `S × 64`    | SampleScreenProbes (ray guiding) |
 //! | probe rays        | [`ProbeRay`]         | `S × 64`    | SampleScreenProbes, PopulateScreenProbes |
-//! | filtered ×2       | `[f32; 4]` cell      | `P × 64`    | FilterScreenProbes (H, then V) |
+//! | filtered ×2       | [`StoredCell`]       | `P × 64`    | FilterScreenProbes (H, then V) |
 //! | probe SH          | `[f32; 4]` × 9       | `P × 9`     | ProjectScreenProbes |
 //! | counters          | `u32`                | [`GI_COUNTER_WORDS`] | every appending pass |
 //!
@@ -36,7 +36,10 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{UVec2, Vec3, Vec4};
 
-use crate::packing::{SEED_NONE, unpack_seed, unpack_snorm10x3};
+use crate::math::max_u32;
+use crate::packing::{
+    SEED_NONE, WIDE16_MANTISSA_BITS, pack_wide16, unpack_seed, unpack_snorm10x3, unpack_wide16,
+};
 
 pub mod blend;
 pub mod hemisphere;
@@ -60,8 +63,9 @@ pub const PROBE_CELLS: u32 = PROBE_SIZE * PROBE_SIZE;
 pub const LANES: usize = PROBE_CELLS as usize;
 /// Mask texel of a probe tile without a probe.
 pub const NO_PROBE: u32 = SEED_NONE;
-/// Hit distance of a ray that missed (the reference's `MAX_HIT_DISTANCE`).
-pub const MISS_DISTANCE: f32 = 1e9;
+/// Hit distance of a ray that missed (the reference's `MAX_HIT_DISTANCE`, 10⁹, rounded to 2^30 so
+/// that a [`StoredCell`] holds it exactly).
+pub const MISS_DISTANCE: f32 = 1_073_741_824.0;
 /// Hit distance of a cell without radiance.
 pub const EMPTY_CELL: f32 = -1.0;
 /// Probe reuse: at most this plane distance, in units of the probe cell size (reference: 1).
@@ -344,6 +348,61 @@ pub fn make_cell(radiance: Vec3, hit_distance: f32) -> [f32; 4] {
 
 /// The empty cell.
 pub const EMPTY: [f32; 4] = [0.0, 0.0, 0.0, EMPTY_CELL];
+
+/// A cell as the probe buffers store it (atlas, probe history, the probe filter's output): its
+/// `[r, g, b, hit distance]` as four [`pack_wide16`]s, 8 bytes instead of 16, at 2^-10 of
+/// precision over any radiance and distance. Distance code 0 marks an empty cell (so a zeroed
+/// buffer is empty); a filled cell's distance is at least [`crate::packing::WIDE16_MIN`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct StoredCell {
+    /// `r | g << 16`, `b | hit distance << 16`.
+    words: [u32; 2],
+}
+
+/// `cells` as the probe buffers store them (the CPU models' tests).
+#[cfg(test)]
+pub(crate) fn stored_cells(cells: &[[f32; 4]]) -> std::vec::Vec<StoredCell> {
+    cells.iter().map(|&c| StoredCell::pack(c)).collect()
+}
+
+impl StoredCell {
+    /// The empty cell, all zero bits.
+    pub const EMPTY: Self = Self { words: [0; 2] };
+
+    /// `cell` packed: negative radiance and NaN store 0; an empty cell stores distance code 0.
+    #[inline]
+    pub fn pack(cell: [f32; 4]) -> Self {
+        let filled = cell_is_filled(cell);
+        let distance = if filled {
+            max_u32(pack_wide16(cell[3]), 1 << WIDE16_MANTISSA_BITS)
+        } else {
+            0
+        };
+        Self {
+            words: [
+                pack_wide16(cell[0]) | (pack_wide16(cell[1]) << 16),
+                pack_wide16(cell[2]) | (distance << 16),
+            ],
+        }
+    }
+
+    /// The cell [`Self::pack`] stored, [`EMPTY_CELL`] as the distance of an empty one.
+    #[inline]
+    pub fn unpack(self) -> [f32; 4] {
+        let distance = self.words[1] >> 16;
+        [
+            unpack_wide16(self.words[0]),
+            unpack_wide16(self.words[0] >> 16),
+            unpack_wide16(self.words[1]),
+            if distance == 0 {
+                EMPTY_CELL
+            } else {
+                unpack_wide16(distance)
+            },
+        ]
+    }
+}
 
 /// Mips of the probe mask of a `grid` of probe tiles: down to 1 × 1.
 #[inline]

@@ -25,6 +25,7 @@
 //! with the filter, −1.3 % without). Comparing the neighbour's point with the centre's is
 //! symmetric in near and far, and the filter keeps the mean (−1.3 %).
 
+use super::StoredCell;
 use glam::{UVec2, Vec3};
 
 use super::hemisphere::record_frame;
@@ -92,7 +93,7 @@ pub fn filter_cell(
     params: &GiFrameParams,
     records: &[ProbeRecord],
     mask: &[u32],
-    input: &[[f32; 4]],
+    input: &[StoredCell],
     tile: u32,
     axis: u32,
     cell: u32,
@@ -101,7 +102,7 @@ pub fn filter_cell(
     if index >= input.len() || cell >= PROBE_CELLS {
         return EMPTY;
     }
-    let centre_cell = input[index];
+    let centre_cell = input[index].unpack();
     if !params.has(FLAG_PROBE_FILTER) || !cell_is_filled(centre_cell) || params.probe_grid[0] == 0 {
         return centre_cell;
     }
@@ -155,7 +156,7 @@ pub fn same_point(
 #[inline]
 fn neighbour_tap(
     params: &GiFrameParams,
-    input: &[[f32; 4]],
+    input: &[StoredCell],
     neighbour: &ProbeRecord,
     tile: u32,
     centre: &ProbeRecord,
@@ -174,7 +175,7 @@ fn neighbour_tap(
     if i >= input.len() {
         return (0.0, Vec3::ZERO);
     }
-    let cell = input[i];
+    let cell = input[i].unpack();
     if !cell_is_filled(cell) {
         return (0.0, Vec3::ZERO);
     }
@@ -192,8 +193,8 @@ pub fn filter_probes(
     params: &GiFrameParams,
     records: &[ProbeRecord],
     mask: &[u32],
-    input: &[[f32; 4]],
-    output: &mut [[f32; 4]],
+    input: &[StoredCell],
+    output: &mut [StoredCell],
     axis: u32,
 ) {
     let tiles = params.probe_grid[0] * params.probe_grid[1];
@@ -203,7 +204,8 @@ pub fn filter_probes(
         while cell < PROBE_CELLS {
             let i = (tile * PROBE_CELLS + cell) as usize;
             if i < output.len() {
-                output[i] = filter_cell(params, records, mask, input, tile, axis, cell);
+                output[i] =
+                    StoredCell::pack(filter_cell(params, records, mask, input, tile, axis, cell));
             }
             cell += 1;
         }
@@ -264,9 +266,10 @@ mod tests {
         }
 
         fn filter(&self, p: &GiFrameParams, axis: u32) -> Vec<[f32; 4]> {
-            let mut out = vec![[9.0; 4]; self.cells.len()];
-            filter_probes(p, &self.records, &self.mask, &self.cells, &mut out, axis);
-            out
+            let mut out = vec![StoredCell::pack([9.0; 4]); self.cells.len()];
+            let input = crate::screen_probes::stored_cells(&self.cells);
+            filter_probes(p, &self.records, &self.mask, &input, &mut out, axis);
+            out.iter().map(|c| c.unpack()).collect()
         }
     }
 
@@ -288,7 +291,9 @@ mod tests {
         let out = probes.filter(&p, AXIS_HORIZONTAL);
         for c in 0..64 {
             let got = out[(centre * 64 + c) as usize];
-            assert!((got[0] - 13.0 / 7.0).abs() < 1e-5, "{got:?}");
+            // Within the stored cell's rounding.
+            let e = 13.0 / 7.0 * crate::packing::WIDE16_MAX_RELATIVE_ERROR;
+            assert!((got[0] - 13.0 / 7.0).abs() <= e, "{got:?}");
             assert_eq!(got[3], 50.0, "the centre's hit distance is kept");
         }
         // The vertical pass sees no neighbour in the column: the centre as is.
@@ -304,7 +309,8 @@ mod tests {
         let w = 0.95f32.powi(8);
         assert!((depth_weight(10.0, 10.5) - w).abs() < 1e-6);
         let expected = (1.0 + 2.0 * w) / (1.0 + w);
-        assert!((out[(centre * 64 + 9) as usize][0] - expected).abs() < 1e-5);
+        let e = expected * crate::packing::WIDE16_MAX_RELATIVE_ERROR;
+        assert!((out[(centre * 64 + 9) as usize][0] - expected).abs() <= e);
         // Without the flag every cell is copied.
         let out = probes.filter(&params(FLAG_HISTORY), AXIS_VERTICAL);
         assert_eq!(out, probes.cells);
@@ -400,16 +406,16 @@ mod tests {
         }
         let p = params(FLAG_PROBE_FILTER);
         let horizontal = probes.filter(&p, AXIS_HORIZONTAL);
-        let mut out = vec![EMPTY; horizontal.len()];
+        let mut out = vec![StoredCell::EMPTY; horizontal.len()];
         filter_probes(
             &p,
             &probes.records,
             &probes.mask,
-            &horizontal,
+            &crate::screen_probes::stored_cells(&horizontal),
             &mut out,
             AXIS_VERTICAL,
         );
-        let sum_out: f32 = out.iter().map(|c| c[0]).sum();
+        let sum_out: f32 = out.iter().map(|c| c.unpack()[0]).sum();
         assert!(
             (sum_out / sum_in - 1.0).abs() < 0.01,
             "{sum_in} → {sum_out}"

@@ -25,6 +25,7 @@
 //! 3. [`guiding_cdf`] per lane (inclusive prefix sum, each lane summing `0..=lane`), barrier;
 //! 4. [`guiding_active`] and [`sample_ray`] per lane.
 
+use super::StoredCell;
 use glam::{UVec2, Vec3};
 
 use super::hemisphere::{ProbeFrame, UNMAPPED, cell_coords, map_cell, record_frame};
@@ -108,7 +109,7 @@ pub fn history_neighbour(
 #[inline]
 pub fn map_history_source(
     params: &GiFrameParams,
-    atlas: &[[f32; 4]],
+    atlas: &[StoredCell],
     neighbour: Option<(u32, ProbeFrame)>,
     frame: &ProbeFrame,
     lane: u32,
@@ -116,7 +117,7 @@ pub fn map_history_source(
     if let Some((tile, source)) = neighbour {
         let i = (tile * PROBE_CELLS + lane) as usize;
         if lane < PROBE_CELLS && i < atlas.len() {
-            let cell = atlas[i];
+            let cell = atlas[i].unpack();
             if let Some(mapped) = map_cell(&source, frame, lane, cell, params.has(FLAG_PARALLAX)) {
                 return mapped;
             }
@@ -326,7 +327,7 @@ pub struct SampledProbe {
 pub fn sample_workgroup(
     params: &GiFrameParams,
     records: &[ProbeRecord],
-    atlas: &[[f32; 4]],
+    atlas: &[StoredCell],
     seed: UVec2,
     frame: &ProbeFrame,
     spawn: u32,
@@ -434,13 +435,22 @@ mod tests {
         let (records, atlas, frame, seed) =
             scene(|c| make_cell(Vec3::new(c as f32, 1.0, 2.0), 3.0 + c as f32 * 0.01));
         let tile = 2 * 8 + 2 + 1;
-        let out = sample_workgroup(&params(ALL), &records, &atlas, seed, &frame, 0);
+        let out = sample_workgroup(
+            &params(ALL),
+            &records,
+            &crate::screen_probes::stored_cells(&atlas),
+            seed,
+            &frame,
+            0,
+        );
         for c in 0..PROBE_CELLS {
             let expected = atlas[(tile * 64 + c) as usize];
             let got = out.history[c as usize];
             for k in 0..4 {
                 assert!(
-                    (got[k] - expected[k]).abs() < 1e-3,
+                    // Parallax's rounding, then the stored cell's.
+                    (got[k] - expected[k]).abs()
+                        < 1e-3 + expected[k].abs() * crate::packing::WIDE16_MAX_RELATIVE_ERROR,
                     "cell {c}: {got:?} vs {expected:?}"
                 );
             }
@@ -448,7 +458,14 @@ mod tests {
         // Without history (or without reprojection) nothing is gathered and every lane traces
         // its own cell.
         for flags in [ALL & !FLAG_HISTORY, ALL & !FLAG_REPROJECTION] {
-            let out = sample_workgroup(&params(flags), &records, &atlas, seed, &frame, 0);
+            let out = sample_workgroup(
+                &params(flags),
+                &records,
+                &crate::screen_probes::stored_cells(&atlas),
+                seed,
+                &frame,
+                0,
+            );
             assert!(out.history.iter().all(|&h| h == EMPTY));
             assert!(!out.guided);
             for (lane, ray) in out.rays.iter().enumerate() {
@@ -481,17 +498,38 @@ mod tests {
             atlas[(below * 64 + c) as usize] = make_cell(Vec3::splat(100.0), 1e9);
         }
         // The history is the own tile's probe; guiding follows the mean of the two (2).
-        let out = sample_workgroup(&params(ALL), &records, &atlas, seed, &frame, 0);
+        let out = sample_workgroup(
+            &params(ALL),
+            &records,
+            &crate::screen_probes::stored_cells(&atlas),
+            seed,
+            &frame,
+            0,
+        );
         for h in out.history {
             assert!((h[0] - 3.0).abs() < 1e-5, "{h:?}");
         }
         let mut uniform = records.clone();
         uniform[(below) as usize] = ProbeRecord::NONE;
-        let guided = sample_workgroup(&params(ALL), &uniform, &atlas, seed, &frame, 0);
+        let guided = sample_workgroup(
+            &params(ALL),
+            &uniform,
+            &crate::screen_probes::stored_cells(&atlas),
+            seed,
+            &frame,
+            0,
+        );
         assert_eq!(guided.cdf, out.cdf);
         // Without a probe in its own tile, the neighbour's cells stand in.
         records[own as usize] = ProbeRecord::NONE;
-        let out = sample_workgroup(&params(ALL), &records, &atlas, seed, &frame, 0);
+        let out = sample_workgroup(
+            &params(ALL),
+            &records,
+            &crate::screen_probes::stored_cells(&atlas),
+            seed,
+            &frame,
+            0,
+        );
         for h in out.history {
             assert!((h[0] - 1.0).abs() < 1e-5, "{h:?}");
         }
@@ -515,7 +553,14 @@ mod tests {
         let draws = 800;
         for frame_index in 0..draws {
             let p = GiFrameParams { frame_index, ..p };
-            let out = sample_workgroup(&p, &records, &atlas, seed, &frame, 3);
+            let out = sample_workgroup(
+                &p,
+                &records,
+                &crate::screen_probes::stored_cells(&atlas),
+                seed,
+                &frame,
+                3,
+            );
             assert!(out.guided);
             for ray in out.rays {
                 counts[ray.cell as usize] += 1;
@@ -526,7 +571,14 @@ mod tests {
         }
         let total = (draws * 64) as f32;
         // The CDF's probabilities: every cell has a positive share.
-        let out = sample_workgroup(&p, &records, &atlas, seed, &frame, 3);
+        let out = sample_workgroup(
+            &p,
+            &records,
+            &crate::screen_probes::stored_cells(&atlas),
+            seed,
+            &frame,
+            3,
+        );
         let mut last = 0.0;
         let mut probability = [0.0f32; 64];
         for (i, &c) in out.cdf.iter().enumerate() {
@@ -552,19 +604,33 @@ mod tests {
     #[test]
     fn guiding_needs_the_flag_and_light_in_the_history() {
         let (records, atlas, frame, seed) = scene(|_| make_cell(Vec3::ZERO, 2.0));
-        let out = sample_workgroup(&params(ALL), &records, &atlas, seed, &frame, 0);
+        let out = sample_workgroup(
+            &params(ALL),
+            &records,
+            &crate::screen_probes::stored_cells(&atlas),
+            seed,
+            &frame,
+            0,
+        );
         assert!(!out.guided, "a black history has no CDF");
         let (records, atlas, frame, seed) = scene(|_| make_cell(Vec3::ONE, 2.0));
         let out = sample_workgroup(
             &params(ALL & !FLAG_RAY_GUIDING),
             &records,
-            &atlas,
+            &crate::screen_probes::stored_cells(&atlas),
             seed,
             &frame,
             0,
         );
         assert!(!out.guided);
-        let out = sample_workgroup(&params(ALL), &records, &atlas, seed, &frame, 0);
+        let out = sample_workgroup(
+            &params(ALL),
+            &records,
+            &crate::screen_probes::stored_cells(&atlas),
+            seed,
+            &frame,
+            0,
+        );
         assert!(out.guided);
     }
 

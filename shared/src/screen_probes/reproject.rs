@@ -27,6 +27,7 @@
 //! same order.
 
 use super::LANES;
+use super::StoredCell;
 use glam::{UVec2, Vec2, Vec3, Vec4};
 
 use super::hemisphere::{ProbeFrame, UNMAPPED, map_cell, record_frame};
@@ -250,13 +251,13 @@ pub fn reprojection(
 /// Cell `lane` of the previous probe of tile `source` in the previous atlas, [`EMPTY`] when out
 /// of range.
 #[inline]
-pub fn source_cell(previous_atlas: &[[f32; 4]], source: u32, lane: u32) -> [f32; 4] {
+pub fn source_cell(previous_atlas: &[StoredCell], source: u32, lane: u32) -> [f32; 4] {
     if source == NO_PROBE || lane >= PROBE_CELLS {
         return EMPTY;
     }
     let i = source as usize * PROBE_CELLS as usize + lane as usize;
     if i < previous_atlas.len() {
-        previous_atlas[i]
+        previous_atlas[i].unpack()
     } else {
         EMPTY
     }
@@ -331,7 +332,7 @@ pub struct PreviousProbes<'a> {
     /// The probe mask (mip 0 = the first `probe_count` words).
     pub mask: &'a [u32],
     /// The atlas, 64 cells per probe tile.
-    pub atlas: &'a [[f32; 4]],
+    pub atlas: &'a [StoredCell],
 }
 
 /// This frame's probes and empty-tile list, as ReprojectScreenProbes writes them.
@@ -342,7 +343,7 @@ pub struct CurrentProbes<'a> {
     /// The probe mask (mip 0 = the first `probe_count` words).
     pub mask: &'a mut [u32],
     /// The atlas, 64 cells per probe tile.
-    pub atlas: &'a mut [[f32; 4]],
+    pub atlas: &'a mut [StoredCell],
     /// The empty-tile list.
     pub empty_tiles: &'a mut [u32],
 }
@@ -422,8 +423,11 @@ pub fn reproject_tile<G: Fn(UVec2) -> (f32, Vec4, Vec4)>(
     for lane in 0..PROBE_CELLS {
         let i = (tile_index * PROBE_CELLS + lane) as usize;
         if i < current.atlas.len() {
-            current.atlas[i] =
-                super::radiance_backup::backed_up_cell(frame, gathered[lane as usize], backup);
+            current.atlas[i] = StoredCell::pack(super::radiance_backup::backed_up_cell(
+                frame,
+                gathered[lane as usize],
+                backup,
+            ));
         }
     }
     let spawn_seed = probe_tile_spawn_seed(frame, tile_index);
@@ -491,7 +495,7 @@ mod tests {
     struct Probes {
         records: Vec<ProbeRecord>,
         mask: Vec<u32>,
-        atlas: Vec<[f32; 4]>,
+        atlas: Vec<StoredCell>,
         empty: Vec<u32>,
     }
 
@@ -501,7 +505,7 @@ mod tests {
             Self {
                 records: vec![ProbeRecord::NONE; n],
                 mask: vec![NO_PROBE; super::super::mask_words(frame.probe_grid) as usize],
-                atlas: vec![EMPTY; n * PROBE_CELLS as usize],
+                atlas: vec![StoredCell::EMPTY; n * PROBE_CELLS as usize],
                 empty: vec![0; n],
             }
         }
@@ -529,12 +533,17 @@ mod tests {
             let t = frame.probe_tile_of(seed) as usize;
             self.records[t] = record;
             self.mask[t] = record.seed;
-            self.atlas[t * 64..t * 64 + 64].copy_from_slice(cells);
+            for (i, &c) in cells.iter().enumerate() {
+                self.atlas[t * 64 + i] = StoredCell::pack(c);
+            }
             record
         }
 
-        fn cells(&self, tile: u32) -> &[[f32; 4]] {
-            &self.atlas[tile as usize * 64..tile as usize * 64 + 64]
+        fn cells(&self, tile: u32) -> Vec<[f32; 4]> {
+            self.atlas[tile as usize * 64..tile as usize * 64 + 64]
+                .iter()
+                .map(|c| c.unpack())
+                .collect()
         }
     }
 
@@ -698,10 +707,15 @@ mod tests {
             if flags & FLAG_PARALLAX != 0 {
                 assert_ne!(expected, up, "the test must move the cell");
                 assert_eq!(filled[0], expected as usize);
-                assert!((cell[3] - offset.length()).abs() < 1e-4, "{cell:?}");
+                let e = offset.length() * crate::packing::WIDE16_MAX_RELATIVE_ERROR;
+                assert!((cell[3] - offset.length()).abs() <= 1e-4 + e, "{cell:?}");
             } else {
                 assert_eq!(filled[0], up as usize);
-                assert_eq!(cell[3], 0.3);
+                // The stored cell's rounding of 0.3.
+                assert_eq!(
+                    cell[3],
+                    crate::packing::unpack_wide16(crate::packing::pack_wide16(0.3))
+                );
             }
             let backed = current
                 .cells(t)
