@@ -42,6 +42,7 @@ use crate::lights::{
     sample_triangle_light_ray, select_light, sky_radiance,
 };
 use crate::math::{INV_PI, max, max_u32, min_u32, to_u32_clamped};
+use crate::packing::{pack_wide16x4, unpack_wide16x4};
 use crate::primary_surface::PrimarySurface;
 use crate::radiance_feedback::FeedbackTexel;
 use crate::random::Random;
@@ -50,46 +51,66 @@ use crate::reservoir::Reservoir;
 use crate::screen_probes::{FLAG_EMITTER_SAMPLING, FLAG_SAMPLED_DIRECT, GiFrameParams};
 use crate::world_cache::finite_sample;
 
-/// What DirectLight leaves for a pixel (32 bytes), read by ResolveGI.
+/// What DirectLight leaves for a pixel (16 bytes), read by ResolveGI: the emission and the
+/// exactly summed direct irradiance as [`crate::packing::pack_wide16`]s (2^-10 of precision at any brightness,
+/// 10⁶ emitters included) and two flags.
 ///
-/// | offset | field      |
-/// |--------|------------|
-/// | 0      | `emission` |
-/// | 12     | `surface`  |
-/// | 16     | `direct`   |
-/// | 28     | `emissive` |
+/// | word | low 16 bits | high 16 bits |
+/// |------|-------------|--------------|
+/// | 0    | emission r  | emission g   |
+/// | 1    | emission b  | flags: [`Self::SURFACE`], [`Self::EMISSIVE`] |
+/// | 2    | direct r    | direct g     |
+/// | 3    | direct b    | 0            |
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PrimaryLighting {
-    /// Radiance toward the camera: the surface's emission, or the sky's along the camera ray for
-    /// a sky pixel.
-    pub emission: [f32; 3],
-    /// 1 when the pixel sees a surface.
-    pub surface: u32,
-    /// Irradiance from punctual lights, `Σ Li cos θ` with shadow rays (W/m²), when they are
-    /// summed exactly; zero under [`FLAG_SAMPLED_DIRECT`], whose estimate goes through the
-    /// denoiser ([`SurfaceLighting::sampled`]).
-    pub direct: [f32; 3],
-    /// 1 when the surface emits toward the camera: the pixel is then no source of temporal
-    /// radiance feedback (a neighbouring hit that reprojects onto it would take its emission).
-    pub emissive: u32,
-}
-
-impl crate::layout::FloatLayout for PrimaryLighting {
-    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 4, 5, 6];
+    words: [u32; 4],
 }
 
 impl PrimaryLighting {
+    /// Flag: the pixel sees a surface.
+    pub const SURFACE: u32 = 1;
+    /// Flag: the surface emits toward the camera; the pixel is then no source of temporal
+    /// radiance feedback (a neighbouring hit that reprojects onto it would take its emission).
+    pub const EMISSIVE: u32 = 2;
+
+    /// A record: `emission`, radiance toward the camera (the surface's emission, or the sky's
+    /// along the camera ray for a sky pixel); `direct`, the irradiance from punctual lights, `Σ
+    /// Li cos θ` with shadow rays (W/m²), when they are summed exactly (zero under
+    /// [`FLAG_SAMPLED_DIRECT`], whose estimate goes through the denoiser:
+    /// [`SurfaceLighting::sampled`]); `flags`, [`Self::SURFACE`] and [`Self::EMISSIVE`].
+    /// Negative and NaN channels store 0.
+    #[inline]
+    pub fn new(emission: Vec3, direct: Vec3, flags: u32) -> Self {
+        let e = pack_wide16x4(emission.extend(0.0));
+        let d = pack_wide16x4(direct.extend(0.0));
+        Self {
+            words: [e[0], e[1] | ((flags & 3) << 16), d[0], d[1]],
+        }
+    }
+
     /// Emission (or sky) radiance.
     #[inline]
     pub fn emission(&self) -> Vec3 {
-        Vec3::from_array(self.emission)
+        unpack_wide16x4([self.words[0], self.words[1] & 0xffff]).truncate()
     }
 
     /// Direct irradiance of the exactly summed punctual lights.
     #[inline]
     pub fn direct(&self) -> Vec3 {
-        Vec3::from_array(self.direct)
+        unpack_wide16x4([self.words[2], self.words[3]]).truncate()
+    }
+
+    /// Whether the pixel sees a surface.
+    #[inline]
+    pub fn surface(&self) -> bool {
+        (self.words[1] >> 16) & Self::SURFACE != 0
+    }
+
+    /// Whether the surface emits toward the camera.
+    #[inline]
+    pub fn emissive(&self) -> bool {
+        (self.words[1] >> 16) & Self::EMISSIVE != 0
     }
 }
 
@@ -244,16 +265,16 @@ pub fn sky_lighting(
     environment: &[[f32; 4]],
     direction: Vec3,
 ) -> PrimaryLighting {
-    PrimaryLighting {
-        emission: finite_sample(sky_radiance(
+    PrimaryLighting::new(
+        finite_sample(sky_radiance(
             frame.environment_size,
             frame.sky,
             environment,
             direction,
-        ))
-        .to_array(),
-        ..Default::default()
-    }
+        )),
+        Vec3::ZERO,
+        0,
+    )
 }
 
 /// DirectLight's result for a surface pixel: its record, and the direct irradiance it sampled,
@@ -312,12 +333,15 @@ pub fn surface_lighting<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
         Vec3::ZERO
     };
     SurfaceLighting {
-        record: PrimaryLighting {
-            emission: emission.to_array(),
-            surface: 1,
-            direct: direct.to_array(),
-            emissive: if emission.max_element() > 0.0 { 1 } else { 0 },
-        },
+        record: PrimaryLighting::new(
+            emission,
+            direct,
+            if emission.max_element() > 0.0 {
+                PrimaryLighting::SURFACE | PrimaryLighting::EMISSIVE
+            } else {
+                PrimaryLighting::SURFACE
+            },
+        ),
         sampled: punctual_sample + emitter_sample,
     }
 }
@@ -393,7 +417,7 @@ pub fn emitter_light<I: ?Sized, F: FnMut(&Ray, &I) -> bool>(
 #[inline]
 pub fn resolve_color(lighting: &PrimaryLighting, albedo: Vec3, irradiance: [f32; 4]) -> Vec3 {
     let emission = finite_sample(lighting.emission());
-    if lighting.surface == 0 {
+    if !lighting.surface() {
         return emission;
     }
     let e = finite_sample(Vec3::new(irradiance[0], irradiance[1], irradiance[2]))
@@ -411,14 +435,14 @@ pub fn resolve_feedback(
     depth: f32,
     geometric_normal: Vec3,
 ) -> FeedbackTexel {
-    if lighting.surface == 0 || depth <= 0.0 {
+    if !lighting.surface() || depth <= 0.0 {
         return FeedbackTexel::default();
     }
     FeedbackTexel::new(
         finite_sample(color),
         depth,
         geometric_normal,
-        lighting.emissive == 0,
+        !lighting.emissive(),
     )
 }
 
@@ -427,22 +451,28 @@ mod tests {
     use super::*;
     use crate::lights::{EMIT_BACK, EMIT_FRONT};
     use crate::math::PI;
-    use core::mem::{offset_of, size_of};
+    use crate::packing::WIDE16_MAX_RELATIVE_ERROR;
+    use core::mem::size_of;
 
     #[test]
     fn layout() {
-        use crate::layout::{FloatLayout, float_field_words};
-        assert_eq!(
-            PrimaryLighting::FLOAT_WORDS,
-            float_field_words(&[
-                (offset_of!(PrimaryLighting, emission), 3),
-                (offset_of!(PrimaryLighting, direct), 3)
-            ])
+        assert_eq!(size_of::<PrimaryLighting>(), 16);
+        // A 10⁶ emitter, a sky pixel, NaN: within 2^-10, flags kept, NaN stored as 0.
+        let e = Vec3::new(1e6, 0.25, 0.0);
+        let l = PrimaryLighting::new(e, Vec3::new(3.0, f32::NAN, 1e-6), PrimaryLighting::EMISSIVE);
+        assert!(
+            (l.emission() - e)
+                .abs()
+                .cmple(e * WIDE16_MAX_RELATIVE_ERROR)
+                .all()
         );
-        assert_eq!(size_of::<PrimaryLighting>(), 32);
-        assert_eq!(offset_of!(PrimaryLighting, surface), 12);
-        assert_eq!(offset_of!(PrimaryLighting, direct), 16);
-        assert_eq!(offset_of!(PrimaryLighting, emissive), 28);
+        assert_eq!(l.direct().y, 0.0);
+        assert!((l.direct().z - 1e-6).abs() <= 1e-6 * WIDE16_MAX_RELATIVE_ERROR);
+        assert!(l.emissive() && !l.surface());
+        assert_eq!(
+            PrimaryLighting::default(),
+            PrimaryLighting::new(Vec3::ZERO, Vec3::ZERO, 0)
+        );
     }
 
     /// A surface at the origin of the plane z = 0, normal +z.
@@ -694,9 +724,8 @@ mod tests {
             |_, _: &()| false,
         )
         .record;
-        assert_eq!(l.surface, 1);
-        assert_eq!(l.emissive, 0);
-        assert!((l.direct() - Vec3::ONE).length() < 1e-5);
+        assert!(l.surface() && !l.emissive());
+        assert!((l.direct() - Vec3::ONE).length() < WIDE16_MAX_RELATIVE_ERROR);
         assert!(!samples_light(&frame));
         // One light sampled: the estimate is exact, and goes to the denoiser, not the record.
         frame.flags = FLAG_SAMPLED_DIRECT;
@@ -706,7 +735,7 @@ mod tests {
         });
         assert_eq!(lit.record.direct(), Vec3::ZERO);
         assert!((lit.sampled - Vec3::ONE).length() < 1e-5);
-        assert_eq!(lit.record.emissive, 1);
+        assert!(lit.record.emissive());
         assert_eq!(lit.record.emission(), Vec3::X);
         // Shadowed.
         let lit = surface_lighting(
@@ -739,33 +768,32 @@ mod tests {
 
     #[test]
     fn resolve_adds_each_term_once() {
-        let lighting = PrimaryLighting {
-            emission: [0.5, 0.0, 0.0],
-            surface: 1,
-            direct: [PI, PI, PI],
-            emissive: 1,
-        };
+        let lighting = PrimaryLighting::new(
+            Vec3::new(0.5, 0.0, 0.0),
+            Vec3::splat(PI),
+            PrimaryLighting::SURFACE | PrimaryLighting::EMISSIVE,
+        );
+        // The record's rounding of π.
+        let e = 2.0 * WIDE16_MAX_RELATIVE_ERROR;
         let albedo = Vec3::new(0.5, 1.0, 0.0);
         let gi = [PI, 2.0 * PI, 0.0, 1.0];
         let c = resolve_color(&lighting, albedo, gi);
         // emission + albedo × (1 + [1, 2, 0]).
-        assert!((c - Vec3::new(0.5 + 1.0, 3.0, 0.0)).length() < 1e-5, "{c}");
+        assert!((c - Vec3::new(0.5 + 1.0, 3.0, 0.0)).length() < e, "{c}");
         // A non-finite irradiance is black: emission + albedo × direct remain.
         let c = resolve_color(&lighting, albedo, [f32::NAN, 1.0, 1.0, 1.0]);
-        assert!((c - Vec3::new(1.0, 1.0, 0.0)).length() < 1e-6, "{c}");
+        assert!((c - Vec3::new(1.0, 1.0, 0.0)).length() < e, "{c}");
         // Sky: emission only, whatever the irradiance says.
-        let sky = PrimaryLighting {
-            emission: [1.0, 2.0, 3.0],
-            ..Default::default()
-        };
+        let sky = PrimaryLighting::new(Vec3::new(1.0, 2.0, 3.0), Vec3::ZERO, 0);
         assert_eq!(resolve_color(&sky, albedo, gi), Vec3::new(1.0, 2.0, 3.0));
         // Feedback: emitters and sky are no source.
         let f = resolve_feedback(&lighting, c, 2.0, Vec3::Z);
         assert_eq!((f.is_source(), f.depth), (false, 2.0));
-        let plain = PrimaryLighting {
-            emissive: 0,
-            ..lighting
-        };
+        let plain = PrimaryLighting::new(
+            lighting.emission(),
+            lighting.direct(),
+            PrimaryLighting::SURFACE,
+        );
         let f = resolve_feedback(&plain, Vec3::ONE, 2.0, Vec3::Z);
         assert!(f.is_source());
         assert_eq!(f.radiance, [1.0; 3]);
@@ -784,6 +812,6 @@ mod tests {
         };
         let l = sky_lighting(&frame, &[], Vec3::Y);
         assert_eq!(l.emission(), Vec3::new(0.25, 0.5, 1.0));
-        assert_eq!((l.surface, l.emissive), (0, 0));
+        assert_eq!((l.surface(), l.emissive()), (false, false));
     }
 }

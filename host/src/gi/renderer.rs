@@ -29,7 +29,7 @@ use ash::vk;
 use gi_shared::camera::CameraParams;
 use gi_shared::gi_denoiser::reproject_gi::SURFACE_RECORD_FLOAT_WORDS;
 use gi_shared::hash_cells::cell_size_const;
-use gi_shared::primary_lighting::{PrimaryLighting, samples_direct_light};
+use gi_shared::primary_lighting::samples_direct_light;
 use gi_shared::screen_probes::{
     BLUR_TAPS, EMPTY_COUNT, FLAG_HISTORY, FLAG_SAMPLED_DIRECT, GiFrameParams, OVERRIDE_COUNT,
     PATCHED_COUNT, PROBE_CELL_PIXELS, ProbeRay, ProbeRecord, RELAXED_COUNT, REPROJECTED_COUNT,
@@ -578,8 +578,9 @@ impl GiRenderer {
 
     /// Every buffer of the frame that holds floats, with which of its words are floats: what
     /// [`FiniteCheck`](crate::frame::FiniteCheck) reads to prove a frame clean. Parameters the
-    /// host writes, counters, keys, lists and packed integers (the probe cells:
-    /// [`gi_shared::screen_probes::StoredCell`]) are left out.
+    /// host writes, counters, keys, lists and packed integers (the probe cells,
+    /// [`gi_shared::screen_probes::StoredCell`]; the primary lighting,
+    /// [`gi_shared::primary_lighting::PrimaryLighting`]) are left out.
     pub fn float_buffers(&self) -> Result<Vec<(&Buffer, FloatWords)>> {
         let all = FloatWords::ALL;
         let (p, d) = (&self.probes, &self.denoiser);
@@ -601,7 +602,6 @@ impl GiRenderer {
             (&d.blur_mask, all),
             (&d.blur_radius, all),
             (&d.filtered, all),
-            (&self.primary.primary, FloatWords::of::<PrimaryLighting>()?),
             (&self.primary.color, all),
         ];
         buffers.extend(self.cache_res.float_buffers()?);
