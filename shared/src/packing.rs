@@ -145,13 +145,25 @@ pub const WIDE16_MAX_RELATIVE_ERROR: f32 = 1.0 / 1024.0;
 /// [`WIDE16_MAX`].
 #[inline]
 pub fn pack_wide16(x: f32) -> u32 {
+    pack_wide16_dithered(x, 0.5)
+}
+
+/// [`pack_wide16`] rounded up with the probability `dither` leaves (uniform in `[0, 1)`: up with
+/// the dropped fraction's probability), so that the stored value's expectation is `x` itself. A
+/// running mean rounded to nearest every frame stops following a slow change once one frame's
+/// step is below half a unit (by up to the history's length times 2^-10); dithered, it drifts
+/// with it. `dither` 0.5 rounds to nearest.
+#[inline]
+pub fn pack_wide16_dithered(x: f32, dither: f32) -> u32 {
     // `!(x > 0)` also catches NaN.
     if !(x > 0.0) {
         return 0;
     }
     let drop = 23 - WIDE16_MANTISSA_BITS;
-    // Adding half a unit before truncating rounds; a mantissa carry bumps the exponent.
-    let rounded = x.to_bits() + (1 << (drop - 1));
+    let unit = (1u32 << drop) - 1;
+    // Adding a share of a unit before truncating rounds; a mantissa carry bumps the exponent.
+    // (A NaN dither converts to 0.)
+    let rounded = x.to_bits() + min_u32((dither * (1u32 << drop) as f32) as u32, unit);
     let exponent = rounded >> 23;
     if exponent + WIDE16_EXPONENT_BIAS <= 127 {
         return 0;
@@ -179,9 +191,15 @@ pub fn unpack_wide16(w: u32) -> f32 {
 /// Four non-negative values as [`pack_wide16`]s in two words: `(x | y << 16, z | w << 16)`.
 #[inline]
 pub fn pack_wide16x4(v: Vec4) -> [u32; 2] {
+    pack_wide16x4_dithered(v, 0.5)
+}
+
+/// [`pack_wide16x4`] with [`pack_wide16_dithered`]'s rounding, one `dither` for all four.
+#[inline]
+pub fn pack_wide16x4_dithered(v: Vec4, dither: f32) -> [u32; 2] {
     [
-        pack_wide16(v.x) | (pack_wide16(v.y) << 16),
-        pack_wide16(v.z) | (pack_wide16(v.w) << 16),
+        pack_wide16_dithered(v.x, dither) | (pack_wide16_dithered(v.y, dither) << 16),
+        pack_wide16_dithered(v.z, dither) | (pack_wide16_dithered(v.w, dither) << 16),
     ]
 }
 
@@ -457,6 +475,34 @@ mod tests {
             (back - v).abs().cmple(v * WIDE16_MAX_RELATIVE_ERROR).all(),
             "{back}"
         );
+    }
+
+    #[test]
+    fn dithered_wide16_keeps_the_mean() {
+        // 0.3 of the way between two codes: nearest rounding always goes down, dithered rounding
+        // goes up in 30 % of the dithers, so its mean is the value.
+        let lo = unpack_wide16(0x7e40);
+        let hi = unpack_wide16(0x7e41);
+        let x = lo + 0.3 * (hi - lo);
+        assert_eq!(pack_wide16(x), 0x7e40);
+        let n = 4096;
+        let mean = (0..n)
+            .map(|i| {
+                f64::from(unpack_wide16(pack_wide16_dithered(
+                    x,
+                    (i as f32 + 0.5) / n as f32,
+                )))
+            })
+            .sum::<f64>()
+            / f64::from(n);
+        assert!((mean / f64::from(x) - 1.0).abs() < 1e-6, "{mean} for {x}");
+        // Every dither stays within one code; 0.5 is the nearest rounding; odd dithers are safe.
+        for d in [0.0, 0.25, 0.5, 0.999_999, 1.0, 7.0, -1.0, f32::NAN] {
+            let c = pack_wide16_dithered(x, d);
+            assert!(c == 0x7e40 || c == 0x7e41, "{d}: {c:#x}");
+        }
+        assert_eq!(pack_wide16_dithered(x, 0.5), pack_wide16(x));
+        assert_eq!(pack_wide16_dithered(f32::NAN, 0.9), 0);
     }
 
     #[test]

@@ -48,11 +48,18 @@ impl HashCellValue {
     /// An empty cell.
     pub const ZERO: Self = Self { words: [0; 2] };
 
-    /// A radiance sum `rgb · n` and its sample count `n`.
+    /// A radiance sum `rgb · n` and its sample count `n`, rounded to nearest.
     #[inline]
     pub fn new(radiance_sum: Vec3, count: f32) -> Self {
+        Self::new_dithered(radiance_sum, count, 0.5)
+    }
+
+    /// [`Self::new`] rounded with `dither` ([`crate::packing::pack_wide16_dithered`]): what a
+    /// running mean stores, so that it keeps following a slow change.
+    #[inline]
+    pub fn new_dithered(radiance_sum: Vec3, count: f32, dither: f32) -> Self {
         Self {
-            words: crate::packing::pack_wide16x4(radiance_sum.extend(count)),
+            words: crate::packing::pack_wide16x4_dithered(radiance_sum.extend(count), dither),
         }
     }
 

@@ -135,7 +135,15 @@ pub fn update_pass<A, L>(
         let cap = params.sample_cap;
         let blend_cap = tile_blend_cap(values, accumulators, tile, cap, params.adaptive_blend != 0);
         if bounce.len() >= values.len() {
-            update_bounce_copy(bounce, values, accumulators, tile, cap, blend_cap);
+            update_bounce_copy(
+                bounce,
+                values,
+                accumulators,
+                tile,
+                cap,
+                blend_cap,
+                params.frame_index,
+            );
         }
         blend_tile(
             values,
@@ -144,6 +152,7 @@ pub fn update_pass<A, L>(
             cap,
             blend_cap,
             params.history_frames,
+            params.frame_index,
         );
     }
 }

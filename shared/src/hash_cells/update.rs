@@ -37,16 +37,36 @@ use super::layout::{HashCellAccumulator, HashCellValue};
 use super::{BOUNCE_HISTORY_FRAMES, MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_CELL_RATIO, cell_index};
 use crate::atomics::AtomicWords;
 use crate::math::{clamp, max, max_u32, min, min_u32};
+use glam::Vec3;
+
+/// `(rgb · n, n)` stored as a running mean's value in frame `frame`: rounded with a dither
+/// ([`HashCellValue::new_dithered`]) so that it keeps following a slow change (rounded to
+/// nearest, a GI furnace of albedo 0.8 read 0.65 points darker). The dither hashes the value and
+/// the frame, not the cell's slot, which depends on the order of the inserts: the same state
+/// gives the same bits.
+#[inline]
+pub fn stored_value(sum: Vec3, count: f32, frame: u32) -> HashCellValue {
+    let h = crate::hash::pcg_chain([
+        sum.x.to_bits(),
+        sum.y.to_bits(),
+        sum.z.to_bits(),
+        count.to_bits(),
+        frame,
+    ]);
+    HashCellValue::new_dithered(sum, count, (h >> 8) as f32 * (1.0 / 16_777_216.0))
+}
 
 /// A mip-0 cell's new value from its old value (`(rgb · n, n)`) and the frame's accumulator (see
-/// the module documentation for the weights). The count grows to `cap`; the weights cap the
-/// history at `blend_cap` (at most `cap`, at least 1) instead where that is lower.
+/// the module documentation for the weights), stored for frame `frame` ([`stored_value`]). The
+/// count grows to `cap`; the weights cap the history at `blend_cap` (at most `cap`, at least 1)
+/// instead where that is lower.
 #[inline]
 pub fn blend_cell(
     old: HashCellValue,
     acc: HashCellAccumulator,
     cap: u32,
     blend_cap: f32,
+    frame: u32,
 ) -> HashCellValue {
     if acc.count == 0 {
         return old;
@@ -74,7 +94,7 @@ pub fn blend_cell(
     let sum = old.radiance_sum() * history_scale + acc.radiance_sum() * new_scale;
     // The mean of `total` weights, stored with the count `c`.
     let sum = if total == c { sum } else { sum * (c / total) };
-    HashCellValue::new(sum, c)
+    stored_value(sum, c, frame)
 }
 
 /// The weight an update gives a cell's history: `1 − 1/history_frames`, or 1 (no fading) for 0.
@@ -88,19 +108,24 @@ pub fn history_keep(history_frames: u32) -> f32 {
 }
 
 /// `value` with its history weighed `keep` ([`history_keep`]; unchanged for an empty cell): the
-/// mean is kept, the count falls.
+/// mean is kept, the count falls. Stored for frame `frame` ([`stored_value`]).
 #[inline]
-pub fn decayed(value: HashCellValue, keep: f32) -> HashCellValue {
+pub fn decayed(value: HashCellValue, keep: f32, frame: u32) -> HashCellValue {
     if keep >= 1.0 || value.count() <= 0.0 {
         return value;
     }
-    HashCellValue::new(value.radiance_sum() * keep, value.count() * keep)
+    stored_value(value.radiance_sum() * keep, value.count() * keep, frame)
 }
 
 /// Blends mip-0 cell `cell` (`x + 8 · y`, in 0..64) of tile `tile`, its history [`decayed`] by
 /// `keep` ([`history_keep`], computed once per tile), with its accumulator ([`blend_cell`],
-/// weights capped at `blend_cap`) and clears the accumulator.
+/// weights capped at `blend_cap`) and clears the accumulator; stored for frame `frame`
+/// ([`stored_value`]).
 #[inline]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the cell, its tile's blend and the frame, as the update pass holds them"
+)]
 pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
     values: &mut [HashCellValue],
     accumulators: &mut W,
@@ -109,15 +134,17 @@ pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
     cap: u32,
     blend_cap: f32,
     keep: f32,
+    frame: u32,
 ) {
     let cell = min_u32(cell, MIP0_CELLS_PER_TILE - 1);
     let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
-    let index = cell_index(tile, 0, xy[0], xy[1]) as usize;
+    let index = cell_index(tile, 0, xy[0], xy[1]);
     let base = accumulator_word(tile, xy);
-    let old = decayed(values[index], keep);
+    let old = decayed(values[index as usize], keep, frame);
+    let index = index as usize;
     if accumulator_count(accumulators, base) != 0 {
         let acc = load_accumulator(accumulators, base);
-        values[index] = blend_cell(old, acc, cap, blend_cap);
+        values[index] = blend_cell(old, acc, cap, blend_cap, frame);
         clear_accumulator(accumulators, base);
     } else if keep < 1.0 {
         values[index] = old;
@@ -192,7 +219,7 @@ pub fn tile_blend_cap<W: AtomicWords + ?Sized>(
 }
 
 /// Tile `tile`'s 64 mip-0 blends with weights capped at `blend_cap` (clearing the accumulators),
-/// then mips 1, 2, 3.
+/// then mips 1, 2, 3; stored for frame `frame` ([`stored_value`]).
 #[inline]
 pub fn blend_tile<W: AtomicWords + ?Sized>(
     values: &mut [HashCellValue],
@@ -201,11 +228,21 @@ pub fn blend_tile<W: AtomicWords + ?Sized>(
     cap: u32,
     blend_cap: f32,
     history_frames: u32,
+    frame: u32,
 ) {
     let keep = history_keep(history_frames);
     let mut cell = 0;
     while cell < MIP0_CELLS_PER_TILE {
-        update_mip0_cell(values, accumulators, tile, cell, cap, blend_cap, keep);
+        update_mip0_cell(
+            values,
+            accumulators,
+            tile,
+            cell,
+            cap,
+            blend_cap,
+            keep,
+            frame,
+        );
         cell += 1;
     }
     update_mips(values, tile);
@@ -230,7 +267,7 @@ fn update_mips(values: &mut [HashCellValue], tile: u32) {
 /// its history fading over [`BOUNCE_HISTORY_FRAMES`] updates, then its mips. Runs before
 /// [`blend_tile`] changes `values` or clears the accumulators: a cell that had no history in
 /// `values` (a tile just inserted, a cell never sampled) starts its copy over, so no copy outlives
-/// its tile.
+/// its tile. Stored for frame `frame` ([`stored_value`]).
 #[inline]
 pub fn update_bounce_copy<W: AtomicWords + ?Sized>(
     bounce: &mut [HashCellValue],
@@ -239,6 +276,7 @@ pub fn update_bounce_copy<W: AtomicWords + ?Sized>(
     tile: u32,
     cap: u32,
     blend_cap: f32,
+    frame: u32,
 ) {
     let keep = history_keep(BOUNCE_HISTORY_FRAMES);
     let mut cell = 0;
@@ -246,13 +284,19 @@ pub fn update_bounce_copy<W: AtomicWords + ?Sized>(
         let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
         let index = cell_index(tile, 0, xy[0], xy[1]) as usize;
         let old = if values[index].count() > 0.0 {
-            decayed(bounce[index], keep)
+            decayed(bounce[index], keep, frame)
         } else {
             HashCellValue::ZERO
         };
         let base = accumulator_word(tile, xy);
         bounce[index] = if accumulator_count(accumulators, base) != 0 {
-            blend_cell(old, load_accumulator(accumulators, base), cap, blend_cap)
+            blend_cell(
+                old,
+                load_accumulator(accumulators, base),
+                cap,
+                blend_cap,
+                frame,
+            )
         } else {
             old
         };
@@ -269,7 +313,6 @@ mod tests {
     use crate::hash_cells::MAX_SAMPLE_COUNT;
     use crate::hash_cells::accumulate::accumulate_sample;
     use crate::hash_cells::layout::TILE_ACCUMULATOR_WORDS;
-    use glam::Vec3;
 
     fn acc(sum: Vec3, count: u32) -> HashCellAccumulator {
         HashCellAccumulator {
@@ -282,7 +325,20 @@ mod tests {
 
     /// The blend with the fixed cap.
     fn fixed(old: HashCellValue, acc: HashCellAccumulator, cap: u32) -> HashCellValue {
-        blend_cell(old, acc, cap, cap as f32)
+        blend_cell(old, acc, cap, cap as f32, 0)
+    }
+
+    std::thread_local! {
+        static FRAME: core::cell::Cell<u32> = const { core::cell::Cell::new(0) };
+    }
+
+    /// The next frame index of this test's updates (each test runs on its own thread), so that
+    /// the dithers change from update to update as the renderer's do.
+    fn next_frame() -> u32 {
+        FRAME.with(|f| {
+            f.set(f.get() + 1);
+            f.get()
+        })
     }
 
     /// The update of one tile without a bounce copy: its blend cap, then [`blend_tile`].
@@ -295,11 +351,22 @@ mod tests {
         history_frames: u32,
     ) {
         let blend_cap = tile_blend_cap(values, accumulators, tile, cap, adaptive);
-        blend_tile(values, accumulators, tile, cap, blend_cap, history_frames);
+        blend_tile(
+            values,
+            accumulators,
+            tile,
+            cap,
+            blend_cap,
+            history_frames,
+            next_frame(),
+        );
     }
 
+    /// Equal within the stored values' dithered rounding: up to a unit (2^-9) of the sum and one
+    /// of the count.
     fn close(a: Vec3, b: Vec3) -> bool {
-        (a - b).abs().max_element() <= 1e-6 * b.abs().max_element().max(1.0)
+        let e = 4.0 * crate::packing::WIDE16_MAX_RELATIVE_ERROR;
+        (a - b).abs().max_element() <= e * b.abs().max_element().max(1.0)
     }
 
     #[test]
@@ -356,29 +423,29 @@ mod tests {
         let a = Vec3::new(3.0, 0.0, 0.5);
         let full = HashCellValue::new(m * 16.0, 16.0);
         // Cap 1: the new samples only, count still 16 (the read keeps its mip).
-        let v = blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, 1.0);
+        let v = blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, 1.0, 0);
         assert_eq!(v.count(), 16.0);
         assert!(close(v.mean(), a));
         // Cap 4: lerp(m, a, 1/4).
-        let v = blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, 4.0);
+        let v = blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, 4.0, 0);
         assert_eq!(v.count(), 16.0);
         assert!(close(v.mean(), m + (a - m) / 4.0));
         // More new samples than the blend cap: their mean.
-        let v = blend_cell(full, acc(a * 3.0, 3), MAX_SAMPLE_COUNT, 2.0);
+        let v = blend_cell(full, acc(a * 3.0, 3), MAX_SAMPLE_COUNT, 2.0, 0);
         assert!(close(v.mean(), a));
         // A young cell below the blend cap: the exact mean, as with the fixed cap.
         let young = HashCellValue::new(m * 2.0, 2.0);
         assert_eq!(
-            blend_cell(young, acc(a, 1), MAX_SAMPLE_COUNT, 8.0),
+            blend_cell(young, acc(a, 1), MAX_SAMPLE_COUNT, 8.0, 0),
             fixed(young, acc(a, 1), MAX_SAMPLE_COUNT)
         );
         // A blend cap above the cap, infinite or NaN is clamped into [1, cap].
         assert_eq!(
-            blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, f32::INFINITY),
+            blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, f32::INFINITY, 0),
             fixed(full, acc(a, 1), MAX_SAMPLE_COUNT)
         );
         assert!(close(
-            blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, f32::NAN).mean(),
+            blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, f32::NAN, 0).mean(),
             a
         ));
     }
@@ -547,6 +614,7 @@ mod tests {
                 MAX_SAMPLE_COUNT,
                 16.0,
                 1.0,
+                0,
             );
         }
         for mip in 1..NUM_MIPS {
@@ -565,8 +633,17 @@ mod tests {
         history_frames: u32,
     ) {
         let blend_cap = tile_blend_cap(values, accs, 0, MAX_SAMPLE_COUNT, false);
-        update_bounce_copy(bounce, values, accs, 0, MAX_SAMPLE_COUNT, blend_cap);
-        blend_tile(values, accs, 0, MAX_SAMPLE_COUNT, blend_cap, history_frames);
+        let frame = next_frame();
+        update_bounce_copy(bounce, values, accs, 0, MAX_SAMPLE_COUNT, blend_cap, frame);
+        blend_tile(
+            values,
+            accs,
+            0,
+            MAX_SAMPLE_COUNT,
+            blend_cap,
+            history_frames,
+            frame,
+        );
     }
 
     #[test]
@@ -609,7 +686,10 @@ mod tests {
         }
         assert!(
             close(values[84].mean(), Vec3::splat(2.0))
-                && close(bounce[84].mean(), Vec3::splat(2.0))
+                && close(bounce[84].mean(), Vec3::splat(2.0)),
+            "{} {}",
+            values[84].mean(),
+            bounce[84].mean()
         );
         // The accumulators are cleared once, after both read them.
         assert!(accs.iter().take(64 * 7).all(|&w| w == 0));
