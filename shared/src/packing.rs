@@ -155,8 +155,7 @@ pub fn pack_wide16(x: f32) -> u32 {
 /// with it. `dither` 0.5 rounds to nearest.
 #[inline]
 pub fn pack_wide16_dithered(x: f32, dither: f32) -> u32 {
-    // `!(x > 0)` also catches NaN.
-    if !(x > 0.0) {
+    if x.is_nan() || x <= 0.0 {
         return 0;
     }
     let drop = 23 - WIDE16_MANTISSA_BITS;
