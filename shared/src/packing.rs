@@ -187,6 +187,22 @@ pub fn unpack_wide16(w: u32) -> f32 {
     f32::from_bits((exponent << 23) | (mantissa << (23 - WIDE16_MANTISSA_BITS)))
 }
 
+/// The dither with which a running mean stores `value` in frame `frame`
+/// ([`pack_wide16_dithered`]), uniform in `[0, 1)`: a hash of the value's bits and the frame,
+/// so that it changes from frame to frame while the same state still gives the same bits
+/// (nothing keyed by a buffer slot, which can depend on the order of atomic inserts).
+#[inline]
+pub fn running_mean_dither(value: Vec4, frame: u32) -> f32 {
+    let h = crate::hash::pcg_chain([
+        value.x.to_bits(),
+        value.y.to_bits(),
+        value.z.to_bits(),
+        value.w.to_bits(),
+        frame,
+    ]);
+    (h >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
 /// Four non-negative values as [`pack_wide16`]s in two words: `(x | y << 16, z | w << 16)`.
 #[inline]
 pub fn pack_wide16x4(v: Vec4) -> [u32; 2] {

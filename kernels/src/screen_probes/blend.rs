@@ -126,7 +126,7 @@ pub fn blend_screen_probes(
     let out = backed_up_cell(frame, blended[l], backup[0]);
     let i = (tile * PROBE_CELLS + lane) as usize;
     if i < atlas.len() {
-        atlas[i] = StoredCell::pack(out);
+        atlas[i] = StoredCell::pack_running(out, frame.frame_index);
     }
     if lane == 0 {
         let t = tile as usize;

@@ -39,21 +39,13 @@ use crate::atomics::AtomicWords;
 use crate::math::{clamp, max, max_u32, min, min_u32};
 use glam::Vec3;
 
-/// `(rgb · n, n)` stored as a running mean's value in frame `frame`: rounded with a dither
-/// ([`HashCellValue::new_dithered`]) so that it keeps following a slow change (rounded to
-/// nearest, a GI furnace of albedo 0.8 read 0.65 points darker). The dither hashes the value and
-/// the frame, not the cell's slot, which depends on the order of the inserts: the same state
-/// gives the same bits.
+/// `(rgb · n, n)` stored as a running mean's value in frame `frame`: rounded with
+/// [`crate::packing::running_mean_dither`] so that it keeps following a slow change (rounded to
+/// nearest, a GI furnace of albedo 0.8 read 0.65 points darker).
 #[inline]
 pub fn stored_value(sum: Vec3, count: f32, frame: u32) -> HashCellValue {
-    let h = crate::hash::pcg_chain([
-        sum.x.to_bits(),
-        sum.y.to_bits(),
-        sum.z.to_bits(),
-        count.to_bits(),
-        frame,
-    ]);
-    HashCellValue::new_dithered(sum, count, (h >> 8) as f32 * (1.0 / 16_777_216.0))
+    let dither = crate::packing::running_mean_dither(sum.extend(count), frame);
+    HashCellValue::new_dithered(sum, count, dither)
 }
 
 /// A mip-0 cell's new value from its old value (`(rgb · n, n)`) and the frame's accumulator (see

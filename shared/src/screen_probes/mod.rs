@@ -38,7 +38,8 @@ use glam::{UVec2, Vec3, Vec4};
 
 use crate::math::max_u32;
 use crate::packing::{
-    SEED_NONE, WIDE16_MANTISSA_BITS, pack_wide16, unpack_seed, unpack_snorm10x3, unpack_wide16,
+    SEED_NONE, WIDE16_MANTISSA_BITS, pack_wide16_dithered, running_mean_dither, unpack_seed,
+    unpack_snorm10x3, unpack_wide16,
 };
 
 pub mod blend;
@@ -350,7 +351,7 @@ pub fn make_cell(radiance: Vec3, hit_distance: f32) -> [f32; 4] {
 pub const EMPTY: [f32; 4] = [0.0, 0.0, 0.0, EMPTY_CELL];
 
 /// A cell as the probe buffers store it (atlas, probe history, the probe filter's output): its
-/// `[r, g, b, hit distance]` as four [`pack_wide16`]s, 8 bytes instead of 16, at 2^-10 of
+/// `[r, g, b, hit distance]` as four [`crate::packing::pack_wide16`]s, 8 bytes instead of 16, at 2^-10 of
 /// precision over any radiance and distance. Distance code 0 marks an empty cell (so a zeroed
 /// buffer is empty); a filled cell's distance is at least [`crate::packing::WIDE16_MIN`].
 #[repr(C)]
@@ -370,19 +371,38 @@ impl StoredCell {
     /// The empty cell, all zero bits.
     pub const EMPTY: Self = Self { words: [0; 2] };
 
-    /// `cell` packed: negative radiance and NaN store 0; an empty cell stores distance code 0.
+    /// `cell` packed, rounded to nearest: negative radiance and NaN store 0; an empty cell stores
+    /// distance code 0.
     #[inline]
     pub fn pack(cell: [f32; 4]) -> Self {
+        Self::pack_dithered(cell, 0.5)
+    }
+
+    /// `cell` as the probe's running mean stores it in frame `frame` (BlendScreenProbes'
+    /// hysteresis): rounded with [`running_mean_dither`], so that a cell keeps following a change
+    /// smaller than the hysteresis's 8 frames times half a unit.
+    #[inline]
+    pub fn pack_running(cell: [f32; 4], frame: u32) -> Self {
+        Self::pack_dithered(cell, running_mean_dither(Vec4::from_array(cell), frame))
+    }
+
+    /// [`Self::pack`] with [`pack_wide16_dithered`]'s rounding.
+    #[inline]
+    fn pack_dithered(cell: [f32; 4], dither: f32) -> Self {
         let filled = cell_is_filled(cell);
         let distance = if filled {
-            max_u32(pack_wide16(cell[3]), 1 << WIDE16_MANTISSA_BITS)
+            max_u32(
+                pack_wide16_dithered(cell[3], dither),
+                1 << WIDE16_MANTISSA_BITS,
+            )
         } else {
             0
         };
         Self {
             words: [
-                pack_wide16(cell[0]) | (pack_wide16(cell[1]) << 16),
-                pack_wide16(cell[2]) | (distance << 16),
+                pack_wide16_dithered(cell[0], dither)
+                    | (pack_wide16_dithered(cell[1], dither) << 16),
+                pack_wide16_dithered(cell[2], dither) | (distance << 16),
             ],
         }
     }
@@ -454,6 +474,47 @@ pub fn mask_words(grid: [u32; 2]) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stored_cells_keep_empty_filled_and_the_miss_apart() {
+        use crate::packing::{WIDE16_MAX_RELATIVE_ERROR, WIDE16_MIN};
+        // A zeroed buffer is empty; the empty cell round-trips.
+        assert_eq!(StoredCell::default(), StoredCell::EMPTY);
+        assert_eq!(StoredCell::EMPTY.unpack(), EMPTY);
+        assert_eq!(StoredCell::pack(EMPTY), StoredCell::EMPTY);
+        // A miss keeps its distance exactly; a hit at distance 0 stays filled.
+        let miss = make_cell(Vec3::new(1e6, 0.5, 0.0), MISS_DISTANCE);
+        assert_eq!(StoredCell::pack(miss).unpack()[3], MISS_DISTANCE);
+        let touching = StoredCell::pack(make_cell(Vec3::ONE, 0.0)).unpack();
+        assert!(cell_is_filled(touching) && touching[3] == WIDE16_MIN);
+        // Radiance within the packing's precision; NaN and negative radiance store 0; a NaN
+        // distance is empty.
+        let c = make_cell(Vec3::new(1e6, 2.5e-7, 3.0), 17.5);
+        let back = StoredCell::pack(c).unpack();
+        for k in 0..4 {
+            assert!(
+                (back[k] - c[k]).abs() <= c[k] * WIDE16_MAX_RELATIVE_ERROR,
+                "{back:?}"
+            );
+        }
+        let bad = StoredCell::pack([f32::NAN, -1.0, f32::INFINITY, 2.0]).unpack();
+        assert_eq!((bad[0], bad[1]), (0.0, 0.0));
+        assert!(bad[2].is_finite() && bad[3] == 2.0);
+        assert!(!cell_is_filled(
+            StoredCell::pack([1.0, 1.0, 1.0, f32::NAN]).unpack()
+        ));
+        // The running mean's rounding: 0.3 of a unit above a code, its mean over frames is
+        // the value (nearest rounding is 0.3 of a unit low).
+        let lo = crate::packing::unpack_wide16(0x7e40);
+        let x = lo + 0.3 * (crate::packing::unpack_wide16(0x7e41) - lo);
+        let cell = make_cell(Vec3::splat(x), 1.0);
+        let mean = (0..4096)
+            .map(|f| f64::from(StoredCell::pack_running(cell, f).unpack()[0]))
+            .sum::<f64>()
+            / 4096.0;
+        assert!((mean / f64::from(x) - 1.0).abs() < 2e-5, "{mean} for {x}");
+        assert_eq!(StoredCell::pack(cell).unpack()[0], lo);
+    }
 
     #[test]
     fn probe_age_colours_run_from_green_to_red() {
