@@ -74,8 +74,9 @@ pub fn bounce_filtered_radiance(
     } else {
         own
     };
-    if own.count() > 0.0 && value.count() > 0.0 {
-        Some(value.radiance_sum() / value.count())
+    let v = value.sum_and_count();
+    if own.count() > 0.0 && v.w > 0.0 {
+        Some(v.truncate() / v.w)
     } else {
         None
     }
@@ -90,9 +91,9 @@ pub fn filtered_radiance(
     cell: [u32; 2],
     min_samples: f32,
 ) -> Option<Vec3> {
-    let value = filtered_value(values, tile, cell, min_samples);
-    if value.count() > 0.0 {
-        Some(value.radiance_sum() / value.count())
+    let v = filtered_value(values, tile, cell, min_samples).sum_and_count();
+    if v.w > 0.0 {
+        Some(v.truncate() / v.w)
     } else {
         None
     }

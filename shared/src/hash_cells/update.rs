@@ -37,29 +37,22 @@ use super::layout::{HashCellAccumulator, HashCellValue};
 use super::{BOUNCE_HISTORY_FRAMES, MIP0_CELLS_PER_TILE, NUM_MIPS, TILE_CELL_RATIO, cell_index};
 use crate::atomics::AtomicWords;
 use crate::math::{clamp, max, max_u32, min, min_u32};
-use glam::Vec3;
+use glam::Vec4;
 
-/// `(rgb · n, n)` stored as a running mean's value in frame `frame`: rounded with
-/// [`crate::packing::running_mean_dither`] so that it keeps following a slow change (rounded to
-/// nearest, a GI furnace of albedo 0.8 read 0.65 points darker).
+/// `(rgb · n, n)` stored as a running mean's value in frame `frame`, rounded once per update
+/// with [`crate::packing::running_mean_dither`] so that it keeps following a slow change (rounded
+/// to nearest, a GI furnace of albedo 0.8 read 0.65 points darker).
 #[inline]
-pub fn stored_value(sum: Vec3, count: f32, frame: u32) -> HashCellValue {
-    let dither = crate::packing::running_mean_dither(sum.extend(count), frame);
-    HashCellValue::new_dithered(sum, count, dither)
+pub fn stored_value(value: Vec4, frame: u32) -> HashCellValue {
+    let dither = crate::packing::running_mean_dither(value, frame);
+    HashCellValue::new_dithered(value.truncate(), value.w, dither)
 }
 
-/// A mip-0 cell's new value from its old value (`(rgb · n, n)`) and the frame's accumulator (see
-/// the module documentation for the weights), stored for frame `frame` ([`stored_value`]). The
-/// count grows to `cap`; the weights cap the history at `blend_cap` (at most `cap`, at least 1)
-/// instead where that is lower.
+/// A mip-0 cell's new value `(rgb · n, n)` from its old value and the frame's accumulator (see
+/// the module documentation for the weights). The count grows to `cap`; the weights cap the
+/// history at `blend_cap` (at most `cap`, at least 1) instead where that is lower.
 #[inline]
-pub fn blend_cell(
-    old: HashCellValue,
-    acc: HashCellAccumulator,
-    cap: u32,
-    blend_cap: f32,
-    frame: u32,
-) -> HashCellValue {
+pub fn blend_cell(old: Vec4, acc: HashCellAccumulator, cap: u32, blend_cap: f32) -> Vec4 {
     if acc.count == 0 {
         return old;
     }
@@ -68,7 +61,7 @@ pub fn blend_cell(
     let k = acc.count as f32;
     let k_kept = min_u32(acc.count, cap_count) as f32;
     // Mip-0 counts lie in 0..=cap; the clamp also turns a NaN count into 0.
-    let c0 = clamp(old.count(), 0.0, cap);
+    let c0 = clamp(old.w, 0.0, cap);
     let c = min(c0 + k_kept, cap);
     // The clamp also reads a NaN cap as 1 (no history).
     let weights = min(c0 + k_kept, clamp(blend_cap, 1.0, cap));
@@ -83,10 +76,10 @@ pub fn blend_cell(
         history_weight / c0
     };
     let new_scale = if k_kept == k { 1.0 } else { k_kept / k };
-    let sum = old.radiance_sum() * history_scale + acc.radiance_sum() * new_scale;
+    let sum = old.truncate() * history_scale + acc.radiance_sum() * new_scale;
     // The mean of `total` weights, stored with the count `c`.
     let sum = if total == c { sum } else { sum * (c / total) };
-    stored_value(sum, c, frame)
+    sum.extend(c)
 }
 
 /// The weight an update gives a cell's history: `1 − 1/history_frames`, or 1 (no fading) for 0.
@@ -99,14 +92,14 @@ pub fn history_keep(history_frames: u32) -> f32 {
     }
 }
 
-/// `value` with its history weighed `keep` ([`history_keep`]; unchanged for an empty cell): the
-/// mean is kept, the count falls. Stored for frame `frame` ([`stored_value`]).
+/// `value` (`(rgb · n, n)`) with its history weighed `keep` ([`history_keep`]; unchanged for an
+/// empty cell): the mean is kept, the count falls.
 #[inline]
-pub fn decayed(value: HashCellValue, keep: f32, frame: u32) -> HashCellValue {
-    if keep >= 1.0 || value.count() <= 0.0 {
+pub fn decayed(value: Vec4, keep: f32) -> Vec4 {
+    if keep >= 1.0 || value.w <= 0.0 {
         return value;
     }
-    stored_value(value.radiance_sum() * keep, value.count() * keep, frame)
+    value * keep
 }
 
 /// Blends mip-0 cell `cell` (`x + 8 · y`, in 0..64) of tile `tile`, its history [`decayed`] by
@@ -130,16 +123,15 @@ pub fn update_mip0_cell<W: AtomicWords + ?Sized>(
 ) {
     let cell = min_u32(cell, MIP0_CELLS_PER_TILE - 1);
     let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
-    let index = cell_index(tile, 0, xy[0], xy[1]);
+    let index = cell_index(tile, 0, xy[0], xy[1]) as usize;
     let base = accumulator_word(tile, xy);
-    let old = decayed(values[index as usize], keep, frame);
-    let index = index as usize;
+    let old = decayed(values[index].sum_and_count(), keep);
     if accumulator_count(accumulators, base) != 0 {
         let acc = load_accumulator(accumulators, base);
-        values[index] = blend_cell(old, acc, cap, blend_cap, frame);
+        values[index] = stored_value(blend_cell(old, acc, cap, blend_cap), frame);
         clear_accumulator(accumulators, base);
-    } else if keep < 1.0 {
-        values[index] = old;
+    } else if keep < 1.0 && old.w > 0.0 {
+        values[index] = stored_value(old, frame);
     }
 }
 
@@ -276,22 +268,17 @@ pub fn update_bounce_copy<W: AtomicWords + ?Sized>(
         let xy = [cell % TILE_CELL_RATIO, cell / TILE_CELL_RATIO];
         let index = cell_index(tile, 0, xy[0], xy[1]) as usize;
         let old = if values[index].count() > 0.0 {
-            decayed(bounce[index], keep, frame)
+            decayed(bounce[index].sum_and_count(), keep)
         } else {
-            HashCellValue::ZERO
+            Vec4::ZERO
         };
         let base = accumulator_word(tile, xy);
-        bounce[index] = if accumulator_count(accumulators, base) != 0 {
-            blend_cell(
-                old,
-                load_accumulator(accumulators, base),
-                cap,
-                blend_cap,
-                frame,
-            )
+        let new = if accumulator_count(accumulators, base) != 0 {
+            blend_cell(old, load_accumulator(accumulators, base), cap, blend_cap)
         } else {
             old
         };
+        bounce[index] = stored_value(new, frame);
         cell += 1;
     }
     update_mips(bounce, tile);
@@ -305,6 +292,7 @@ mod tests {
     use crate::hash_cells::MAX_SAMPLE_COUNT;
     use crate::hash_cells::accumulate::accumulate_sample;
     use crate::hash_cells::layout::TILE_ACCUMULATOR_WORDS;
+    use glam::Vec3;
 
     fn acc(sum: Vec3, count: u32) -> HashCellAccumulator {
         HashCellAccumulator {
@@ -315,9 +303,20 @@ mod tests {
         }
     }
 
+    /// [`blend_cell`] on stored values, rounded to nearest.
+    fn blend(
+        old: HashCellValue,
+        acc: HashCellAccumulator,
+        cap: u32,
+        blend_cap: f32,
+    ) -> HashCellValue {
+        let v = blend_cell(old.sum_and_count(), acc, cap, blend_cap);
+        HashCellValue::new(v.truncate(), v.w)
+    }
+
     /// The blend with the fixed cap.
     fn fixed(old: HashCellValue, acc: HashCellAccumulator, cap: u32) -> HashCellValue {
-        blend_cell(old, acc, cap, cap as f32, 0)
+        blend(old, acc, cap, cap as f32)
     }
 
     std::thread_local! {
@@ -415,29 +414,29 @@ mod tests {
         let a = Vec3::new(3.0, 0.0, 0.5);
         let full = HashCellValue::new(m * 16.0, 16.0);
         // Cap 1: the new samples only, count still 16 (the read keeps its mip).
-        let v = blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, 1.0, 0);
+        let v = blend(full, acc(a, 1), MAX_SAMPLE_COUNT, 1.0);
         assert_eq!(v.count(), 16.0);
         assert!(close(v.mean(), a));
         // Cap 4: lerp(m, a, 1/4).
-        let v = blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, 4.0, 0);
+        let v = blend(full, acc(a, 1), MAX_SAMPLE_COUNT, 4.0);
         assert_eq!(v.count(), 16.0);
         assert!(close(v.mean(), m + (a - m) / 4.0));
         // More new samples than the blend cap: their mean.
-        let v = blend_cell(full, acc(a * 3.0, 3), MAX_SAMPLE_COUNT, 2.0, 0);
+        let v = blend(full, acc(a * 3.0, 3), MAX_SAMPLE_COUNT, 2.0);
         assert!(close(v.mean(), a));
         // A young cell below the blend cap: the exact mean, as with the fixed cap.
         let young = HashCellValue::new(m * 2.0, 2.0);
         assert_eq!(
-            blend_cell(young, acc(a, 1), MAX_SAMPLE_COUNT, 8.0, 0),
+            blend(young, acc(a, 1), MAX_SAMPLE_COUNT, 8.0),
             fixed(young, acc(a, 1), MAX_SAMPLE_COUNT)
         );
         // A blend cap above the cap, infinite or NaN is clamped into [1, cap].
         assert_eq!(
-            blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, f32::INFINITY, 0),
+            blend(full, acc(a, 1), MAX_SAMPLE_COUNT, f32::INFINITY),
             fixed(full, acc(a, 1), MAX_SAMPLE_COUNT)
         );
         assert!(close(
-            blend_cell(full, acc(a, 1), MAX_SAMPLE_COUNT, f32::NAN, 0).mean(),
+            blend(full, acc(a, 1), MAX_SAMPLE_COUNT, f32::NAN).mean(),
             a
         ));
     }

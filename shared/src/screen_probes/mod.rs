@@ -38,8 +38,8 @@ use glam::{UVec2, Vec3, Vec4};
 
 use crate::math::max_u32;
 use crate::packing::{
-    SEED_NONE, WIDE16_MANTISSA_BITS, pack_wide16_dithered, running_mean_dither, unpack_seed,
-    unpack_snorm10x3, unpack_wide16,
+    SEED_NONE, WIDE16_MANTISSA_BITS, pack_wide16x4_dithered, running_mean_dither, unpack_seed,
+    unpack_snorm10x3, unpack_wide16x4,
 };
 
 pub mod blend;
@@ -351,8 +351,8 @@ pub fn make_cell(radiance: Vec3, hit_distance: f32) -> [f32; 4] {
 pub const EMPTY: [f32; 4] = [0.0, 0.0, 0.0, EMPTY_CELL];
 
 /// A cell as the probe buffers store it (atlas, probe history, the probe filter's output): its
-/// `[r, g, b, hit distance]` as four [`crate::packing::pack_wide16`]s, 8 bytes instead of 16, at 2^-10 of
-/// precision over any radiance and distance. Distance code 0 marks an empty cell (so a zeroed
+/// `[r, g, b, hit distance]` as four [`crate::packing::pack_wide16`]s, 8 bytes instead of 16, at
+/// 2^-10 of precision over any radiance and distance. Distance code 0 marks an empty cell (so a zeroed
 /// buffer is empty); a filled cell's distance is at least [`crate::packing::WIDE16_MIN`].
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -386,41 +386,28 @@ impl StoredCell {
         Self::pack_dithered(cell, running_mean_dither(Vec4::from_array(cell), frame))
     }
 
-    /// [`Self::pack`] with [`pack_wide16_dithered`]'s rounding.
+    /// [`Self::pack`] with [`pack_wide16x4_dithered`]'s rounding.
     #[inline]
     fn pack_dithered(cell: [f32; 4], dither: f32) -> Self {
-        let filled = cell_is_filled(cell);
-        let distance = if filled {
-            max_u32(
-                pack_wide16_dithered(cell[3], dither),
-                1 << WIDE16_MANTISSA_BITS,
-            )
+        let [rg, b_distance] = pack_wide16x4_dithered(Vec4::from_array(cell), dither);
+        let distance = if cell_is_filled(cell) {
+            max_u32(b_distance >> 16, 1 << WIDE16_MANTISSA_BITS)
         } else {
             0
         };
         Self {
-            words: [
-                pack_wide16_dithered(cell[0], dither)
-                    | (pack_wide16_dithered(cell[1], dither) << 16),
-                pack_wide16_dithered(cell[2], dither) | (distance << 16),
-            ],
+            words: [rg, (b_distance & 0xffff) | (distance << 16)],
         }
     }
 
     /// The cell [`Self::pack`] stored, [`EMPTY_CELL`] as the distance of an empty one.
     #[inline]
     pub fn unpack(self) -> [f32; 4] {
-        let distance = self.words[1] >> 16;
-        [
-            unpack_wide16(self.words[0]),
-            unpack_wide16(self.words[0] >> 16),
-            unpack_wide16(self.words[1]),
-            if distance == 0 {
-                EMPTY_CELL
-            } else {
-                unpack_wide16(distance)
-            },
-        ]
+        let mut cell = unpack_wide16x4(self.words).to_array();
+        if self.words[1] >> 16 == 0 {
+            cell[3] = EMPTY_CELL;
+        }
+        cell
     }
 }
 
