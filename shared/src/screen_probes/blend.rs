@@ -73,12 +73,14 @@ fn usable_radiance(r: Vec3) -> bool {
     r.is_finite() && r.x >= 0.0 && r.y >= 0.0 && r.z >= 0.0
 }
 
-/// Phase 1, lane = ray: the cell the ray sampled and `[radiance, hit distance]`, or
-/// ([`UNMAPPED`], [`EMPTY`]) for a ray to drop: not traced (zero direction), a cell out of range,
-/// non-finite or negative radiance, or a negative or NaN hit distance.
+/// Phase 1, lane = ray: the cell the ray sampled and `[radiance × cosine weight, hit distance]`
+/// (the weight: `sh_projection::cosine_weight`, so that the cell's irradiance at the probe's
+/// normal does not depend on where in the cell the light arrives), or ([`UNMAPPED`], [`EMPTY`])
+/// for a ray to drop: not traced (zero direction), a cell out of range, non-finite or negative
+/// radiance or weight, or a negative or NaN hit distance.
 #[inline]
 pub fn ray_source(ray: ProbeRay, record: RayRecord) -> (u32, [f32; 4]) {
-    let radiance = Vec3::from_array(record.ray_radiance);
+    let radiance = Vec3::from_array(record.ray_radiance) * ray.cosine_weight;
     let traced = Vec3::from_array(ray.direction) != Vec3::ZERO;
     if traced && ray.cell < PROBE_CELLS && usable_radiance(radiance) && ray.hit_distance >= 0.0 {
         (ray.cell, make_cell(radiance, ray.hit_distance))
@@ -223,7 +225,8 @@ mod tests {
             cell,
             hit_distance,
             cell_probability: 0.0,
-            _pad: [0; 2],
+            cosine_weight: 1.0,
+            _pad: 0,
         }
     }
 
@@ -365,6 +368,73 @@ mod tests {
                 flags & FLAG_HYSTERESIS != 0
             );
             assert!(bias.abs() < 0.01, "flags {flags}: {bias}");
+        }
+    }
+
+    /// Light that arrives at grazing angles keeps its irradiance at the probe's normal: rays
+    /// through the whole pass (SampleScreenProbes' directions, BlendScreenProbes' binning) over
+    /// radiance that lies in a band above the horizon, inside the rim cells. Each cell's value
+    /// times its `∫ cos` must sum to `∫ L cos`; without the rays' cosine weight the band read
+    /// 4.3 times its irradiance, the patch 2.1 times.
+    #[test]
+    fn grazing_light_keeps_its_irradiance_at_the_probe_normal() {
+        use crate::screen_probes::hemisphere::{CELL_SOLID_ANGLE, ProbeFrame};
+        use crate::screen_probes::ray_guiding::sample_ray;
+        use crate::screen_probes::sh_projection::cell_mean_cosine;
+        let probe = ProbeFrame {
+            position: Vec3::ZERO,
+            normal: Vec3::new(0.3, -0.5, 0.8).normalize(),
+        };
+        // (radiance of a world direction, its exact irradiance at the normal)
+        let band_top = 0.1f32;
+        // A plane through the normal halves the band.
+        let side = probe.normal.cross(Vec3::X);
+        let cases: [(&str, f64); 3] = [
+            ("uniform", core::f64::consts::PI),
+            (
+                "band cos θ < 0.1",
+                core::f64::consts::PI * f64::from(band_top * band_top),
+            ),
+            (
+                "half band",
+                core::f64::consts::PI * f64::from(band_top * band_top) / 2.0,
+            ),
+        ];
+        for (name, exact) in cases {
+            let light = |d: Vec3| {
+                let z = d.dot(probe.normal);
+                match name {
+                    "uniform" => 1.0,
+                    "band cos θ < 0.1" if z < band_top => 1.0,
+                    "half band" if z < band_top && d.dot(side) > 0.0 => 1.0,
+                    _ => 0.0,
+                }
+            };
+            let mut sums = [0.0f64; 64];
+            let frames = 4000;
+            for frame_index in 0..frames {
+                let p = GiFrameParams {
+                    frame_index,
+                    ..Default::default()
+                };
+                let rays: [ProbeRay; 64] = core::array::from_fn(|lane| {
+                    sample_ray(&p, &probe, 0, lane as u32, &[0.0; 64], false)
+                });
+                let records = rays.map(|r| radiance(light(Vec3::from_array(r.direction))));
+                let cells = blend_workgroup(&p, &rays, &records, &[]);
+                for (sum, cell) in sums.iter_mut().zip(cells) {
+                    *sum += f64::from(cell[0]);
+                }
+            }
+            let estimate: f64 = (0..64)
+                .map(|c| {
+                    sums[c] / f64::from(frames)
+                        * f64::from(cell_mean_cosine(c as u32) * CELL_SOLID_ANGLE)
+                })
+                .sum();
+            let error = estimate / exact - 1.0;
+            eprintln!("{name}: irradiance {estimate:.5} of {exact:.5} ({error:+.4})");
+            assert!(error.abs() < 0.01, "{name}: {error}");
         }
     }
 

@@ -53,9 +53,7 @@ impl ProbeFrame {
     /// in solid angle: the map is equal-area).
     #[inline]
     pub fn direction_in_cell(&self, index: u32, u: Vec2) -> Vec3 {
-        let c = cell_coords(index).as_vec2();
-        let uv = (c + u) / PROBE_SIZE as f32;
-        tangent_to_world(equal_area_hemi_decode(uv * 2.0 - 1.0), self.normal)
+        tangent_to_world(tangent_direction_in_cell(index, u), self.normal)
     }
 
     /// The cell a world direction falls into; `None` below the hemisphere (or degenerate).
@@ -68,6 +66,15 @@ impl ProbeFrame {
             None
         }
     }
+}
+
+/// The direction of the point `u ∈ [0, 1)²` inside cell `index` in the probe's tangent frame
+/// (`z`: the cosine to its normal).
+#[inline]
+pub fn tangent_direction_in_cell(index: u32, u: Vec2) -> Vec3 {
+    let c = cell_coords(index).as_vec2();
+    let uv = (c + u) / PROBE_SIZE as f32;
+    equal_area_hemi_decode(uv * 2.0 - 1.0)
 }
 
 /// The hemisphere of a stored probe: its position and its normal after the `pack_snorm10x3`

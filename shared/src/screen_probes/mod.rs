@@ -321,12 +321,15 @@ pub struct ProbeRay {
     /// Guided rays: the probability that one ray of the probe lands in this ray's cell (its
     /// share of the guiding CDF). 0 when the rays are not guided (each cell traces its own ray).
     pub cell_probability: f32,
+    /// The weight of the ray's radiance in its cell, `sh_projection::cosine_weight`: its cosine to
+    /// the probe's normal over the cell's mean cosine (0 for a ray not to trace).
+    pub cosine_weight: f32,
     /// Explicit padding.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 impl crate::layout::FloatLayout for ProbeRay {
-    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 4, 5];
+    const FLOAT_WORDS: &'static [u32] = &[0, 1, 2, 4, 5, 6];
 }
 
 /// A cell `[r, g, b, hit distance]` as radiance and distance.
@@ -543,7 +546,8 @@ mod tests {
             float_field_words(&[
                 (offset_of!(ProbeRay, direction), 3),
                 (offset_of!(ProbeRay, hit_distance), 1),
-                (offset_of!(ProbeRay, cell_probability), 1)
+                (offset_of!(ProbeRay, cell_probability), 1),
+                (offset_of!(ProbeRay, cosine_weight), 1)
             ])
         );
         assert_eq!(

@@ -28,8 +28,11 @@
 use super::StoredCell;
 use glam::{UVec2, Vec3};
 
-use super::hemisphere::{ProbeFrame, UNMAPPED, cell_coords, map_cell, record_frame};
+use super::hemisphere::{
+    ProbeFrame, UNMAPPED, cell_coords, map_cell, record_frame, tangent_direction_in_cell,
+};
 use super::reuse::reuse_score;
+use super::sh_projection::cosine_weight;
 use super::{
     EMPTY, FLAG_HISTORY, FLAG_PARALLAX, FLAG_RAY_GUIDING, FLAG_REPROJECTION, GiFrameParams, LANES,
     PASS_SAMPLE, PROBE_CELLS, PROBE_SIZE, ProbeRay, ProbeRecord, cell_is_filled, cell_radiance,
@@ -37,6 +40,7 @@ use super::{
 };
 use crate::color::luminance;
 use crate::octahedral::probe_cell_direction;
+use crate::sampling::tangent_to_world;
 use crate::world_cache::pass_random;
 
 /// Share of the mean cell weight added to every cell of the guiding CDF, so that a light that
@@ -284,13 +288,14 @@ pub fn sample_ray(
     } else {
         (lane % PROBE_CELLS, 0.0)
     };
-    let direction = frame.direction_in_cell(cell, rng.next_vec2());
+    let tangent = tangent_direction_in_cell(cell, rng.next_vec2());
     ProbeRay {
-        direction: direction.to_array(),
+        direction: tangent_to_world(tangent, frame.normal).to_array(),
         cell,
         hit_distance: 0.0,
         cell_probability,
-        _pad: [0; 2],
+        cosine_weight: cosine_weight(cell, tangent.z),
+        _pad: 0,
     }
 }
 
@@ -302,7 +307,8 @@ pub fn untraced_ray(lane: u32) -> ProbeRay {
         cell: lane % PROBE_CELLS,
         hit_distance: 0.0,
         cell_probability: 0.0,
-        _pad: [0; 2],
+        cosine_weight: 0.0,
+        _pad: 0,
     }
 }
 

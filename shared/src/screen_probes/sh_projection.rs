@@ -19,7 +19,7 @@
 use glam::{Vec2, Vec3};
 
 use super::LANES;
-use super::hemisphere::{CELL_SOLID_ANGLE, ProbeFrame, cell_coords};
+use super::hemisphere::{CELL_SOLID_ANGLE, ProbeFrame, cell_coords, tangent_direction_in_cell};
 use super::{PROBE_CELLS, cell_is_filled, cell_radiance};
 use crate::sh::{SH_COEFFICIENT_COUNT, sh9_basis};
 
@@ -106,6 +106,41 @@ pub fn cell_basis_integrals(frame: &ProbeFrame, index: u32) -> [f32; SH_COEFFICI
         node += 1;
     }
     sum
+}
+
+/// The mean cosine to the probe's normal over cell `index`, `∫_cell cos θ dω / CELL_SOLID_ANGLE`,
+/// from the nodes of [`cell_basis_integrals`] (exact up to f32 rounding: `cos θ` is of degree 2 on
+/// each half cell). From 0.16 (the rim's corner cells) to 0.97 (the four at the pole); the
+/// cosine weight of a probe ray ([`cosine_weight`]) divides by it.
+#[inline]
+pub fn cell_mean_cosine(index: u32) -> f32 {
+    let mut sum = 0.0;
+    let mut node = 0;
+    while node < CELL_NODES {
+        let (u, weight) = cell_node(index, node);
+        sum += tangent_direction_in_cell(index, u).z * weight;
+        node += 1;
+    }
+    sum / CELL_SOLID_ANGLE
+}
+
+/// The weight a probe ray's radiance takes in its cell: its cosine to the probe's normal over the
+/// cell's mean cosine ([`cell_mean_cosine`]), `direction_z` being the ray's direction in the
+/// probe's tangent frame (`hemisphere::tangent_direction_in_cell`). A cell then holds
+/// `∫_cell L cos / ∫_cell cos` rather than the mean of `L`, so that its irradiance at the probe's
+/// normal is exact whatever the light's place inside it. Without the weight, light that arrives
+/// at grazing angles (a lit floor seen from a wall, light under a door) counted at the mean cosine
+/// of its rim cell, up to 4 times its own (cells span `cos θ` from 0 to 0.44 there): a band of
+/// radiance below `cos θ = 0.1` read 4.3 times its irradiance, a patch 5–10° above the horizon
+/// 2.1 times.
+#[inline]
+pub fn cosine_weight(index: u32, direction_z: f32) -> f32 {
+    let mean = cell_mean_cosine(index);
+    if mean > 0.0 && direction_z > 0.0 {
+        direction_z / mean
+    } else {
+        0.0
+    }
 }
 
 /// Lane = cell `index` of the probe with frame `frame`: its 9 terms `[r, g, b, 0]`, in the order
@@ -204,6 +239,27 @@ mod tests {
             Vec3::new(-1.0, 2.0, -0.1),
             Vec3::new(0.2, 0.7, -0.4),
         ]
+    }
+
+    /// The cells' mean cosines integrate the cosine lobe: `Σ cos̄ × 2π / 64 = π`, and they span
+    /// the range the doc states.
+    #[test]
+    fn cell_mean_cosines_sum_to_the_cosine_lobe() {
+        let sum: f64 = (0..PROBE_CELLS)
+            .map(|c| f64::from(cell_mean_cosine(c) * CELL_SOLID_ANGLE))
+            .sum();
+        assert!((sum / core::f64::consts::PI - 1.0).abs() < 1e-6, "{sum}");
+        let (lo, hi) = (0..PROBE_CELLS)
+            .map(cell_mean_cosine)
+            .fold((1.0f32, 0.0f32), |(lo, hi), c| (lo.min(c), hi.max(c)));
+        eprintln!("mean cosines {lo} to {hi}");
+        assert!(
+            (0.15..0.16).contains(&lo) && (0.96..0.97).contains(&hi),
+            "{lo} {hi}"
+        );
+        assert_eq!(cosine_weight(0, 0.0), 0.0);
+        assert_eq!(cosine_weight(0, f32::NAN), 0.0);
+        assert!((cosine_weight(27, cell_mean_cosine(27)) - 1.0).abs() < 1e-6);
     }
 
     /// The old projection, for comparison: each cell sampled at its centre, weighted `2π / 64`.
