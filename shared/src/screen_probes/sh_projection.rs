@@ -131,7 +131,7 @@ pub fn cell_mean_cosine(index: u32) -> f32 {
 /// normal is exact whatever the light's place inside it. Without the weight, light that arrives
 /// at grazing angles (a lit floor seen from a wall, light under a door) counted at the mean cosine
 /// of its rim cell, up to 4 times its own (cells span `cos θ` from 0 to 0.44 there): a band of
-/// radiance below `cos θ = 0.1` read 4.3 times its irradiance, a patch 5–10° above the horizon
+/// radiance below `cos θ = 0.1` read 4.3 times its irradiance, a patch within 10° of the horizon
 /// 2.1 times.
 #[inline]
 pub fn cosine_weight(index: u32, direction_z: f32) -> f32 {
