@@ -143,7 +143,8 @@ pub fn mip_cell_count(mip: u32) -> u32 {
 }
 
 /// Cell `(x, y)` of mip `mip ≥ 1` as the sum of its four children in mip `mip − 1`, added in a
-/// fixed order (so every invocation layout gives the same bits). Mip 0 reads the cell itself.
+/// fixed order (so every invocation layout gives the same bits) and stored once, rounded to
+/// nearest. Mip 0 reads the cell itself.
 #[inline]
 pub fn mip_cell(values: &[HashCellValue], tile: u32, mip: u32, x: u32, y: u32) -> HashCellValue {
     if mip == 0 {
@@ -151,11 +152,11 @@ pub fn mip_cell(values: &[HashCellValue], tile: u32, mip: u32, x: u32, y: u32) -
     }
     let child = min_u32(mip, NUM_MIPS - 1) - 1;
     let (cx, cy) = (2 * x, 2 * y);
-    let a = values[cell_index(tile, child, cx, cy) as usize];
-    let b = values[cell_index(tile, child, cx + 1, cy) as usize];
-    let c = values[cell_index(tile, child, cx, cy + 1) as usize];
-    let d = values[cell_index(tile, child, cx + 1, cy + 1) as usize];
-    a + b + c + d
+    let sum = values[cell_index(tile, child, cx, cy) as usize].sum_and_count()
+        + values[cell_index(tile, child, cx + 1, cy) as usize].sum_and_count()
+        + values[cell_index(tile, child, cx, cy + 1) as usize].sum_and_count()
+        + values[cell_index(tile, child, cx + 1, cy + 1) as usize].sum_and_count();
+    HashCellValue::new(sum.truncate(), sum.w)
 }
 
 /// Writes cell `cell` (`x + side · y`) of mip `mip` (1..=3) of tile `tile` from its children
@@ -569,10 +570,11 @@ mod tests {
             let side = 8 >> mip;
             for y in 0..side {
                 for x in 0..side {
-                    let expected = c(mip - 1, 2 * x, 2 * y)
-                        + c(mip - 1, 2 * x + 1, 2 * y)
-                        + c(mip - 1, 2 * x, 2 * y + 1)
-                        + c(mip - 1, 2 * x + 1, 2 * y + 1);
+                    let sum = c(mip - 1, 2 * x, 2 * y).sum_and_count()
+                        + c(mip - 1, 2 * x + 1, 2 * y).sum_and_count()
+                        + c(mip - 1, 2 * x, 2 * y + 1).sum_and_count()
+                        + c(mip - 1, 2 * x + 1, 2 * y + 1).sum_and_count();
+                    let expected = HashCellValue::new(sum.truncate(), sum.w);
                     assert_eq!(c(mip, x, y), expected);
                     assert_eq!(mip_cell(&values, 1, mip, x, y), expected);
                 }

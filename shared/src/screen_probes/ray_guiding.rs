@@ -418,19 +418,20 @@ mod tests {
     const ALL: u32 = FLAG_HISTORY | FLAG_REPROJECTION | FLAG_PARALLAX | FLAG_RAY_GUIDING;
 
     /// A spawned probe at `seed` on the plane, with a current probe at the same place in the tile
-    /// to the right of the seed's (cells from `cell`) and nothing else.
+    /// to the right of the seed's (cells from `cell`, stored as the atlas stores them) and nothing
+    /// else.
     fn scene(
         cell: impl Fn(u32) -> [f32; 4],
-    ) -> (Vec<ProbeRecord>, Vec<[f32; 4]>, ProbeFrame, UVec2) {
+    ) -> (Vec<ProbeRecord>, Vec<StoredCell>, ProbeFrame, UVec2) {
         let seed = UVec2::new(20, 20);
         let p = Vec3::new(0.0, 0.0, -10.0);
         let n = Vec3::Z;
         let mut records = vec![ProbeRecord::NONE; 64];
-        let mut atlas = vec![EMPTY; 64 * 64];
+        let mut atlas = vec![StoredCell::EMPTY; 64 * 64];
         let tile = (seed.y / 8) * 8 + seed.x / 8 + 1;
         records[tile as usize] = record(p, n, seed + UVec2::new(8, 0));
         for c in 0..PROBE_CELLS {
-            atlas[(tile * 64 + c) as usize] = cell(c);
+            atlas[(tile * 64 + c) as usize] = StoredCell::pack(cell(c));
         }
         let frame = record_frame(&records[tile as usize]);
         (records, atlas, frame, seed)
@@ -441,16 +442,9 @@ mod tests {
         let (records, atlas, frame, seed) =
             scene(|c| make_cell(Vec3::new(c as f32, 1.0, 2.0), 3.0 + c as f32 * 0.01));
         let tile = 2 * 8 + 2 + 1;
-        let out = sample_workgroup(
-            &params(ALL),
-            &records,
-            &crate::screen_probes::stored_cells(&atlas),
-            seed,
-            &frame,
-            0,
-        );
+        let out = sample_workgroup(&params(ALL), &records, &atlas, seed, &frame, 0);
         for c in 0..PROBE_CELLS {
-            let expected = atlas[(tile * 64 + c) as usize];
+            let expected = atlas[(tile * 64 + c) as usize].unpack();
             let got = out.history[c as usize];
             for k in 0..4 {
                 assert!(
@@ -464,14 +458,7 @@ mod tests {
         // Without history (or without reprojection) nothing is gathered and every lane traces
         // its own cell.
         for flags in [ALL & !FLAG_HISTORY, ALL & !FLAG_REPROJECTION] {
-            let out = sample_workgroup(
-                &params(flags),
-                &records,
-                &crate::screen_probes::stored_cells(&atlas),
-                seed,
-                &frame,
-                0,
-            );
+            let out = sample_workgroup(&params(flags), &records, &atlas, seed, &frame, 0);
             assert!(out.history.iter().all(|&h| h == EMPTY));
             assert!(!out.guided);
             for (lane, ray) in out.rays.iter().enumerate() {
@@ -491,7 +478,7 @@ mod tests {
         let own = (seed.y / 8) * 8 + seed.x / 8;
         records[own as usize] = records[own as usize + 1];
         for c in 0..64 {
-            atlas[(own * 64 + c) as usize] = make_cell(Vec3::splat(3.0), 1e9);
+            atlas[(own * 64 + c) as usize] = StoredCell::pack(make_cell(Vec3::splat(3.0), 1e9));
         }
         // A tilted probe below: fails the normal test.
         let below = own + 8;
@@ -501,41 +488,20 @@ mod tests {
             seed + UVec2::new(0, 8),
         );
         for c in 0..64 {
-            atlas[(below * 64 + c) as usize] = make_cell(Vec3::splat(100.0), 1e9);
+            atlas[(below * 64 + c) as usize] = StoredCell::pack(make_cell(Vec3::splat(100.0), 1e9));
         }
         // The history is the own tile's probe; guiding follows the mean of the two (2).
-        let out = sample_workgroup(
-            &params(ALL),
-            &records,
-            &crate::screen_probes::stored_cells(&atlas),
-            seed,
-            &frame,
-            0,
-        );
+        let out = sample_workgroup(&params(ALL), &records, &atlas, seed, &frame, 0);
         for h in out.history {
             assert!((h[0] - 3.0).abs() < 1e-5, "{h:?}");
         }
         let mut uniform = records.clone();
         uniform[(below) as usize] = ProbeRecord::NONE;
-        let guided = sample_workgroup(
-            &params(ALL),
-            &uniform,
-            &crate::screen_probes::stored_cells(&atlas),
-            seed,
-            &frame,
-            0,
-        );
+        let guided = sample_workgroup(&params(ALL), &uniform, &atlas, seed, &frame, 0);
         assert_eq!(guided.cdf, out.cdf);
         // Without a probe in its own tile, the neighbour's cells stand in.
         records[own as usize] = ProbeRecord::NONE;
-        let out = sample_workgroup(
-            &params(ALL),
-            &records,
-            &crate::screen_probes::stored_cells(&atlas),
-            seed,
-            &frame,
-            0,
-        );
+        let out = sample_workgroup(&params(ALL), &records, &atlas, seed, &frame, 0);
         for h in out.history {
             assert!((h[0] - 1.0).abs() < 1e-5, "{h:?}");
         }
@@ -559,14 +525,7 @@ mod tests {
         let draws = 800;
         for frame_index in 0..draws {
             let p = GiFrameParams { frame_index, ..p };
-            let out = sample_workgroup(
-                &p,
-                &records,
-                &crate::screen_probes::stored_cells(&atlas),
-                seed,
-                &frame,
-                3,
-            );
+            let out = sample_workgroup(&p, &records, &atlas, seed, &frame, 3);
             assert!(out.guided);
             for ray in out.rays {
                 counts[ray.cell as usize] += 1;
@@ -577,14 +536,7 @@ mod tests {
         }
         let total = (draws * 64) as f32;
         // The CDF's probabilities: every cell has a positive share.
-        let out = sample_workgroup(
-            &p,
-            &records,
-            &crate::screen_probes::stored_cells(&atlas),
-            seed,
-            &frame,
-            3,
-        );
+        let out = sample_workgroup(&p, &records, &atlas, seed, &frame, 3);
         let mut last = 0.0;
         let mut probability = [0.0f32; 64];
         for (i, &c) in out.cdf.iter().enumerate() {
@@ -610,33 +562,19 @@ mod tests {
     #[test]
     fn guiding_needs_the_flag_and_light_in_the_history() {
         let (records, atlas, frame, seed) = scene(|_| make_cell(Vec3::ZERO, 2.0));
-        let out = sample_workgroup(
-            &params(ALL),
-            &records,
-            &crate::screen_probes::stored_cells(&atlas),
-            seed,
-            &frame,
-            0,
-        );
+        let out = sample_workgroup(&params(ALL), &records, &atlas, seed, &frame, 0);
         assert!(!out.guided, "a black history has no CDF");
         let (records, atlas, frame, seed) = scene(|_| make_cell(Vec3::ONE, 2.0));
         let out = sample_workgroup(
             &params(ALL & !FLAG_RAY_GUIDING),
             &records,
-            &crate::screen_probes::stored_cells(&atlas),
+            &atlas,
             seed,
             &frame,
             0,
         );
         assert!(!out.guided);
-        let out = sample_workgroup(
-            &params(ALL),
-            &records,
-            &crate::screen_probes::stored_cells(&atlas),
-            seed,
-            &frame,
-            0,
-        );
+        let out = sample_workgroup(&params(ALL), &records, &atlas, seed, &frame, 0);
         assert!(out.guided);
     }
 
