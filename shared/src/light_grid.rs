@@ -81,6 +81,7 @@ use crate::hash::pcg_chain;
 use crate::light_clusters::{LightCluster, cluster_weight, member_probability, pick_in_cluster};
 use crate::lights::{
     EXACT_DIRECT_LIGHTS, GpuLight, LIGHT_TRIANGLE, LightSample, LightSources, sample_light,
+    sample_triangle_light_ray_by_solid_angle,
 };
 use crate::math::{
     INV_PI, floor, floor_to_i32_clamped, max, min_u32, positive_or_zero, to_u32_clamped,
@@ -548,17 +549,22 @@ pub fn light_contribution(
     } else {
         GpuLight::ZERO
     };
-    let mut sample = sample_light(
-        &light,
-        hit.position,
-        UVec2::from_array(params.environment_size),
-        environment,
-        environment_cdf,
-        u,
-    );
-    if light.kind == LIGHT_TRIANGLE {
-        sample.radiance *= params.emissive_multiplier;
-    }
+    let sample = if light.kind == LIGHT_TRIANGLE {
+        // In solid angle: a cache cell's samples by a light (a room's corners, a lamp's
+        // surroundings) would otherwise carry `1 / r²` fireflies into every bounce.
+        let mut s = sample_triangle_light_ray_by_solid_angle(&light, hit.position, u);
+        s.radiance *= params.emissive_multiplier;
+        s
+    } else {
+        sample_light(
+            &light,
+            hit.position,
+            UVec2::from_array(params.environment_size),
+            environment,
+            environment_cdf,
+            u,
+        )
+    };
     let cosine = hit.normal.dot(sample.direction);
     let mut weight = Vec3::ZERO;
     if cosine > 0.0 && sample.pdf > 0.0 {
