@@ -381,6 +381,20 @@ pub fn sample_triangle_light_by_solid_angle(
         Vec3::from_array(light.p1),
         Vec3::from_array(light.p2),
     );
+    // Most emissive triangles of a real scene are small and far: a bound settles them before any
+    // angle is computed. Within radius `r` of their centroid, `d` away, they subtend at most
+    // `2π r² / d²` (a cap's `2π (1 − cos)` ≤ `2π sin²`), so below the minimum so does `Ω`.
+    let centroid = (p0 + p1 + p2) * (1.0 / 3.0);
+    let r2 = max(
+        (p0 - centroid).length_squared(),
+        max(
+            (p1 - centroid).length_squared(),
+            (p2 - centroid).length_squared(),
+        ),
+    );
+    if 2.0 * PI * r2 < SOLID_ANGLE_SAMPLING_MIN * (centroid - from).length_squared() {
+        return sample_triangle_light(light, from, u);
+    }
     let a = (p0 - from).normalize_or_zero();
     let b = (p1 - from).normalize_or_zero();
     let c = (p2 - from).normalize_or_zero();
@@ -393,7 +407,6 @@ pub fn sample_triangle_light_by_solid_angle(
     let beta = angle(n_bc, -n_ab);
     let gamma = angle(n_ca, -n_bc);
     let omega = alpha + beta + gamma - PI;
-    let normal = (p1 - p0).cross(p2 - p0);
     let degenerate = n_ab == Vec3::ZERO || n_bc == Vec3::ZERO || n_ca == Vec3::ZERO;
     // Also false for NaN.
     let large = omega >= SOLID_ANGLE_SAMPLING_MIN;
@@ -416,8 +429,9 @@ pub fn sample_triangle_light_by_solid_angle(
     let z = clamp(1.0 - u.y * (1.0 - c_hat.dot(b)), -1.0, 1.0);
     let w = b * z + (c_hat - b * c_hat.dot(b)).normalize_or_zero() * sqrt(max(1.0 - z * z, 0.0));
     // Where the direction meets the triangle's plane, as barycentrics clamped inside it.
-    let along = (p0 - from).dot(normal) / w.dot(normal);
     let (e1, e2) = (p1 - p0, p2 - p0);
+    let normal = e1.cross(e2);
+    let along = (p0 - from).dot(normal) / w.dot(normal);
     let v = from + w * along - p0;
     let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
     let (d20, d21) = (v.dot(e1), v.dot(e2));
@@ -903,6 +917,31 @@ mod tests {
             assert!(
                 (mean - exact).abs() < 4.0 * se + rounding * exact,
                 "{mean} ± {se} vs {exact}"
+            );
+        }
+        // The early bound (`2π r² / d²` about the centroid) never falls below the solid angle,
+        // so it only skips work: random triangles seen from outside their bounding sphere.
+        let mut rng = Random::new(13, 0);
+        for _ in 0..10_000 {
+            let v = [0; 3].map(|_| (rng.next_vec2().extend(rng.next_f32()) - 0.5).as_dvec3());
+            let from = (rng.next_vec2().extend(rng.next_f32()) * 8.0 - 4.0).as_dvec3();
+            let centroid = (v[0] + v[1] + v[2]) / 3.0;
+            let r2 = v
+                .iter()
+                .map(|p| (*p - centroid).length_squared())
+                .fold(0.0, f64::max);
+            let d2 = (centroid - from).length_squared();
+            if d2 <= r2 {
+                continue;
+            }
+            let [a, b, c] = v.map(|p| (p - from).normalize());
+            let omega = 2.0
+                * a.dot(b.cross(c))
+                    .abs()
+                    .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a));
+            assert!(
+                omega <= 2.0 * core::f64::consts::PI * r2 / d2,
+                "{omega} {r2} {d2}"
             );
         }
         // Seen from its own plane, and too small: area sampling's density.
