@@ -697,6 +697,7 @@ fn the_probe_age_view_matches_the_cpu() {
     let scene = load_scene("cornell-box.gltf");
     let gpu = Gpu::new(KernelVariant::Software, &scene);
     let mut gi = gpu.renderer(Preset::Fast.settings(SIDE, SIDE));
+    gi.keep_interpolated_irradiance(&gpu.ctx).unwrap();
     gpu.run(&mut gi, 12, |_| scene_camera(&scene, SIDE, SIDE));
     let views = gi_debug_views(&gpu.ctx, &gi).unwrap();
     let view = views.iter().find(|v| v.name == "probe_age").unwrap();

@@ -30,15 +30,29 @@ pub struct DenoiserResources {
     pub blur_mask: Buffer,
     /// The dilated, cost-adapted blur radius.
     pub blur_radius: Buffer,
-    /// FilterGI's horizontal output (a placeholder without the spatial stage). Its vertical
-    /// output is the previous history ([`Self::output`]).
+    /// FilterGI's horizontal output where it has a buffer of its own (see [`Self::new`]), else a
+    /// one-element placeholder. Its vertical output is the previous history ([`Self::output`]).
     pub filtered: Buffer,
+    /// Whether the interpolated irradiance is kept through the frame ([`Self::new`]).
+    keeps_interpolated: bool,
 }
 
 impl DenoiserResources {
     /// The buffers of a `pixels`-pixel frame; FilterGI's outputs only with `spatial` (the
     /// setting `denoiser_spatial`; else one-element placeholders).
-    pub fn new(ctx: &Context, pixels: usize, spatial: bool) -> Result<Self> {
+    ///
+    /// The interpolated irradiance is the frame's per-pixel scratch buffer: once ReprojectGI has
+    /// read it, FilterGI writes its horizontal output over it ([`Self::horizontal`]), and the
+    /// composite then writes the GI image over that (`GiRenderer`): 32 bytes per pixel less.
+    /// With `keep_interpolated` (temporal feedback's composite reads the interpolated
+    /// irradiance; the debug views show it after the frame) the horizontal output gets a buffer
+    /// of its own, and so does the image.
+    pub fn new(
+        ctx: &Context,
+        pixels: usize,
+        spatial: bool,
+        keep_interpolated: bool,
+    ) -> Result<Self> {
         let v4 = |name: &str| Buffer::device_zeroed::<[f32; 4]>(ctx, name, pixels);
         let f = |name: &str| Buffer::device_zeroed::<f32>(ctx, name, pixels);
         let trend = |name: &str| Buffer::device_zeroed::<u32>(ctx, name, TREND_WORDS);
@@ -50,12 +64,39 @@ impl DenoiserResources {
             trend: PingPong::new(trend("GI trend (a)")?, trend("GI trend (b)")?),
             blur_mask: f("blur mask")?,
             blur_radius: f("blur radius")?,
-            filtered: Buffer::device_zeroed::<[f32; 4]>(
-                ctx,
-                "filtered GI (horizontal)",
-                if spatial { pixels } else { 1 },
-            )?,
+            filtered: match spatial && keep_interpolated {
+                true => Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered GI (horizontal)", pixels)?,
+                false => Buffer::device_zeroed::<[f32; 4]>(ctx, "irradiance placeholder", 1)?,
+            },
+            keeps_interpolated: keep_interpolated,
         })
+    }
+
+    /// Whether the interpolated irradiance ([`Self::irradiance`]) still holds it after the frame
+    /// (see [`Self::new`]).
+    pub fn keeps_interpolated(&self) -> bool {
+        self.keeps_interpolated
+    }
+
+    /// What the composite reads as the irradiance before the denoiser: the interpolated
+    /// irradiance where it is kept, else a one-element placeholder (only temporal feedback's
+    /// composite reads it, and feedback keeps it).
+    pub fn undenoised(&self) -> &Buffer {
+        if self.keeps_interpolated {
+            &self.irradiance
+        } else {
+            &self.filtered
+        }
+    }
+
+    /// FilterGI's horizontal output: its own buffer, or the interpolated irradiance's, which
+    /// ReprojectGI has read by then (see [`Self::new`]).
+    pub fn horizontal(&self) -> &Buffer {
+        if self.keeps_interpolated {
+            &self.filtered
+        } else {
+            &self.irradiance
+        }
     }
 
     /// Starts a frame: this frame's histories become the previous ones.
@@ -284,8 +325,8 @@ impl DenoiserPasses {
         )?;
         let g = gbuffer;
         let steps = [
-            (input, &res.filtered),
-            (&res.filtered, res.output(DenoiserStage::Spatial)),
+            (input, res.horizontal()),
+            (res.horizontal(), res.output(DenoiserStage::Spatial)),
         ];
         for (direction, (from, to)) in steps.into_iter().enumerate() {
             rec.dispatch(

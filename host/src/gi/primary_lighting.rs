@@ -4,6 +4,7 @@
 //! by the camera, punctual lights by shadow rays) and ResolveGI (emission + albedo × irradiance,
 //! and the feedback image of the next frame).
 
+use super::gi_denoiser::DenoiserResources;
 use super::pass_inputs::{PrimaryView, pixel_groups};
 use super::screen_probes::ScreenProbeResources;
 use crate::error::Result;
@@ -16,17 +17,32 @@ use gi_shared::primary_lighting::PrimaryLighting;
 pub struct PrimaryResources {
     /// One [`PrimaryLighting`] per pixel.
     pub primary: Buffer,
-    /// The final image, `[r, g, b, 1]` per pixel, linear HDR.
-    pub color: Buffer,
+    /// The final image, `[r, g, b, 1]` per pixel, linear HDR, where it has a buffer of its own;
+    /// `None` where the composite writes it over the interpolated irradiance
+    /// (`DenoiserResources::new`; [`Self::color`]).
+    pub own_color: Option<Buffer>,
 }
 
 impl PrimaryResources {
-    /// The buffers of a `pixels`-pixel frame.
-    pub fn new(ctx: &Context, pixels: usize) -> Result<Self> {
+    /// The buffers of a `pixels`-pixel frame; the image in a buffer of its own only with
+    /// `own_color`.
+    pub fn new(ctx: &Context, pixels: usize, own_color: bool) -> Result<Self> {
         Ok(Self {
             primary: Buffer::device_zeroed::<PrimaryLighting>(ctx, "primary lighting", pixels)?,
-            color: Buffer::device_zeroed::<[f32; 4]>(ctx, "GI image", pixels)?,
+            own_color: match own_color {
+                true => Some(Buffer::device_zeroed::<[f32; 4]>(ctx, "GI image", pixels)?),
+                false => None,
+            },
         })
+    }
+
+    /// The final image's buffer: its own, or `denoiser`'s interpolated irradiance, which the
+    /// denoiser has read by the time the composite writes.
+    pub fn color<'a>(&'a self, denoiser: &'a DenoiserResources) -> &'a Buffer {
+        match &self.own_color {
+            Some(c) => c,
+            None => &denoiser.irradiance,
+        }
     }
 }
 
@@ -109,15 +125,20 @@ impl PrimaryPasses {
         Ok(())
     }
 
-    /// ResolveGI: the final image from `irradiance` (the denoiser's output), and the feedback
-    /// image (`feedback`, one `FeedbackTexel` per pixel) the next frame's secondary hits read,
-    /// from `undenoised` (the interpolated irradiance before the denoiser).
+    /// ResolveGI: the final image `color` from `irradiance` (the denoiser's output), and the
+    /// feedback image (`feedback`, one `FeedbackTexel` per pixel) the next frame's secondary hits
+    /// read, from `undenoised` (the interpolated irradiance before the denoiser).
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "one argument per buffer the pass binds"
+    )]
     pub fn record_resolve(
         &self,
         rec: &mut Recorder<'_>,
         res: &PrimaryResources,
         view: PrimaryView<'_>,
         irradiance: &Buffer,
+        color: &Buffer,
         feedback: &Buffer,
         undenoised: &Buffer,
     ) -> Result<()> {
@@ -132,7 +153,7 @@ impl PrimaryPasses {
                 albedo: &g.albedo,
                 lighting: &res.primary,
                 irradiance,
-                color: &res.color,
+                color,
                 history: feedback,
                 undenoised,
             },

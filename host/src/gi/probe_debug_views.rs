@@ -76,6 +76,14 @@ fn false_colour(i: u32) -> [f32; 3] {
 
 /// Every debug view of the renderer's last frame.
 pub fn gi_debug_views(ctx: &Context, gi: &GiRenderer) -> Result<Vec<GiDebugView>> {
+    if !gi.denoiser().keeps_interpolated() {
+        return Err(Error::InvalidArgument {
+            name: "debug views",
+            why: "the irradiance before the denoiser was not kept: call \
+                  GiRenderer::keep_interpolated_irradiance before the first frame"
+                .into(),
+        });
+    }
     let Some((camera, params, frame)) = gi.last_frame() else {
         return Err(Error::InvalidArgument {
             name: "debug views",

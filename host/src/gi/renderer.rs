@@ -14,7 +14,9 @@ use super::gi_denoiser::{DenoiserPasses, DenoiserResources, DenoiserStage};
 use super::pass_inputs::{PrimaryView, SceneLighting, ViewOptions, check_image_size};
 use super::primary_lighting::{PrimaryPasses, PrimaryResources};
 use super::resources::{CacheResources, Occupancy, RestirResources};
-use super::screen_probes::{ProbeLayout, ScreenProbePasses, ScreenProbeResources, technique_flags};
+use super::screen_probes::{
+    ProbeLayout, ScreenProbePasses, ScreenProbeResources, filter_output_fits, technique_flags,
+};
 use super::settings::GiSettings;
 use super::world_cache::{CacheFrame, WorldCache};
 use crate::engine::{FrameInputs, FrameOutputs, GBufferSource, OutputImage};
@@ -142,11 +144,20 @@ impl GiRenderer {
             gbuffer_kernel,
             cache,
             cache_slots,
-            probes: ScreenProbeResources::new(ctx, layout, settings.probe_filter)?,
+            probes: ScreenProbeResources::new(
+                ctx,
+                layout,
+                settings.probe_filter && !filter_output_fits(&layout, pixels),
+            )?,
             probe_passes,
-            denoiser: DenoiserResources::new(ctx, pixels, settings.denoiser_spatial)?,
+            denoiser: DenoiserResources::new(
+                ctx,
+                pixels,
+                settings.denoiser_spatial,
+                settings.temporal_feedback,
+            )?,
             denoiser_passes,
-            primary: PrimaryResources::new(ctx, pixels)?,
+            primary: PrimaryResources::new(ctx, pixels, settings.temporal_feedback)?,
             primary_passes,
             lighting: SceneLighting::new(lights),
             frames: FrameTimer::new(ctx, PASSES_PER_FRAME),
@@ -196,6 +207,25 @@ impl GiRenderer {
     /// The denoiser's resources (debug views, tests).
     pub fn denoiser(&self) -> &DenoiserResources {
         &self.denoiser
+    }
+
+    /// Keeps the interpolated irradiance through the frame, so that
+    /// [`DenoiserResources::irradiance`] still holds it after [`GiRenderer::render_frame`] (the
+    /// debug views show it): FilterGI's horizontal output and the GI image then get buffers of
+    /// their own, 32 bytes per pixel more ([`DenoiserResources::new`]). Call it before the first
+    /// frame: the screen-space history starts over.
+    pub fn keep_interpolated_irradiance(&mut self, ctx: &Context) -> Result<()> {
+        if self.denoiser.keeps_interpolated() {
+            return Ok(());
+        }
+        let pixels = self.width as usize * self.height as usize;
+        let denoiser = DenoiserResources::new(ctx, pixels, self.settings.denoiser_spatial, true)?;
+        let primary = PrimaryResources::new(ctx, pixels, true)?;
+        self.denoiser = denoiser;
+        self.primary = primary;
+        self.previous = None;
+        self.last = None;
+        Ok(())
     }
 
     /// The primary hit's lighting and the output image (tests).
@@ -347,9 +377,14 @@ impl GiRenderer {
             false => None,
         };
         let gbuffer = GBufferImages::new(ctx, width, height)?;
-        let probes = ScreenProbeResources::new(ctx, layout, self.settings.probe_filter)?;
-        let denoiser = DenoiserResources::new(ctx, pixels, self.settings.denoiser_spatial)?;
-        let primary = PrimaryResources::new(ctx, pixels)?;
+        let probes = ScreenProbeResources::new(
+            ctx,
+            layout,
+            self.settings.probe_filter && !filter_output_fits(&layout, pixels),
+        )?;
+        let keep = self.denoiser.keeps_interpolated();
+        let denoiser = DenoiserResources::new(ctx, pixels, self.settings.denoiser_spatial, keep)?;
+        let primary = PrimaryResources::new(ctx, pixels, keep)?;
         self.cache_res.resize(ctx, width, height, rays)?;
         if let Some(cache) = cache {
             self.cache = cache;
@@ -473,7 +508,7 @@ impl GiRenderer {
         self.record_passes(rec, scene, &params, inputs.gbuffer)?;
         let irradiance = self.denoiser.output(DenoiserStage::last(&self.settings));
         for (buffer, image) in [
-            (&self.primary.color, &outputs.image),
+            (self.primary.color(&self.denoiser), &outputs.image),
             (irradiance, &outputs.irradiance),
         ] {
             if let Some(image) = image {
@@ -536,7 +571,18 @@ impl GiRenderer {
         })?;
         rec.pass("FilterProbeMask", |rec| pp.record_probe_mask(rec, probes))?;
         if s.probe_filter {
-            rec.pass("FilterScreenProbes", |rec| pp.record_filter(rec, probes))?;
+            // The per-pixel scratch holds the previous frame's GI image until
+            // InterpolateScreenProbes, read or copied by then (`filter_output_fits`).
+            let horizontal = match filter_output_fits(
+                &probes.layout,
+                self.width as usize * self.height as usize,
+            ) {
+                true => &denoiser.irradiance,
+                false => &probes.filtered,
+            };
+            rec.pass("FilterScreenProbes", |rec| {
+                pp.record_filter(rec, probes, horizontal)
+            })?;
         }
         rec.pass("ProjectScreenProbes", |rec| {
             pp.record_project(rec, probes, probes.projected_cells(s.probe_filter))
@@ -570,8 +616,9 @@ impl GiRenderer {
                 primary,
                 view,
                 irradiance,
+                primary.color(denoiser),
                 &cache.history,
-                denoiser.output(DenoiserStage::Interpolated),
+                denoiser.undenoised(),
             )
         })
     }
@@ -602,8 +649,10 @@ impl GiRenderer {
             (&d.blur_mask, all),
             (&d.blur_radius, all),
             (&d.filtered, all),
-            (&self.primary.color, all),
         ];
+        if let Some(color) = &self.primary.own_color {
+            buffers.push((color, all));
+        }
         buffers.extend(self.cache_res.float_buffers()?);
         buffers.extend(self.restir.float_buffers()?);
         Ok(buffers)
@@ -627,7 +676,7 @@ impl GiRenderer {
 
     /// The last frame's image (linear HDR).
     pub fn image(&self, ctx: &Context) -> Result<HdrImage> {
-        let color: Vec<[f32; 4]> = self.primary.color.read_back(ctx)?;
+        let color: Vec<[f32; 4]> = self.primary.color(&self.denoiser).read_back(ctx)?;
         HdrImage::from_pixels(
             self.width,
             self.height,

@@ -218,8 +218,9 @@ pub struct ScreenProbeResources {
     pub history: Buffer,
     /// One [`ProbeRay`] per probe ray.
     pub rays: Buffer,
-    /// The probe filter's horizontal output (64 cells per probe tile; a placeholder without the
-    /// probe filter). Its vertical output is the previous atlas ([`Self::projected_cells`]).
+    /// The probe filter's horizontal output where it has a buffer of its own (64 cells per probe
+    /// tile; see [`Self::new`]), else a one-element placeholder. Its vertical output is the
+    /// previous atlas ([`Self::projected_cells`]).
     pub filtered: Buffer,
     /// Nine SH coefficients per probe tile (`[f32; 4]`).
     pub sh: Buffer,
@@ -229,10 +230,21 @@ pub struct ScreenProbeResources {
     pub layout: ProbeLayout,
 }
 
+/// Whether the probe filter's horizontal output (64 [`StoredCell`]s per probe tile of `layout`)
+/// fits the frame's per-pixel scratch, the interpolated irradiance (`[f32; 4]` per pixel of a
+/// `pixels`-pixel frame), which holds nothing between the previous frame's GI image (read or
+/// copied by then) and this frame's InterpolateScreenProbes: half of it from 8 × 8 pixels up.
+pub fn filter_output_fits(layout: &ProbeLayout, pixels: usize) -> bool {
+    let cells = layout.probe_count() as usize * PROBE_CELLS as usize;
+    cells * std::mem::size_of::<StoredCell>() <= pixels * std::mem::size_of::<[f32; 4]>()
+}
+
 impl ScreenProbeResources {
-    /// The resources of `layout`, with no probe yet; the probe filter's outputs only with
-    /// `probe_filter` (else one-element placeholders).
-    pub fn new(ctx: &Context, layout: ProbeLayout, probe_filter: bool) -> Result<Self> {
+    /// The resources of `layout`, with no probe yet; the probe filter's horizontal output in a
+    /// buffer of its own only with `filter_output` (the probe filter is on and its output does
+    /// not fit the frame's per-pixel scratch, [`filter_output_fits`]; else a one-element
+    /// placeholder).
+    pub fn new(ctx: &Context, layout: ProbeLayout, filter_output: bool) -> Result<Self> {
         let probes = layout.probe_count() as usize;
         let spawns = layout.spawn_capacity() as usize;
         let cells = probes * PROBE_CELLS as usize;
@@ -273,7 +285,7 @@ impl ScreenProbeResources {
             filtered: Buffer::device_zeroed::<StoredCell>(
                 ctx,
                 "filtered probes (horizontal)",
-                if probe_filter { cells } else { 1 },
+                if filter_output { cells } else { 1 },
             )?,
             sh: Buffer::device_zeroed::<[f32; 4]>(ctx, "probe SH", probes * SH_COEFFICIENT_COUNT)?,
             counters: Buffer::device_zeroed::<u32>(ctx, "GI counters", GI_COUNTER_WORDS)?,
@@ -596,13 +608,18 @@ impl ScreenProbePasses {
         Ok(())
     }
 
-    /// FilterScreenProbes, horizontal then vertical, from the atlas through `filtered` into
-    /// [`ScreenProbeResources::projected_cells`].
-    pub fn record_filter(&self, rec: &mut Recorder<'_>, res: &ScreenProbeResources) -> Result<()> {
+    /// FilterScreenProbes, horizontal then vertical, from the atlas through `horizontal` (its
+    /// 64 cells per probe tile) into [`ScreenProbeResources::projected_cells`].
+    pub fn record_filter(
+        &self,
+        rec: &mut Recorder<'_>,
+        res: &ScreenProbeResources,
+        horizontal: &Buffer,
+    ) -> Result<()> {
         let g = res.layout.probe_grid;
         let steps = [
-            (res.atlas.current(), &res.filtered),
-            (&res.filtered, res.projected_cells(true)),
+            (res.atlas.current(), horizontal),
+            (horizontal, res.projected_cells(true)),
         ];
         for (direction, (input, output)) in steps.into_iter().enumerate() {
             rec.dispatch(

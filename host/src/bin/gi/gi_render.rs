@@ -290,6 +290,9 @@ pub fn render_gi(
         on_off(s.emitter_sampling)
     );
     let mut gi = GiRenderer::new(ctx, &lights, width, height, settings, options)?;
+    if args.debug_views.is_some() {
+        gi.keep_interpolated_irradiance(ctx)?;
+    }
     let compare = CompareSettings {
         tone: ToneMap {
             exposure,

@@ -240,14 +240,13 @@ impl<'a> Viewer<'a> {
             let [w, h] = self.size;
             let options = ViewOptions::default();
             self.renderer = Some(match self.mode {
-                Mode::Gi => Renderer::Gi(Box::new(GiRenderer::new(
-                    self.ctx,
-                    &self.lights,
-                    w,
-                    h,
-                    self.settings,
-                    options,
-                )?)),
+                Mode::Gi => {
+                    let mut gi =
+                        GiRenderer::new(self.ctx, &self.lights, w, h, self.settings, options)?;
+                    // The debug views, one key away, show the irradiance before the denoiser.
+                    gi.keep_interpolated_irradiance(self.ctx)?;
+                    Renderer::Gi(Box::new(gi))
+                }
                 Mode::Cache => Renderer::Cache(Box::new(CacheView::new(
                     self.ctx,
                     &self.lights,
