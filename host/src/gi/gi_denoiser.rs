@@ -38,15 +38,15 @@ pub struct DenoiserResources {
 }
 
 impl DenoiserResources {
-    /// The buffers of a `pixels`-pixel frame; FilterGI's outputs only with `spatial` (the
-    /// setting `denoiser_spatial`; else one-element placeholders).
+    /// The buffers of a `pixels`-pixel frame.
     ///
     /// The interpolated irradiance is the frame's per-pixel scratch buffer: once ReprojectGI has
-    /// read it, FilterGI writes its horizontal output over it ([`Self::horizontal`]), and the
-    /// composite then writes the GI image over that (`GiRenderer`): 32 bytes per pixel less.
-    /// With `keep_interpolated` (temporal feedback's composite reads the interpolated
-    /// irradiance; the debug views show it after the frame) the horizontal output gets a buffer
-    /// of its own, and so does the image.
+    /// read it, FilterGI (with `spatial`, the setting `denoiser_spatial`) writes its horizontal
+    /// output over it ([`Self::horizontal`]), and the composite then writes the GI image over
+    /// that (`GiRenderer`): 32 bytes per pixel less. With `keep_interpolated` (temporal
+    /// feedback's composite reads the interpolated irradiance; the debug views show it after the
+    /// frame) the horizontal output gets a buffer of its own where FilterGI runs, and so does the
+    /// image. [`Self::filtered`] is a one-element placeholder otherwise.
     pub fn new(
         ctx: &Context,
         pixels: usize,
