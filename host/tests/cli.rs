@@ -260,6 +260,38 @@ fn render_takes_the_cache_cell_size_and_names_an_absurd_one() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `--cache-tiles` sizes the world cache (the memory table's hash grid values: 85 cells of 8
+/// bytes per tile) and names a count that is not a power of two in range.
+#[test]
+fn render_takes_the_cache_size_and_names_an_absurd_one() {
+    let dir = std::env::temp_dir().join(format!("gi-cli-tiles-{}", std::process::id()));
+    let out_exr = dir.join("tiles.exr");
+    let sized = succeeded(&render_two_small_frames(
+        &out_exr,
+        &["--cache-tiles", "4096"],
+    ));
+    assert!(sized.contains("cache tiles 4096,"), "{sized}");
+    let values = sized
+        .lines()
+        .find(|l| l.starts_with("hash grid values "))
+        .and_then(|l| l.split_whitespace().nth(4))
+        .and_then(|b| b.parse::<u64>().ok());
+    assert_eq!(values, Some(4096 * 85 * 8), "{sized}");
+    for absurd in ["100", "16", "131072", "0", "many"] {
+        // The argument parser's own message: the error line, then a pointer to `--help`.
+        let out = render_two_small_frames(&out_exr, &["--cache-tiles", absurd]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{absurd}: accepted");
+        let first = err.lines().next().unwrap_or_default();
+        assert!(
+            first.starts_with("error: ") && first.contains("--cache-tiles"),
+            "{absurd}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{absurd}: {err}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `gi render` of two 16 × 16 `balanced` frames of the Cornell box into `out`, with the
 /// validation layer on and `extra` arguments.
 fn render_two_small_frames(out: &std::path::Path, extra: &[&str]) -> Output {

@@ -12,6 +12,7 @@ use gi_host::metrics::{self, CompareSettings};
 use gi_host::scene::lights::LightSet;
 use gi_host::vulkan::Context;
 use gi_shared::camera::CameraParams;
+use gi_shared::hash_cells::MAX_NUM_TILES_LOG2;
 use glam::Vec3;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -130,6 +131,12 @@ pub struct GiArgs {
     /// the preset's (`GiSettings::cell_size_pixels`).
     #[arg(long)]
     pub cell_size_pixels: Option<f32>,
+    /// GI: the world cache's size in tiles, a power of two (each tile about 3.1 KiB with
+    /// multi-bounce), instead of the size `GiSettings::with_cache_for` gives the resolution (one
+    /// tile per 32 pixels, twice that with multi-bounce, 2048 to 65536). Too few tiles and
+    /// inserts fail: `gi cache-view` counts them.
+    #[arg(long, value_parser = parse_cache_tiles)]
+    pub cache_tiles: Option<u32>,
     /// GI: techniques to switch off, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub no: Vec<Technique>,
@@ -153,6 +160,16 @@ fn parse_fps(s: &str) -> Result<f32, String> {
         _ => Err(format!(
             "{s:?} is not a frame rate (a number of frames per second, 0 or more)"
         )),
+    }
+}
+
+fn parse_cache_tiles(s: &str) -> Result<u32, String> {
+    // At least two buckets of the default's tiles per bucket; at most one storage binding's worth.
+    let min = 2u32 << GiSettings::default().tiles_per_bucket_log2;
+    let max = 1u32 << MAX_NUM_TILES_LOG2;
+    match s.parse::<u32>() {
+        Ok(n) if n.is_power_of_two() && (min..=max).contains(&n) => Ok(n),
+        _ => Err(format!("{s:?} is not a power of two from {min} to {max}")),
     }
 }
 
@@ -195,6 +212,12 @@ impl GiArgs {
         if let Some(pixels) = self.cell_size_pixels {
             s.cell_size_pixels = pixels;
             s = s.with_cache_for(width, height);
+        }
+        if let Some(tiles) = self.cache_tiles {
+            // A count the settings refuse (too few or too many tiles) is named by their check.
+            s.buckets_log2 = tiles
+                .trailing_zeros()
+                .saturating_sub(s.tiles_per_bucket_log2);
         }
         s.restir |= self.restir;
         s.temporal_feedback |= self.feedback;
@@ -261,14 +284,15 @@ pub fn render_gi(
     let mut moving = false;
     let s = &settings;
     println!(
-        "gi:                  {} frames, spawn tile {} px, cache cells {} px, sample cap {}, \
-         reprojection {}, parallax {}, backup {}, patching {}, guiding {}, hysteresis {}, \
+        "gi:                  {} frames, spawn tile {} px, cache cells {} px, cache tiles {}, \
+         sample cap {}, reprojection {}, parallax {}, backup {}, patching {}, guiding {}, hysteresis {}, \
          probe filter {}, jitter {} px, relaxed {}, temporal {}, spatial {}, feedback {}, \
          multi-bounce {}, adaptive blend {}, leak fixes {}, object motion {}, ReSTIR {}, \
          emitter sampling {}",
         args.frames,
         s.spawn_rate.tile(),
         s.cell_size_pixels,
+        s.tile_count(),
         s.sample_cap,
         on_off(s.reprojection),
         on_off(s.parallax),
