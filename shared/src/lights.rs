@@ -850,6 +850,15 @@ mod tests {
         assert!(se < 0.01 * exact, "{se}");
     }
 
+    /// The solid angle triangle `v` subtends at `from` (Van Oosterom and Strackee, 1983).
+    fn solid_angle(v: [glam::DVec3; 3], from: glam::DVec3) -> f64 {
+        let [a, b, c] = v.map(|p| (p - from).normalize());
+        2.0 * a
+            .dot(b.cross(c))
+            .abs()
+            .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a))
+    }
+
     /// Solid-angle sampling estimates the same form factor, for triangles large and small, near
     /// and far, with its density `1 / Ω` (Ω checked against Van Oosterom and Strackee's
     /// formula) and every sample's `cos / pdf` within `Ω`; a triangle seen from its own plane or
@@ -891,11 +900,7 @@ mod tests {
         ];
         for (vertices, rounding) in cases {
             let light = GpuLight::triangle(0, 0, vertices, Vec3::ONE, EMIT_FRONT | EMIT_BACK);
-            let [a, b, c] = vertices.map(|v| v.as_dvec3().normalize());
-            let omega = 2.0
-                * a.dot(b.cross(c))
-                    .abs()
-                    .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a));
+            let omega = solid_angle(vertices.map(|v| v.as_dvec3()), glam::DVec3::ZERO);
             let mut rng = Random::new(11, 0);
             let n = 200_000;
             let (mut sum, mut sum2) = (0.0f64, 0.0f64);
@@ -934,11 +939,7 @@ mod tests {
             if d2 <= r2 {
                 continue;
             }
-            let [a, b, c] = v.map(|p| (p - from).normalize());
-            let omega = 2.0
-                * a.dot(b.cross(c))
-                    .abs()
-                    .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a));
+            let omega = solid_angle(v, from);
             assert!(
                 omega <= 2.0 * core::f64::consts::PI * r2 / d2,
                 "{omega} {r2} {d2}"

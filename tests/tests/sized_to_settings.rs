@@ -151,10 +151,8 @@ fn a_technique_switched_off_frees_its_memory_and_passes() {
             assert!(full.passes.iter().any(|q| q == p), "{name}: no {p}");
             assert!(!off.passes.iter().any(|q| q == p), "{name} off: {p} ran");
         }
-        // A buffer freed may leave a one-element placeholder under another name (FilterGI's
-        // output leaves the composite's `irradiance placeholder`).
         assert!(
-            off.total + freed <= full.total + PLACEHOLDER_BYTES,
+            off.total + freed <= full.total,
             "{name} off: {} bytes, {} with it, {freed} freed",
             off.total,
             full.total

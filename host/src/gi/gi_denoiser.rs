@@ -64,10 +64,20 @@ impl DenoiserResources {
             trend: PingPong::new(trend("GI trend (a)")?, trend("GI trend (b)")?),
             blur_mask: f("blur mask")?,
             blur_radius: f("blur radius")?,
-            filtered: match spatial && keep_interpolated {
-                true => Buffer::device_zeroed::<[f32; 4]>(ctx, "filtered GI (horizontal)", pixels)?,
-                false => Buffer::device_zeroed::<[f32; 4]>(ctx, "irradiance placeholder", 1)?,
-            },
+            // Named by its role: without `keep_interpolated` the placeholder stands in for the
+            // irradiance the composite does not read.
+            filtered: Buffer::device_zeroed::<[f32; 4]>(
+                ctx,
+                match keep_interpolated {
+                    true => "filtered GI (horizontal)",
+                    false => "irradiance placeholder",
+                },
+                if spatial && keep_interpolated {
+                    pixels
+                } else {
+                    1
+                },
+            )?,
             keeps_interpolated: keep_interpolated,
         })
     }

@@ -24,12 +24,12 @@ pub struct PrimaryResources {
 }
 
 impl PrimaryResources {
-    /// The buffers of a `pixels`-pixel frame; the image in a buffer of its own only with
-    /// `own_color`.
-    pub fn new(ctx: &Context, pixels: usize, own_color: bool) -> Result<Self> {
+    /// The buffers of a `pixels`-pixel frame; the image in a buffer of its own only where
+    /// `denoiser` keeps the interpolated irradiance ([`DenoiserResources::keeps_interpolated`]).
+    pub fn new(ctx: &Context, pixels: usize, denoiser: &DenoiserResources) -> Result<Self> {
         Ok(Self {
             primary: Buffer::device_zeroed::<PrimaryLighting>(ctx, "primary lighting", pixels)?,
-            own_color: match own_color {
+            own_color: match denoiser.keeps_interpolated() {
                 true => Some(Buffer::device_zeroed::<[f32; 4]>(ctx, "GI image", pixels)?),
                 false => None,
             },

@@ -14,9 +14,7 @@ use super::gi_denoiser::{DenoiserPasses, DenoiserResources, DenoiserStage};
 use super::pass_inputs::{PrimaryView, SceneLighting, ViewOptions, check_image_size};
 use super::primary_lighting::{PrimaryPasses, PrimaryResources};
 use super::resources::{CacheResources, Occupancy, RestirResources};
-use super::screen_probes::{
-    ProbeLayout, ScreenProbePasses, ScreenProbeResources, filter_output_fits, technique_flags,
-};
+use super::screen_probes::{ProbeLayout, ScreenProbePasses, ScreenProbeResources, technique_flags};
 use super::settings::GiSettings;
 use super::world_cache::{CacheFrame, WorldCache};
 use crate::engine::{FrameInputs, FrameOutputs, GBufferSource, OutputImage};
@@ -123,6 +121,8 @@ impl GiRenderer {
         })();
         drop(module);
         let (gbuffer_kernel, cache, probe_passes, denoiser_passes, primary_passes) = made?;
+        let (denoiser, primary) =
+            per_pixel_resources(ctx, &settings, pixels, settings.temporal_feedback)?;
         let cache_slots = restir.slots;
         Ok(Self {
             settings,
@@ -144,20 +144,11 @@ impl GiRenderer {
             gbuffer_kernel,
             cache,
             cache_slots,
-            probes: ScreenProbeResources::new(
-                ctx,
-                layout,
-                settings.probe_filter && !filter_output_fits(&layout, pixels),
-            )?,
+            probes: ScreenProbeResources::new(ctx, layout, settings.probe_filter, pixels)?,
             probe_passes,
-            denoiser: DenoiserResources::new(
-                ctx,
-                pixels,
-                settings.denoiser_spatial,
-                settings.temporal_feedback,
-            )?,
+            denoiser,
             denoiser_passes,
-            primary: PrimaryResources::new(ctx, pixels, settings.temporal_feedback)?,
+            primary,
             primary_passes,
             lighting: SceneLighting::new(lights),
             frames: FrameTimer::new(ctx, PASSES_PER_FRAME),
@@ -219,10 +210,7 @@ impl GiRenderer {
             return Ok(());
         }
         let pixels = self.width as usize * self.height as usize;
-        let denoiser = DenoiserResources::new(ctx, pixels, self.settings.denoiser_spatial, true)?;
-        let primary = PrimaryResources::new(ctx, pixels, true)?;
-        self.denoiser = denoiser;
-        self.primary = primary;
+        (self.denoiser, self.primary) = per_pixel_resources(ctx, &self.settings, pixels, true)?;
         self.previous = None;
         self.last = None;
         Ok(())
@@ -377,14 +365,9 @@ impl GiRenderer {
             false => None,
         };
         let gbuffer = GBufferImages::new(ctx, width, height)?;
-        let probes = ScreenProbeResources::new(
-            ctx,
-            layout,
-            self.settings.probe_filter && !filter_output_fits(&layout, pixels),
-        )?;
+        let probes = ScreenProbeResources::new(ctx, layout, self.settings.probe_filter, pixels)?;
         let keep = self.denoiser.keeps_interpolated();
-        let denoiser = DenoiserResources::new(ctx, pixels, self.settings.denoiser_spatial, keep)?;
-        let primary = PrimaryResources::new(ctx, pixels, keep)?;
+        let (denoiser, primary) = per_pixel_resources(ctx, &self.settings, pixels, keep)?;
         self.cache_res.resize(ctx, width, height, rays)?;
         if let Some(cache) = cache {
             self.cache = cache;
@@ -571,15 +554,7 @@ impl GiRenderer {
         })?;
         rec.pass("FilterProbeMask", |rec| pp.record_probe_mask(rec, probes))?;
         if s.probe_filter {
-            // The per-pixel scratch holds the previous frame's GI image until
-            // InterpolateScreenProbes, read or copied by then (`filter_output_fits`).
-            let horizontal = match filter_output_fits(
-                &probes.layout,
-                self.width as usize * self.height as usize,
-            ) {
-                true => &denoiser.irradiance,
-                false => &probes.filtered,
-            };
+            let horizontal = probes.filter_output(&denoiser.irradiance);
             rec.pass("FilterScreenProbes", |rec| {
                 pp.record_filter(rec, probes, horizontal)
             })?;
@@ -683,6 +658,20 @@ impl GiRenderer {
             color.iter().map(|c| [c[0], c[1], c[2]]).collect(),
         )
     }
+}
+
+/// The denoiser's buffers and the composite's of a `pixels`-pixel frame, sharing the per-pixel
+/// scratch unless `keep_interpolated` ([`DenoiserResources::new`]).
+fn per_pixel_resources(
+    ctx: &Context,
+    settings: &GiSettings,
+    pixels: usize,
+    keep_interpolated: bool,
+) -> Result<(DenoiserResources, PrimaryResources)> {
+    let denoiser =
+        DenoiserResources::new(ctx, pixels, settings.denoiser_spatial, keep_interpolated)?;
+    let primary = PrimaryResources::new(ctx, pixels, &denoiser)?;
+    Ok((denoiser, primary))
 }
 
 /// Records a copy of `buffer` (`[f32; 4]` texels, row after row) into the engine's `image`

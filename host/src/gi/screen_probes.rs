@@ -222,6 +222,8 @@ pub struct ScreenProbeResources {
     /// tile; see [`Self::new`]), else a one-element placeholder. Its vertical output is the
     /// previous atlas ([`Self::projected_cells`]).
     pub filtered: Buffer,
+    /// Whether [`Self::filtered`] is the probe filter's output ([`Self::filter_output`]).
+    own_filter_output: bool,
     /// Nine SH coefficients per probe tile (`[f32; 4]`).
     pub sh: Buffer,
     /// The GI counter words (`gi_shared::screen_probes::SPAWN_COUNT` ...).
@@ -240,11 +242,16 @@ pub fn filter_output_fits(layout: &ProbeLayout, pixels: usize) -> bool {
 }
 
 impl ScreenProbeResources {
-    /// The resources of `layout`, with no probe yet; the probe filter's horizontal output in a
-    /// buffer of its own only with `filter_output` (the probe filter is on and its output does
-    /// not fit the frame's per-pixel scratch, [`filter_output_fits`]; else a one-element
-    /// placeholder).
-    pub fn new(ctx: &Context, layout: ProbeLayout, filter_output: bool) -> Result<Self> {
+    /// The resources of `layout` in a `pixels`-pixel frame, with no probe yet; the probe filter's
+    /// horizontal output in a buffer of its own only with `probe_filter` where it does not fit the
+    /// frame's per-pixel scratch ([`filter_output_fits`]; else a one-element placeholder).
+    pub fn new(
+        ctx: &Context,
+        layout: ProbeLayout,
+        probe_filter: bool,
+        pixels: usize,
+    ) -> Result<Self> {
+        let own_filter_output = probe_filter && !filter_output_fits(&layout, pixels);
         let probes = layout.probe_count() as usize;
         let spawns = layout.spawn_capacity() as usize;
         let cells = probes * PROBE_CELLS as usize;
@@ -285,12 +292,24 @@ impl ScreenProbeResources {
             filtered: Buffer::device_zeroed::<StoredCell>(
                 ctx,
                 "filtered probes (horizontal)",
-                if filter_output { cells } else { 1 },
+                if own_filter_output { cells } else { 1 },
             )?,
+            own_filter_output,
             sh: Buffer::device_zeroed::<[f32; 4]>(ctx, "probe SH", probes * SH_COEFFICIENT_COUNT)?,
             counters: Buffer::device_zeroed::<u32>(ctx, "GI counters", GI_COUNTER_WORDS)?,
             layout,
         })
+    }
+
+    /// The probe filter's horizontal output: its own buffer, or `scratch` (the interpolated
+    /// irradiance, which holds the previous frame's GI image until InterpolateScreenProbes, read
+    /// or copied by then) where it fits ([`filter_output_fits`]).
+    pub fn filter_output<'a>(&'a self, scratch: &'a Buffer) -> &'a Buffer {
+        if self.own_filter_output {
+            &self.filtered
+        } else {
+            scratch
+        }
     }
 
     /// Starts a frame: the previous frame's probes become `previous`.

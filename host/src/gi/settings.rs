@@ -325,8 +325,14 @@ impl GiSettings {
             .map_or(MAX_NUM_TILES_LOG2, u64::trailing_zeros)
             .clamp(MIN_AUTO_TILES_LOG2, MAX_NUM_TILES_LOG2)
             .max(self.tiles_per_bucket_log2.saturating_add(1));
+        self.with_tiles_log2(tiles_log2)
+    }
+
+    /// `self` with a cache of `2^tiles_log2` tiles at `self`'s tiles per bucket (too few for two
+    /// buckets, or over 2^[`MAX_NUM_TILES_LOG2`], and [`Self::validate`] names it).
+    pub fn with_tiles_log2(self, tiles_log2: u32) -> Self {
         Self {
-            buckets_log2: tiles_log2 - self.tiles_per_bucket_log2,
+            buckets_log2: tiles_log2.saturating_sub(self.tiles_per_bucket_log2),
             ..self
         }
     }

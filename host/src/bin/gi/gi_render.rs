@@ -12,7 +12,7 @@ use gi_host::metrics::{self, CompareSettings};
 use gi_host::scene::lights::LightSet;
 use gi_host::vulkan::Context;
 use gi_shared::camera::CameraParams;
-use gi_shared::hash_cells::MAX_NUM_TILES_LOG2;
+use gi_shared::hash_cells::{MAX_NUM_TILES_LOG2, TILES_PER_BUCKET_LOG2};
 use glam::Vec3;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -164,8 +164,8 @@ fn parse_fps(s: &str) -> Result<f32, String> {
 }
 
 fn parse_cache_tiles(s: &str) -> Result<u32, String> {
-    // At least two buckets of the default's tiles per bucket; at most one storage binding's worth.
-    let min = 2u32 << GiSettings::default().tiles_per_bucket_log2;
+    // At least two buckets of the presets' tiles per bucket; at most one storage binding's worth.
+    let min = 2u32 << TILES_PER_BUCKET_LOG2;
     let max = 1u32 << MAX_NUM_TILES_LOG2;
     match s.parse::<u32>() {
         Ok(n) if n.is_power_of_two() && (min..=max).contains(&n) => Ok(n),
@@ -214,10 +214,7 @@ impl GiArgs {
             s = s.with_cache_for(width, height);
         }
         if let Some(tiles) = self.cache_tiles {
-            // A count the settings refuse (too few or too many tiles) is named by their check.
-            s.buckets_log2 = tiles
-                .trailing_zeros()
-                .saturating_sub(s.tiles_per_bucket_log2);
+            s = s.with_tiles_log2(tiles.trailing_zeros());
         }
         s.restir |= self.restir;
         s.temporal_feedback |= self.feedback;
