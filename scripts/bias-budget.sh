@@ -29,7 +29,7 @@ if [ ${#SCENES[@]} -eq 0 ]; then
     echo "bias-budget: $B not found: the Bitterli interiors are skipped" >&2
   fi
 fi
-TECHNIQUES=${TECHNIQUES-"multi-bounce feedback filter hysteresis guiding backup reprojection parallax patching jitter relaxed temporal spatial leak-fixes"}
+TECHNIQUES=${TECHNIQUES-"multi-bounce feedback filter hysteresis guiding backup reprojection parallax patching jitter relaxed temporal spatial leak-fixes occlusion"}
 cargo build --quiet --profile dev --workspace --all-targets
 GI="$CARGO_TARGET_DIR/debug/gi"
 OUT=out/bias; mkdir -p "$OUT"

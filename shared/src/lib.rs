@@ -45,6 +45,7 @@ pub mod sampling;
 pub mod scan;
 pub mod scene_data;
 pub mod screen_probes;
+pub mod screen_space_gi;
 pub mod secondary_hits;
 pub mod sh;
 pub mod textures;

@@ -36,6 +36,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
+use crate::camera::CameraParams;
 use crate::color::luminance;
 use crate::lights::{
     EXACT_DIRECT_LIGHTS, GpuLight, LIGHT_TRIANGLE, MAX_LIGHT_CANDIDATES, punctual_incidence,
@@ -44,11 +45,12 @@ use crate::lights::{
 use crate::math::{INV_PI, max, max_u32, min_u32, to_u32_clamped};
 use crate::packing::{pack_wide16x4, unpack_wide16x4};
 use crate::primary_surface::PrimarySurface;
-use crate::radiance_feedback::FeedbackTexel;
+use crate::radiance_feedback::{FeedbackTexel, reproject};
 use crate::random::Random;
 use crate::ray::Ray;
 use crate::reservoir::Reservoir;
 use crate::screen_probes::{FLAG_EMITTER_SAMPLING, FLAG_SAMPLED_DIRECT, GiFrameParams};
+use crate::screen_space_gi::NearFieldSource;
 use crate::world_cache::finite_sample;
 
 /// What DirectLight leaves for a pixel (16 bytes), read by ResolveGI: the emission and the
@@ -420,9 +422,63 @@ pub fn resolve_color(lighting: &PrimaryLighting, albedo: Vec3, irradiance: [f32;
     if !lighting.surface() {
         return emission;
     }
+    emission + reflected_color(lighting, albedo, irradiance)
+}
+
+/// The reflected part of [`resolve_color`], `albedo / π × (irradiance + direct)`: black for a sky
+/// pixel. Screen-space GI's near-field term reads it (an emitter's light toward the camera is not
+/// its light toward its neighbours, and emitter sampling already counts it).
+#[inline]
+pub fn reflected_color(lighting: &PrimaryLighting, albedo: Vec3, irradiance: [f32; 4]) -> Vec3 {
+    if !lighting.surface() {
+        return Vec3::ZERO;
+    }
     let e = finite_sample(Vec3::new(irradiance[0], irradiance[1], irradiance[2]))
         + finite_sample(lighting.direct());
-    emission + finite_sample(albedo) * INV_PI * e
+    finite_sample(albedo) * INV_PI * e
+}
+
+/// The previous frame's light on screen as screen-space GI's near-field term reads it
+/// ([`NearFieldSource`]): ResolveGI's inputs, which last until this frame's DirectLight and
+/// ReprojectGI overwrite them.
+#[derive(Clone, Copy)]
+pub struct PreviousLight<'a> {
+    /// The previous frame's primary lighting per pixel.
+    pub lighting: &'a [PrimaryLighting],
+    /// The previous frame's final irradiance per pixel (the denoiser's output).
+    pub irradiance: &'a [[f32; 4]],
+    /// Whether there was a previous frame; without one the near-field term is zero.
+    pub known: bool,
+    /// Whether the occluders' emission counts: not with emitter sampling, whose shadow rays
+    /// already bring every emitter's light, near ones included.
+    pub emission: bool,
+}
+
+impl NearFieldSource for PreviousLight<'_> {
+    /// The previous frame's colour of the surface at `position`, as ResolveGI made it
+    /// ([`resolve_color`] where it is `facing` with [`PreviousLight::emission`], else
+    /// [`reflected_color`]): its pixel under the previous camera ([`reproject`]), that pixel's
+    /// lighting and irradiance with `albedo`; zero off the previous image or without a previous
+    /// frame.
+    #[inline]
+    fn radiance(&self, camera: &CameraParams, albedo: Vec3, position: Vec3, facing: bool) -> Vec3 {
+        if !self.known {
+            return Vec3::ZERO;
+        }
+        let Some(at) = reproject(camera, position) else {
+            return Vec3::ZERO;
+        };
+        let i = (at.pixel.y * camera.image_size[0] + at.pixel.x) as usize;
+        if i >= self.lighting.len() || i >= self.irradiance.len() {
+            return Vec3::ZERO;
+        }
+        let (lighting, irradiance) = (&self.lighting[i], self.irradiance[i]);
+        if self.emission && facing {
+            resolve_color(lighting, albedo, irradiance)
+        } else {
+            reflected_color(lighting, albedo, irradiance)
+        }
+    }
 }
 
 /// The feedback texel a pixel leaves for the next frame's temporal radiance feedback: its colour,
@@ -453,6 +509,53 @@ mod tests {
     use crate::math::PI;
     use crate::packing::WIDE16_MAX_RELATIVE_ERROR;
     use core::mem::size_of;
+
+    #[test]
+    fn the_previous_light_is_the_previous_pixels_colour() {
+        use crate::primary_surface::primary_point;
+        use glam::UVec2;
+        let (w, h) = (8u32, 6u32);
+        let camera = CameraParams::new(Vec3::new(0.0, 0.0, 4.0), Vec3::NEG_Z, Vec3::Y, 0.9, w, h);
+        let camera = camera.with_previous(&camera);
+        let mut lighting = vec![PrimaryLighting::default(); (w * h) as usize];
+        let mut irradiance = vec![[0.0f32; 4]; (w * h) as usize];
+        let at = UVec2::new(5, 2);
+        let i = (at.y * w + at.x) as usize;
+        let (emission, direct) = (Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, PI, 0.0));
+        lighting[i] = PrimaryLighting::new(emission, direct, PrimaryLighting::SURFACE);
+        irradiance[i] = [0.0, 0.0, 2.0 * PI, 1.0];
+        let light = |known, emission| PreviousLight {
+            lighting: &lighting,
+            irradiance: &irradiance,
+            known,
+            emission,
+        };
+        let albedo = Vec3::splat(0.5);
+        let position = primary_point(&camera, at, 3.0);
+        let reflected = light(true, false).radiance(&camera, albedo, position, true);
+        let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 2e-3;
+        assert!(close(reflected, Vec3::new(0.0, 0.5, 1.0)), "{reflected}");
+        let all = light(true, true).radiance(&camera, albedo, position, true);
+        assert!(close(all, Vec3::new(2.0, 0.5, 1.0)), "{all}");
+        // Seen from behind: no emission.
+        let behind = light(true, true).radiance(&camera, albedo, position, false);
+        assert_eq!(behind, reflected);
+        // No previous frame, another pixel, behind the camera: nothing.
+        assert_eq!(
+            light(false, true).radiance(&camera, albedo, position, true),
+            Vec3::ZERO
+        );
+        let beside = primary_point(&camera, UVec2::new(1, 1), 3.0);
+        assert_eq!(
+            light(true, true).radiance(&camera, albedo, beside, true),
+            Vec3::ZERO
+        );
+        let eye_side = Vec3::new(0.0, 0.0, 9.0);
+        assert_eq!(
+            light(true, true).radiance(&camera, albedo, eye_side, true),
+            Vec3::ZERO
+        );
+    }
 
     #[test]
     fn layout() {

@@ -42,14 +42,32 @@ pub fn primary_surface(
     if ns.dot(ng) <= 0.0 {
         ns = ng;
     }
-    let t = if valid { depth / along } else { 0.0 };
-    let p = Vec3::from_array(ray.origin) + direction * t;
+    let p = if valid {
+        primary_point(camera, pixel, depth)
+    } else {
+        Vec3::from_array(ray.origin)
+    };
     PrimarySurface {
         position: offset_ray_origin(p, ng, depth),
         geometric_normal: ng,
         shading_normal: ns,
         valid,
     }
+}
+
+/// The point at linear depth `depth` on `pixel`'s primary ray (the G-buffer's, with the frame's
+/// jitter), not offset off its surface; the eye for a depth or a ray that is not in front.
+#[inline]
+pub fn primary_point(camera: &CameraParams, pixel: UVec2, depth: f32) -> Vec3 {
+    let ray = primary_ray(camera, pixel, camera.jitter());
+    let direction = Vec3::from_array(ray.direction);
+    let along = direction.dot(camera.forward());
+    let t = if depth > 0.0 && along > 0.0 {
+        depth / along
+    } else {
+        0.0
+    };
+    Vec3::from_array(ray.origin) + direction * t
 }
 
 /// The primary hit's emission toward the camera: the G-buffer's `emissive` (× the multiplier)

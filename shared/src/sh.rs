@@ -96,6 +96,29 @@ impl ShL2Rgb {
         }
         sum
     }
+
+    /// Irradiance through a cone around unit `axis` whose half-angle has cosine `cos_half_angle`
+    /// (in `[0, 1]`): `∫_cone L(ω) max(axis·ω, 0) dω`, the band weights of the cone-limited
+    /// clamped cosine, `2π ∫_c^1 t P_l(t) dt`: `π (1 − c²)`, `2π (1 − c³) / 3` and
+    /// `π (1/4 + c²/2 − 3c⁴/4)`. A cosine of 0 is [`Self::irradiance`]; screen-space GI's
+    /// occlusion reads the probes through it (`crate::screen_space_gi`).
+    #[inline]
+    pub fn cone_irradiance(&self, axis: Vec3, cos_half_angle: f32) -> Vec3 {
+        let c = cos_half_angle.clamp(0.0, 1.0);
+        let c2 = c * c;
+        let a0 = PI * (1.0 - c2);
+        let a1 = 2.0 * PI * (1.0 - c2 * c) / 3.0;
+        let a2 = PI * (0.25 + 0.5 * c2 - 0.75 * c2 * c2);
+        let basis = sh9_basis(axis);
+        let mut sum = self.coefficients[0] * (a0 * basis[0]);
+        let mut i = 1;
+        while i < SH_COEFFICIENT_COUNT {
+            let a = if i < 4 { a1 } else { a2 };
+            sum += self.coefficients[i] * (a * basis[i]);
+            i += 1;
+        }
+        sum
+    }
 }
 
 #[cfg(test)]
@@ -136,6 +159,46 @@ mod tests {
             .collect();
         v.extend([Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]);
         v
+    }
+
+    #[test]
+    fn cone_irradiance_integrates_band_limited_radiance_over_the_cone() {
+        // A radiance within order 2 is projected exactly, so the cone's band weights must give
+        // its cone integral to rounding, for any axis and half-angle.
+        let a = Vec3::new(0.3, 0.5, 0.8).normalize();
+        let radiance = |w: Vec3| {
+            let l = 1.0 + 0.5 * w.dot(a) + 0.3 * w.x * w.y - 0.2 * (w.z * w.z - 0.3);
+            Vec3::new(l, 2.0 * l, 0.5 * l)
+        };
+        let sh = project(radiance);
+        for axis in [Vec3::Z, Vec3::new(0.6, -0.48, 0.64), -Vec3::X] {
+            let (t, b) = axis.any_orthonormal_pair();
+            for c in [0.0f32, 0.3, 0.7, 0.95] {
+                // Midpoints in cos θ from c to 1 (uniform in solid angle) times uniform φ.
+                let (nt, nphi) = (400, 64);
+                let mut exact = glam::DVec3::ZERO;
+                for i in 0..nt {
+                    let z = c as f64 + (1.0 - c as f64) * (i as f64 + 0.5) / nt as f64;
+                    let r = (1.0 - z * z).sqrt();
+                    for j in 0..nphi {
+                        let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / nphi as f64;
+                        let w = (t * (r * phi.cos()) as f32)
+                            + (b * (r * phi.sin()) as f32)
+                            + axis * z as f32;
+                        let d_omega =
+                            (1.0 - c as f64) * 2.0 * std::f64::consts::PI / (nt * nphi) as f64;
+                        exact += radiance(w).as_dvec3() * (z * d_omega);
+                    }
+                }
+                let got = sh.cone_irradiance(axis, c).as_dvec3();
+                assert!(
+                    (got - exact).abs().max_element() < 2e-3 * exact.abs().max_element(),
+                    "axis {axis} c {c}: {got} vs {exact}"
+                );
+            }
+            assert_eq!(sh.cone_irradiance(axis, 0.0), sh.irradiance(axis));
+            assert_eq!(sh.cone_irradiance(axis, 1.0), Vec3::ZERO);
+        }
     }
 
     #[test]

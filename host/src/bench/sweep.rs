@@ -176,7 +176,7 @@ pub fn points(
                 ));
             }
         }
-        let switches: [Switch; 8] = [
+        let switches: [Switch; 9] = [
             ("probe_filter", "off", |s| s.probe_filter = false),
             ("restir", "on", |s| s.restir = true),
             ("temporal_feedback", "on", |s| s.temporal_feedback = true),
@@ -186,6 +186,7 @@ pub fn points(
             }),
             ("hysteresis", "off", |s| s.hysteresis = false),
             ("emitter_sampling", "off", |s| s.emitter_sampling = false),
+            ("occlusion_radius", "0", |s| s.occlusion_radius = 0),
             ("denoiser", "off", |s| {
                 s.denoiser_temporal = false;
                 s.denoiser_spatial = false;
@@ -249,6 +250,7 @@ mod tests {
             "adaptive_cache_blend",
             "hysteresis",
             "emitter_sampling",
+            "occlusion_radius",
             "denoiser",
             "resolution",
             "tracing",

@@ -117,6 +117,16 @@ impl DenoiserResources {
         self.trend.swap();
     }
 
+    /// Where the previous frame's `stage` output is until this frame's ReprojectGI: after
+    /// [`Self::swap`] the history pair's roles are exchanged. The interpolated irradiance is not
+    /// kept across frames: its stage reads the temporal history.
+    pub fn previous_output(&self, stage: DenoiserStage) -> &Buffer {
+        match stage {
+            DenoiserStage::Spatial => self.history.current(),
+            DenoiserStage::Temporal | DenoiserStage::Interpolated => self.history.previous(),
+        }
+    }
+
     /// The irradiance `stage` wrote. FilterGI writes its vertical output over the previous
     /// history, which ReprojectGI has read by then and overwrites in full next frame: no buffer
     /// of its own.
@@ -165,6 +175,9 @@ crate::bindings! {
         sh: &'a Buffer,
         irradiance: &'a Buffer,
         counters: &'a Buffer,
+        albedo: &'a Image,
+        lighting: &'a Buffer,
+        previous: &'a Buffer,
     }
 }
 
@@ -246,13 +259,17 @@ impl DenoiserPasses {
         })
     }
 
-    /// InterpolateScreenProbes: each pixel's irradiance from up to four probes.
+    /// InterpolateScreenProbes: each pixel's irradiance from up to four probes, with
+    /// screen-space GI's near-field term from the previous frame's primary `lighting` and
+    /// `last` stage's output.
     pub fn record_interpolate(
         &self,
         rec: &mut Recorder<'_>,
         probes: &ScreenProbeResources,
         res: &DenoiserResources,
         view: PrimaryView<'_>,
+        lighting: &Buffer,
+        last: DenoiserStage,
     ) -> Result<()> {
         let PrimaryView { camera, gbuffer } = view;
         let g = gbuffer;
@@ -269,6 +286,9 @@ impl DenoiserPasses {
                 sh: &probes.sh,
                 irradiance: &res.irradiance,
                 counters: &probes.counters,
+                albedo: &g.albedo,
+                lighting,
+                previous: res.previous_output(last),
             },
             &[],
             pixel_groups(gbuffer),

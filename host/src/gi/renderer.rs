@@ -278,7 +278,7 @@ impl GiRenderer {
             light_count: self.lighting.light_count,
             environment_size: self.lighting.environment_size,
             interpolation_jitter: self.settings.interpolation_jitter_pixels(),
-            _pad: 0,
+            occlusion_radius: self.settings.occlusion_radius,
         }
     }
 
@@ -563,7 +563,14 @@ impl GiRenderer {
             pp.record_project(rec, probes, probes.projected_cells(s.probe_filter))
         })?;
         rec.pass("InterpolateScreenProbes", |rec| {
-            dp.record_interpolate(rec, probes, denoiser, view)
+            dp.record_interpolate(
+                rec,
+                probes,
+                denoiser,
+                view,
+                &primary.primary,
+                DenoiserStage::last(s),
+            )
         })?;
         rec.pass("DirectLight", |rec| {
             self.primary_passes.record_direct(

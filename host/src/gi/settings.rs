@@ -10,6 +10,7 @@ use gi_shared::layout::{MAX_FRAME_HEIGHT, MAX_FRAME_WIDTH};
 use gi_shared::lights::MAX_LIGHT_CANDIDATES;
 use gi_shared::screen_probes::PROBE_SIZE;
 use gi_shared::screen_probes::interpolate::MAX_INTERPOLATION_JITTER_PIXELS;
+use gi_shared::screen_space_gi::MAX_OCCLUSION_RADIUS_PIXELS;
 
 /// Fewest tiles [`GiSettings::for_resolution`] gives a cache (2^11 = 2048 tiles: 1.4 MB of
 /// values), so that a tiny image still has room for a whole small scene: with multi-bounce, the
@@ -192,6 +193,21 @@ pub struct GiSettings {
     /// relMSE rises (README, "Round 11"). A radius is a share of the image that
     /// shrinks as the resolution grows.
     pub interpolation_jitter_radius: f32,
+    /// Screen-space GI (`gi_shared::screen_space_gi`; the talk's horizon-based screen-space GI
+    /// for detail smaller than the probes resolve): the search radius in pixels, 0 (off) to
+    /// [`MAX_OCCLUSION_RADIUS_PIXELS`]. Each pixel finds the horizons of 2 screen slices from 4
+    /// depth reads per side within the radius, reads its probes' SH through a cone around its
+    /// bent normal that holds its visibility, and adds the light the hiding surfaces reflected
+    /// in the previous frame (near-field). Cost: 16 depth reads per pixel and, per read that
+    /// raises a horizon, an albedo, a normal and the previous frame's lighting, in
+    /// InterpolateScreenProbes (lavapipe, `balanced` Cornell box at 320 × 180: that pass 4.6–5.0
+    /// → 7.4–8.1 ms); no memory. Quality: contact shadows and creases, which the probes 8 pixels
+    /// apart see past, darken as in the path tracer (README, "Round 27"); a thin object occludes
+    /// like a wall behind it, and what is off screen does not occlude. The radius is in pixels,
+    /// like the probes' spacing, so it reaches less of the scene as the resolution grows.
+    /// Default: 0 (the reference has it; the defaults stay the port's reference settings
+    /// without it); every preset sets [`crate::gi::presets::PRESET_OCCLUSION_RADIUS`] (16).
+    pub occlusion_radius: u32,
     /// The relaxed fallback of interpolation: a pixel no probe matches takes the found probes
     /// equally (hinted to the denoiser). Cost: none. Quality: off, such pixels get no indirect
     /// light (black holes at disocclusions and thin features).
@@ -272,6 +288,7 @@ impl Default for GiSettings {
             probe_filter: true,
             interpolation_jitter: true,
             interpolation_jitter_radius: DEFAULT_INTERPOLATION_JITTER_TILES,
+            occlusion_radius: 0,
             relaxed_fallback: true,
             denoiser_temporal: true,
             denoiser_spatial: true,
@@ -416,6 +433,15 @@ impl GiSettings {
                 format!("{jitter}: must be 0 to {MAX_INTERPOLATION_JITTER_TILES} probe tiles"),
             );
         }
+        if self.occlusion_radius > MAX_OCCLUSION_RADIUS_PIXELS {
+            return bad(
+                "occlusion_radius",
+                format!(
+                    "{}: must be 0 (off) to {MAX_OCCLUSION_RADIUS_PIXELS} pixels",
+                    self.occlusion_radius
+                ),
+            );
+        }
         if self.light_candidates == 0 || self.light_candidates > MAX_LIGHT_CANDIDATES {
             return bad(
                 "light_candidates",
@@ -550,6 +576,11 @@ mod tests {
             ..ok
         };
         assert_eq!(name(cands, 64, 64), "light_candidates");
+        let occlusion = GiSettings {
+            occlusion_radius: MAX_OCCLUSION_RADIUS_PIXELS + 1,
+            ..ok
+        };
+        assert_eq!(name(occlusion, 64, 64), "occlusion_radius");
         for radius in [
             -0.5,
             MAX_INTERPOLATION_JITTER_TILES + 0.5,

@@ -19,12 +19,13 @@
 //!    reference has none). All zero: with [`FLAG_RELAXED_FALLBACK`] equal weights and hint
 //!    [`HINT_RELAXED`], else no irradiance.
 //! 4. **Irradiance**: the weighted mean of the probes' SH irradiance (cosine lobe) at the pixel's
-//!    shading normal, clamped to finite non-negative values.
+//!    shading normal, clamped to finite non-negative values; where screen-space GI finds the
+//!    pixel occluded ([`crate::screen_space_gi`]), through the cone around its bent normal that
+//!    holds its visibility.
 //!
 //! Output per pixel `[r, g, b, hint]`: hint [`HINT_WEIGHTED`] when the weights were used,
 //! [`HINT_RELAXED`] for the relaxed fallback or no probe, [`HINT_SKY`] for sky pixels (black).
-//! The reference's bent-normal cone (SSGI ambient occlusion) and near-field SSGI term are not part
-//! of this port.
+//! The occluders' own light, screen-space GI's near-field term, is added to the result.
 
 use glam::{UVec2, Vec3, Vec4};
 
@@ -38,6 +39,7 @@ use crate::math::{abs, floor_to_i32_clamped, max, min_u32, saturate};
 use crate::packing::unpack_seed;
 use crate::primary_surface::{PrimarySurface, primary_surface};
 use crate::random::pixel_sample;
+use crate::screen_space_gi::{NoNearField, Occlusion, RowMajor, horizon_occlusion};
 use crate::sh::{SH_COEFFICIENT_COUNT, ShL2Rgb};
 
 /// Largest jitter radius of the lookup pixel along each axis, in pixels (four probe tiles):
@@ -231,10 +233,10 @@ pub fn probe_weight(
     if w.is_finite() { w } else { 0.0 }
 }
 
-/// Irradiance at unit `normal` of the SH of probe tile `tile` (9 entries `[r, g, b, 0]` per
-/// tile); black outside the buffer.
+/// Irradiance of the SH of probe tile `tile` (9 entries `[r, g, b, 0]` per tile) at
+/// `occlusion`'s bent normal, through its cone where it is occluded; black outside the buffer.
 #[inline]
-pub fn probe_irradiance(sh: &[[f32; 4]], tile: u32, normal: Vec3) -> Vec3 {
+pub fn probe_irradiance(sh: &[[f32; 4]], tile: u32, occlusion: &Occlusion) -> Vec3 {
     let base = tile as usize * SH_COEFFICIENT_COUNT;
     if base + SH_COEFFICIENT_COUNT > sh.len() {
         return Vec3::ZERO;
@@ -246,7 +248,11 @@ pub fn probe_irradiance(sh: &[[f32; 4]], tile: u32, normal: Vec3) -> Vec3 {
         probe.coefficients[i] = Vec3::new(c[0], c[1], c[2]);
         i += 1;
     }
-    probe.irradiance(normal)
+    if occlusion.occluded() {
+        probe.cone_irradiance(occlusion.bent_normal, occlusion.cone_cos())
+    } else {
+        probe.irradiance(occlusion.bent_normal)
+    }
 }
 
 /// Each component clamped to `[0, ∞)`, non-finite components zero.
@@ -289,12 +295,14 @@ pub struct GBufferSlices<'a> {
 }
 
 /// The interpolated irradiance of a surface pixel: `surface` (its primary surface), `depth` (its
-/// linear depth), `lookup` (the lookup pixel, jittered or itself), the current `probes`.
+/// linear depth), `occlusion` (screen-space GI's, [`Occlusion::open`] at its shading normal
+/// without it), `lookup` (the lookup pixel, jittered or itself), the current `probes`.
 #[inline]
 pub fn interpolate_pixel(
     frame: &GiFrameParams,
     surface: &PrimarySurface,
     depth: f32,
+    occlusion: &Occlusion,
     lookup: UVec2,
     probes: InterpolationProbes<'_>,
 ) -> Interpolated {
@@ -317,7 +325,7 @@ pub fn interpolate_pixel(
         if (tile as usize) < records.len() && tile < frame.probe_count {
             let record = records[tile as usize];
             if record.is_valid() {
-                let e = probe_irradiance(sh, tile, surface.shading_normal);
+                let e = probe_irradiance(sh, tile, occlusion);
                 let w = probe_weight(
                     frame,
                     surface.position,
@@ -345,6 +353,7 @@ pub fn interpolate_pixel(
         e = clamp_irradiance(equal / found as f32);
         out.relaxed = true;
     }
+    let e = e + occlusion.near_field;
     out.irradiance[0] = e.x;
     out.irradiance[1] = e.y;
     out.irradiance[2] = e.z;
@@ -392,7 +401,30 @@ pub fn interpolate_image<C: AtomicWords + ?Sized>(
                     lookup = c;
                 }
             }
-            let r = interpolate_pixel(frame, &surface, d, lookup, probes);
+            let occlusion = horizon_occlusion(
+                camera,
+                frame.horizon_search(),
+                pixel,
+                d,
+                surface.geometric_normal,
+                surface.shading_normal,
+                (
+                    &RowMajor {
+                        texels: depth,
+                        width: w,
+                    },
+                    &RowMajor {
+                        texels: geometric_normal,
+                        width: w,
+                    },
+                    &RowMajor {
+                        texels: &[],
+                        width: w,
+                    },
+                ),
+                &NoNearField,
+            );
+            let r = interpolate_pixel(frame, &surface, d, &occlusion, lookup, probes);
             irradiance[i] = r.irradiance;
             if r.relaxed && RELAXED_COUNT < counters.word_count() {
                 counters.fetch_add(RELAXED_COUNT, 1);
@@ -678,7 +710,7 @@ mod tests {
         let p = UVec2::new(13, 14);
         let s = surface_at(&depth, &normals, p);
         let d = depth[(p.y * W + p.x) as usize];
-        let r = interpolate_pixel(&f, &s, d, p, grid);
+        let r = interpolate_pixel(&f, &s, d, &Occlusion::open(s.shading_normal), p, grid);
         // Each probe weighs its screen tent to the pixel (the other weights are 1 on the wall).
         let (sum, weights) = list
             .iter()
@@ -712,7 +744,7 @@ mod tests {
             sh: &sh2,
         };
         f.flags = 0;
-        let r = interpolate_pixel(&f, &s, d, p, grid2);
+        let r = interpolate_pixel(&f, &s, d, &Occlusion::open(s.shading_normal), p, grid2);
         assert!(
             (r.irradiance[0] - PI).abs() < 1e-3 * PI,
             "{:?}",
@@ -734,11 +766,11 @@ mod tests {
         let p = UVec2::new(10, 10);
         let s = surface_at(&depth, &normals, p);
         let d = depth[(p.y * W + p.x) as usize];
-        let r = interpolate_pixel(&f, &s, d, p, grid);
+        let r = interpolate_pixel(&f, &s, d, &Occlusion::open(s.shading_normal), p, grid);
         assert_eq!(r.irradiance, [0.0, 0.0, 0.0, HINT_RELAXED]);
         assert!(!r.relaxed);
         f.flags = FLAG_RELAXED_FALLBACK;
-        let r = interpolate_pixel(&f, &s, d, p, grid);
+        let r = interpolate_pixel(&f, &s, d, &Occlusion::open(s.shading_normal), p, grid);
         assert!(
             (r.irradiance[0] - 2.0 * PI).abs() < 1e-3,
             "{:?}",

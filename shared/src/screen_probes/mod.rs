@@ -41,6 +41,7 @@ use crate::packing::{
     SEED_NONE, WIDE16_MANTISSA_BITS, pack_wide16x4_dithered, running_mean_dither, unpack_seed,
     unpack_snorm10x3, unpack_wide16x4,
 };
+use crate::screen_space_gi::HorizonSearch;
 
 pub mod blend;
 pub mod hemisphere;
@@ -197,8 +198,9 @@ pub struct GiFrameParams {
     /// Largest move of a pixel's probe lookup along each axis, in pixels (InterpolateScreenProbes'
     /// jitter, `crate::screen_probes::interpolate`); 0: no jitter.
     pub interpolation_jitter: u32,
-    /// Explicit padding.
-    pub _pad: u32,
+    /// Screen-space GI's search radius in pixels (`crate::screen_space_gi`; at most
+    /// `MAX_OCCLUSION_RADIUS_PIXELS`); 0: no occlusion.
+    pub occlusion_radius: u32,
 }
 
 impl GiFrameParams {
@@ -212,6 +214,15 @@ impl GiFrameParams {
     #[inline]
     pub fn probe_tile_of(&self, pixel: UVec2) -> u32 {
         (pixel.y / PROBE_SIZE) * self.probe_grid[0] + pixel.x / PROBE_SIZE
+    }
+
+    /// Screen-space GI's horizon search this frame.
+    #[inline]
+    pub fn horizon_search(&self) -> HorizonSearch {
+        HorizonSearch {
+            radius: self.occlusion_radius,
+            frame_index: self.frame_index,
+        }
     }
 
     /// The screen-probe cell size (reuse plane tolerance) at `distance` from the eye.

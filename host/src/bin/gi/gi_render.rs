@@ -63,6 +63,8 @@ pub enum Technique {
     /// Emitter sampling at the primary hit (the emitters' direct light through the probes
     /// instead).
     EmitterSampling,
+    /// Screen-space GI's occlusion and near-field light (an occlusion radius of 0).
+    Occlusion,
 }
 
 /// A quality preset of `gi render` (README, "Speed and accuracy": each one's measured cost and
@@ -137,6 +139,10 @@ pub struct GiArgs {
     /// inserts fail: `gi cache-view` counts them.
     #[arg(long, value_parser = parse_cache_tiles)]
     pub cache_tiles: Option<u32>,
+    /// GI: screen-space GI's occlusion radius in pixels (0 to 64; 0: off), instead of the
+    /// preset's (`GiSettings::occlusion_radius`).
+    #[arg(long)]
+    pub occlusion_radius: Option<u32>,
     /// GI: techniques to switch off, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub no: Vec<Technique>,
@@ -213,6 +219,9 @@ impl GiArgs {
             s.cell_size_pixels = pixels;
             s = s.with_cache_for(width, height);
         }
+        if let Some(radius) = self.occlusion_radius {
+            s.occlusion_radius = radius;
+        }
         if let Some(tiles) = self.cache_tiles {
             s = s.with_tiles_log2(tiles.trailing_zeros());
         }
@@ -283,7 +292,7 @@ pub fn render_gi(
     println!(
         "gi:                  {} frames, spawn tile {} px, cache cells {} px, cache tiles {}, \
          sample cap {}, reprojection {}, parallax {}, backup {}, patching {}, guiding {}, hysteresis {}, \
-         probe filter {}, jitter {} px, relaxed {}, temporal {}, spatial {}, feedback {}, \
+         probe filter {}, jitter {} px, occlusion {} px, relaxed {}, temporal {}, spatial {}, feedback {}, \
          multi-bounce {}, adaptive blend {}, leak fixes {}, object motion {}, ReSTIR {}, \
          emitter sampling {}",
         args.frames,
@@ -299,6 +308,7 @@ pub fn render_gi(
         on_off(s.hysteresis),
         on_off(s.probe_filter),
         s.interpolation_jitter_pixels(),
+        s.occlusion_radius,
         on_off(s.relaxed_fallback),
         on_off(s.denoiser_temporal),
         on_off(s.denoiser_spatial),
@@ -448,6 +458,7 @@ pub fn switch_off(s: &mut GiSettings, off: &[Technique]) {
             Technique::AdaptiveBlend => s.adaptive_cache_blend = false,
             Technique::ObjectMotion => s.object_motion = false,
             Technique::EmitterSampling => s.emitter_sampling = false,
+            Technique::Occlusion => s.occlusion_radius = 0,
             Technique::LeakFixes => {
                 s.short_ray_flag = false;
                 s.bypass = false;
