@@ -7,12 +7,13 @@
 //! [`HorizonSearch::radius`] pixels. Each slice's horizons give the cosine-weighted
 //! visible share of the slice (the analytic slice integral, [`slice_arc`]) and the middle of its
 //! visible arc. The result ([`Occlusion`]) is the cosine-weighted visibility of the hemisphere,
-//! the bent normal (the mean direction it sees by) and the near-field light. InterpolateScreenProbes
-//! reads the probes' SH through a cone around the bent normal whose clamped-cosine lobe holds that
-//! visibility ([`crate::sh::ShL2Rgb::cone_irradiance`]), as the reference does, and adds the
-//! near-field light: a crease or a contact shadow under an object loses the light from the
-//! directions the nearby geometry hides, which the probes, 8 pixels apart, see past, and gains the
-//! light that geometry reflects.
+//! the bent normal (the mean direction it sees by) and the near-field light.
+//! InterpolateScreenProbes reads the probes' SH through a cone around the bent normal whose
+//! clamped-cosine lobe holds that visibility ([`crate::sh::ShL2Rgb::cone_irradiance`], scaled by
+//! [`hemisphere_cone_scale`] so that uniform light reads exactly), as the reference does, and
+//! adds the near-field light: a crease or a contact shadow under an object loses the light from
+//! the directions the nearby geometry hides, which the probes, 8 pixels apart, see past, and
+//! gains the light that geometry reflects.
 //!
 //! Choices:
 //! - The visibility is the ratio of the slices' visible to their unoccluded integrals, so a pixel
@@ -43,6 +44,7 @@ use crate::camera::CameraParams;
 use crate::math::{PI, acos, clamp, copysign, cos, max, min, saturate, sin};
 use crate::primary_surface::primary_point;
 use crate::random::pixel_sample;
+use crate::sh::hemisphere_cone_scale;
 
 /// Screen-space slices per pixel and frame (the reference: 1).
 pub const OCCLUSION_SLICES: u32 = 2;
@@ -73,6 +75,9 @@ pub struct Occlusion {
     /// Irradiance from the occluders' own light (the near-field term): what they sent toward
     /// the eye in the previous frame, over the share of the hemisphere they hide.
     pub near_field: Vec3,
+    /// The factor on the probes' cone irradiance ([`hemisphere_cone_scale`] of the cone and
+    /// the bent normal's angle from the shading normal); 1 where nothing occludes.
+    pub cone_scale: f32,
 }
 
 impl Occlusion {
@@ -83,6 +88,7 @@ impl Occlusion {
             visibility: 1.0,
             bent_normal: normal,
             near_field: Vec3::ZERO,
+            cone_scale: 1.0,
         }
     }
 
@@ -331,15 +337,19 @@ pub fn horizon_occlusion<
         return open;
     }
     let near_field = near * (PI / unoccluded);
-    Occlusion {
-        visibility: min(visibility, 1.0),
+    let visibility = min(visibility, 1.0);
+    let mut occlusion = Occlusion {
+        visibility,
         bent_normal,
         near_field: if near_field.is_finite() {
             near_field.max(Vec3::ZERO)
         } else {
             Vec3::ZERO
         },
-    }
+        cone_scale: 1.0,
+    };
+    occlusion.cone_scale = hemisphere_cone_scale(occlusion.cone_cos(), bent_normal.dot(shading));
+    occlusion
 }
 
 #[cfg(test)]

@@ -98,17 +98,12 @@ impl ShL2Rgb {
     }
 
     /// Irradiance through a cone around unit `axis` whose half-angle has cosine `cos_half_angle`
-    /// (in `[0, 1]`): `∫_cone L(ω) max(axis·ω, 0) dω`, the band weights of the cone-limited
-    /// clamped cosine, `2π ∫_c^1 t P_l(t) dt`: `π (1 − c²)`, `2π (1 − c³) / 3` and
-    /// `π (1/4 + c²/2 − 3c⁴/4)`. A cosine of 0 is [`Self::irradiance`]; screen-space GI's
-    /// occlusion reads the probes through it (`crate::screen_space_gi`).
+    /// (in `[0, 1]`): `∫_cone L(ω) max(axis·ω, 0) dω`, with [`cone_weights`]. A cosine of 0 is
+    /// [`Self::irradiance`]; screen-space GI's occlusion reads the probes through it
+    /// (`crate::screen_space_gi`).
     #[inline]
     pub fn cone_irradiance(&self, axis: Vec3, cos_half_angle: f32) -> Vec3 {
-        let c = cos_half_angle.clamp(0.0, 1.0);
-        let c2 = c * c;
-        let a0 = PI * (1.0 - c2);
-        let a1 = 2.0 * PI * (1.0 - c2 * c) / 3.0;
-        let a2 = PI * (0.25 + 0.5 * c2 - 0.75 * c2 * c2);
+        let [a0, a1, a2] = cone_weights(cos_half_angle);
         let basis = sh9_basis(axis);
         let mut sum = self.coefficients[0] * (a0 * basis[0]);
         let mut i = 1;
@@ -118,6 +113,38 @@ impl ShL2Rgb {
             i += 1;
         }
         sum
+    }
+}
+
+/// The band weights of the clamped cosine limited to a cone whose half-angle has cosine `c`
+/// (clamped to `[0, 1]`), `2π ∫_c^1 t P_l(t) dt`: `π (1 − c²)`, `2π (1 − c³) / 3` and
+/// `π (1/4 + c²/2 − 3c⁴/4)`; at `c = 0` the full lobe's [`SH_A0`], [`SH_A1`], [`SH_A2`].
+#[inline]
+pub fn cone_weights(c: f32) -> [f32; 3] {
+    let c = c.clamp(0.0, 1.0);
+    let c2 = c * c;
+    [
+        PI * (1.0 - c2),
+        2.0 * PI * (1.0 - c2 * c) / 3.0,
+        PI * (0.25 + 0.5 * c2 - 0.75 * c2 * c2),
+    ]
+}
+
+/// The factor that makes [`ShL2Rgb::cone_irradiance`] exact for a probe's radiance of 1 over its
+/// hemisphere (and 0 below), read through a cone of cosine `cos_half_angle` around an axis at
+/// `cos_axis` from the hemisphere's normal. Order 2 cannot hold the hemisphere's edge: its
+/// projection, `1/2 + (3/4) cos θ`, reads 1.25 at the pole. The full cosine lobe cancels that
+/// (its irradiance, `A0/2 + (3/4) A1`, is exactly π), a narrow cone does not: it would read up
+/// to a quarter too bright. The factor is the cone's exact answer, `A0` (the cone inside the
+/// hemisphere), over the projection's, `A0/2 + (3/4) A1 cos_axis`; 1 where that is not positive.
+#[inline]
+pub fn hemisphere_cone_scale(cos_half_angle: f32, cos_axis: f32) -> f32 {
+    let [a0, a1, _] = cone_weights(cos_half_angle);
+    let projected = 0.5 * a0 + 0.75 * a1 * cos_axis;
+    if projected > 0.0 && a0 > 0.0 {
+        a0 / projected
+    } else {
+        1.0
     }
 }
 
@@ -197,8 +224,36 @@ mod tests {
                 );
             }
             assert_eq!(sh.cone_irradiance(axis, 0.0), sh.irradiance(axis));
+            assert_eq!(cone_weights(0.0), [SH_A0, SH_A1, SH_A2]);
             assert_eq!(sh.cone_irradiance(axis, 1.0), Vec3::ZERO);
         }
+    }
+
+    #[test]
+    fn the_hemisphere_scale_makes_a_uniform_hemisphere_exact_through_any_cone() {
+        // A probe that sees radiance 1 over its hemisphere around +z, projected as the probes
+        // are (nothing below): through a cone inside the hemisphere the irradiance must be the
+        // cone's cosine-weighted solid angle, π (1 − c²).
+        let sh = project(|w| Vec3::splat(if w.z > 0.0 { 1.0 } else { 0.0 }));
+        for (axis, c) in [
+            (Vec3::Z, 0.9f32),
+            (Vec3::Z, 0.5),
+            (Vec3::new(0.3, 0.0, 0.954).normalize(), 0.8),
+            (Vec3::new(0.0, -0.5, 0.866).normalize(), 0.9),
+        ] {
+            let exact = PI * (1.0 - c * c);
+            let raw = sh.cone_irradiance(axis, c).x;
+            let scaled = raw * hemisphere_cone_scale(c, axis.z);
+            assert!(
+                (scaled - exact).abs() < 2e-3 * exact,
+                "{axis} {c}: {scaled} vs {exact}"
+            );
+            // Unscaled, the projection's overshoot at the pole shows.
+            assert!(raw > 1.05 * exact, "{axis} {c}: {raw} vs {exact}");
+        }
+        // The full lobe needs no scale.
+        assert!((hemisphere_cone_scale(0.0, 1.0) - 1.0).abs() < 1e-6);
+        assert_eq!(hemisphere_cone_scale(0.5, -1.0), 1.0);
     }
 
     #[test]

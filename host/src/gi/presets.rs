@@ -13,8 +13,8 @@ use std::fmt;
 pub const PRESET_JITTER_TILES: f32 = 1.0;
 /// The presets' screen-space GI radius, in pixels: two probe tiles, the detail the probes do not
 /// resolve. At 320 × 180 (`balanced`, 96 frames) it took the Cornell box's dark half from +11.8 to
-/// +8.1 % and the living room's from +5.5 to +1.5 % at half its relMSE; 32 pixels did worse on
-/// three of four scenes (README, "Round 27").
+/// +7.5 % and the living room's from +5.5 to +0.9 % at about half its relMSE; 32 pixels did worse
+/// on three of four scenes (README, "Round 27").
 pub const PRESET_OCCLUSION_RADIUS: u32 = 16;
 
 /// A named set of [`GiSettings`].

@@ -249,7 +249,7 @@ pub fn probe_irradiance(sh: &[[f32; 4]], tile: u32, occlusion: &Occlusion) -> Ve
         i += 1;
     }
     if occlusion.occluded() {
-        probe.cone_irradiance(occlusion.bent_normal, occlusion.cone_cos())
+        probe.cone_irradiance(occlusion.bent_normal, occlusion.cone_cos()) * occlusion.cone_scale
     } else {
         probe.irradiance(occlusion.bent_normal)
     }
