@@ -479,6 +479,12 @@ impl NearFieldSource for PreviousLight<'_> {
             reflected_color(lighting, albedo, irradiance)
         }
     }
+
+    /// Only the emission looks at the side: without it the normal is not read.
+    #[inline]
+    fn uses_facing(&self) -> bool {
+        self.emission
+    }
 }
 
 /// The feedback texel a pixel leaves for the next frame's temporal radiance feedback: its colour,

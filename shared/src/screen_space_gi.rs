@@ -134,6 +134,9 @@ pub trait NearFieldSource {
     /// side the camera sees (a one-sided emitter's light reaches only that side; the other
     /// side's reflected light is unknown and taken as the same).
     fn radiance(&self, camera: &CameraParams, albedo: Vec3, position: Vec3, facing: bool) -> Vec3;
+
+    /// Whether [`Self::radiance`] looks at `facing` (else the normal is not read).
+    fn uses_facing(&self) -> bool;
 }
 
 /// No near-field light (the CPU model of interpolation, and tests).
@@ -144,6 +147,11 @@ impl NearFieldSource for NoNearField {
     #[inline]
     fn radiance(&self, _: &CameraParams, _: Vec3, _: Vec3, _: bool) -> Vec3 {
         Vec3::ZERO
+    }
+
+    #[inline]
+    fn uses_facing(&self) -> bool {
+        false
     }
 }
 
@@ -297,7 +305,8 @@ pub fn horizon_occlusion<
                                     let new = clamp(sign * acos(c), low, high);
                                     let arc = slice_arc(old, gamma) - slice_arc(new, gamma);
                                     if arc > 0.0 {
-                                        let facing = normals.normal_at(q).dot(w) < 0.0;
+                                        let facing = light.uses_facing()
+                                            && normals.normal_at(q).dot(w) < 0.0;
                                         let a = albedo.albedo_at(q);
                                         let l = light.radiance(camera, a, p + w, facing);
                                         near += l * (arc * length);
@@ -533,6 +542,9 @@ mod tests {
             fn radiance(&self, _: &CameraParams, albedo: Vec3, _: Vec3, facing: bool) -> Vec3 {
                 assert!(facing, "the wall and the floor face each other");
                 albedo
+            }
+            fn uses_facing(&self) -> bool {
+                true
             }
         }
         let g = search(24);
