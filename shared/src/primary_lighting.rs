@@ -49,7 +49,9 @@ use crate::radiance_feedback::{FeedbackTexel, reproject};
 use crate::random::Random;
 use crate::ray::Ray;
 use crate::reservoir::Reservoir;
-use crate::screen_probes::{FLAG_EMITTER_SAMPLING, FLAG_SAMPLED_DIRECT, GiFrameParams};
+use crate::screen_probes::{
+    FLAG_EMITTER_SAMPLING, FLAG_HISTORY, FLAG_SAMPLED_DIRECT, GiFrameParams,
+};
 use crate::screen_space_gi::NearFieldSource;
 use crate::world_cache::finite_sample;
 
@@ -452,6 +454,25 @@ pub struct PreviousLight<'a> {
     /// Whether the occluders' emission counts: not with emitter sampling, whose shadow rays
     /// already bring every emitter's light, near ones included.
     pub emission: bool,
+}
+
+impl<'a> PreviousLight<'a> {
+    /// The previous frame's `lighting` and final `irradiance` as `frame` reads them: known with
+    /// a previous frame ([`FLAG_HISTORY`]), emission only without emitter sampling
+    /// ([`FLAG_EMITTER_SAMPLING`]).
+    #[inline]
+    pub fn for_frame(
+        frame: &GiFrameParams,
+        lighting: &'a [PrimaryLighting],
+        irradiance: &'a [[f32; 4]],
+    ) -> Self {
+        Self {
+            lighting,
+            irradiance,
+            known: frame.has(FLAG_HISTORY),
+            emission: !frame.has(FLAG_EMITTER_SAMPLING),
+        }
+    }
 }
 
 impl NearFieldSource for PreviousLight<'_> {

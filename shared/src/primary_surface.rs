@@ -4,7 +4,7 @@
 //! the primary lighting and the cache view read it.
 
 use crate::camera::{CameraParams, primary_ray};
-use crate::ray::offset_ray_origin;
+use crate::ray::{Ray, offset_ray_origin};
 use crate::scene_data::GpuMaterial;
 use crate::world_cache::finite_sample;
 use glam::{UVec2, UVec4, Vec3, Vec4};
@@ -42,11 +42,7 @@ pub fn primary_surface(
     if ns.dot(ng) <= 0.0 {
         ns = ng;
     }
-    let p = if valid {
-        primary_point(camera, pixel, depth)
-    } else {
-        Vec3::from_array(ray.origin)
-    };
+    let p = point_on(&ray, along, if valid { depth } else { 0.0 });
     PrimarySurface {
         position: offset_ray_origin(p, ng, depth),
         geometric_normal: ng,
@@ -60,14 +56,20 @@ pub fn primary_surface(
 #[inline]
 pub fn primary_point(camera: &CameraParams, pixel: UVec2, depth: f32) -> Vec3 {
     let ray = primary_ray(camera, pixel, camera.jitter());
-    let direction = Vec3::from_array(ray.direction);
-    let along = direction.dot(camera.forward());
+    let along = Vec3::from_array(ray.direction).dot(camera.forward());
+    point_on(&ray, along, depth)
+}
+
+/// The point at linear depth `depth` on primary ray `ray`, whose direction has forward
+/// component `along`; the ray's origin for a depth or a ray that is not in front.
+#[inline]
+fn point_on(ray: &Ray, along: f32, depth: f32) -> Vec3 {
     let t = if depth > 0.0 && along > 0.0 {
         depth / along
     } else {
         0.0
     };
-    Vec3::from_array(ray.origin) + direction * t
+    Vec3::from_array(ray.origin) + Vec3::from_array(ray.direction) * t
 }
 
 /// The primary hit's emission toward the camera: the G-buffer's `emissive` (× the multiplier)

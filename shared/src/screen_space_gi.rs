@@ -9,7 +9,7 @@
 //! visible arc. The result ([`Occlusion`]) is the cosine-weighted visibility of the hemisphere,
 //! the bent normal (the mean direction it sees by) and the near-field light.
 //! InterpolateScreenProbes reads the probes' SH through a cone around the bent normal whose
-//! clamped-cosine lobe holds that visibility ([`crate::sh::ShL2Rgb::cone_irradiance`], scaled by
+//! clamped-cosine lobe holds that visibility ([`Occlusion::lobe`], [`crate::sh::ShLobe::cone`], scaled by
 //! [`hemisphere_cone_scale`] so that uniform light reads exactly), as the reference does, and
 //! adds the near-field light: a crease or a contact shadow under an object loses the light from
 //! the directions the nearby geometry hides, which the probes, 8 pixels apart, see past, and
@@ -44,7 +44,7 @@ use crate::camera::CameraParams;
 use crate::math::{PI, acos, clamp, copysign, cos, max, min, saturate, sin};
 use crate::primary_surface::primary_point;
 use crate::random::pixel_sample;
-use crate::sh::hemisphere_cone_scale;
+use crate::sh::{ShLobe, hemisphere_cone_scale};
 
 /// Screen-space slices per pixel and frame (the reference: 1).
 pub const OCCLUSION_SLICES: u32 = 2;
@@ -96,6 +96,18 @@ impl Occlusion {
     #[inline]
     pub fn occluded(&self) -> bool {
         self.visibility < 1.0
+    }
+
+    /// The lobe the probes' SH is read through: the clamped cosine at the bent normal (the
+    /// shading normal, where nothing occludes), else its cone of [`Self::cone_cos`] scaled by
+    /// [`Self::cone_scale`].
+    #[inline]
+    pub fn lobe(&self) -> ShLobe {
+        if self.occluded() {
+            ShLobe::cone(self.bent_normal, self.cone_cos(), self.cone_scale)
+        } else {
+            ShLobe::cosine(self.bent_normal)
+        }
     }
 
     /// The cosine of the half-angle of the cone whose clamped-cosine lobe holds

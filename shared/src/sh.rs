@@ -87,32 +87,68 @@ impl ShL2Rgb {
     /// peak 2π/3) of the exact convolution; order 2 cannot do better.
     #[inline]
     pub fn irradiance(&self, normal: Vec3) -> Vec3 {
-        let basis = sh9_basis(normal);
+        self.integrate(&ShLobe::cosine(normal))
+    }
+
+    /// The radiance integrated against `lobe`: `Σ coefficient × weight`.
+    #[inline]
+    pub fn integrate(&self, lobe: &ShLobe) -> Vec3 {
         let mut sum = Vec3::ZERO;
         let mut i = 0;
         while i < SH_COEFFICIENT_COUNT {
-            sum += self.coefficients[i] * (BAND_WEIGHTS[i] * basis[i]);
+            sum += self.coefficients[i] * lobe.weights[i];
             i += 1;
         }
         sum
     }
+}
 
-    /// Irradiance through a cone around unit `axis` whose half-angle has cosine `cos_half_angle`
-    /// (in `[0, 1]`): `∫_cone L(ω) max(axis·ω, 0) dω`, with [`cone_weights`]. A cosine of 0 is
-    /// [`Self::irradiance`]; screen-space GI's occlusion reads the probes through it
-    /// (`crate::screen_space_gi`).
+/// A lobe SH radiance is integrated against ([`ShL2Rgb::integrate`]): its band weights times
+/// the basis at its axis, made once and applied to every SH that is read through it (the up to
+/// four probes of a pixel).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShLobe {
+    /// One weight per coefficient, in the order of [`sh9_basis`].
+    pub weights: [f32; SH_COEFFICIENT_COUNT],
+}
+
+impl ShLobe {
+    /// The clamped cosine around unit `normal`: [`ShL2Rgb::irradiance`].
     #[inline]
-    pub fn cone_irradiance(&self, axis: Vec3, cos_half_angle: f32) -> Vec3 {
-        let [a0, a1, a2] = cone_weights(cos_half_angle);
-        let basis = sh9_basis(axis);
-        let mut sum = self.coefficients[0] * (a0 * basis[0]);
-        let mut i = 1;
+    pub fn cosine(normal: Vec3) -> Self {
+        let basis = sh9_basis(normal);
+        let mut weights = [0.0; SH_COEFFICIENT_COUNT];
+        let mut i = 0;
         while i < SH_COEFFICIENT_COUNT {
-            let a = if i < 4 { a1 } else { a2 };
-            sum += self.coefficients[i] * (a * basis[i]);
+            weights[i] = BAND_WEIGHTS[i] * basis[i];
             i += 1;
         }
-        sum
+        Self { weights }
+    }
+
+    /// The clamped cosine around unit `axis` limited to a cone whose half-angle has cosine
+    /// `cos_half_angle` (in `[0, 1]`; [`cone_weights`]), times `scale`: `∫_cone L(ω) max(axis·ω,
+    /// 0) dω`. A cosine of 0 and a scale of 1 is [`Self::cosine`]; screen-space GI's occlusion
+    /// reads the probes through it (`crate::screen_space_gi`).
+    #[inline]
+    pub fn cone(axis: Vec3, cos_half_angle: f32, scale: f32) -> Self {
+        let [a0, a1, a2] = cone_weights(cos_half_angle);
+        let bands = [a0 * scale, a1 * scale, a2 * scale];
+        let basis = sh9_basis(axis);
+        let mut weights = [0.0; SH_COEFFICIENT_COUNT];
+        let mut i = 0;
+        while i < SH_COEFFICIENT_COUNT {
+            let band = if i == 0 {
+                bands[0]
+            } else if i < 4 {
+                bands[1]
+            } else {
+                bands[2]
+            };
+            weights[i] = band * basis[i];
+            i += 1;
+        }
+        Self { weights }
     }
 }
 
@@ -130,7 +166,7 @@ pub fn cone_weights(c: f32) -> [f32; 3] {
     ]
 }
 
-/// The factor that makes [`ShL2Rgb::cone_irradiance`] exact for a probe's radiance of 1 over its
+/// The factor that makes [`ShLobe::cone`] exact for a probe's radiance of 1 over its
 /// hemisphere (and 0 below), read through a cone of cosine `cos_half_angle` around an axis at
 /// `cos_axis` from the hemisphere's normal. Order 2 cannot hold the hemisphere's edge: its
 /// projection, `1/2 + (3/4) cos θ`, reads 1.25 at the pole. The full cosine lobe cancels that
@@ -189,7 +225,7 @@ mod tests {
     }
 
     #[test]
-    fn cone_irradiance_integrates_band_limited_radiance_over_the_cone() {
+    fn the_cone_lobe_integrates_band_limited_radiance_over_the_cone() {
         // A radiance within order 2 is projected exactly, so the cone's band weights must give
         // its cone integral to rounding, for any axis and half-angle.
         let a = Vec3::new(0.3, 0.5, 0.8).normalize();
@@ -217,15 +253,18 @@ mod tests {
                         exact += radiance(w).as_dvec3() * (z * d_omega);
                     }
                 }
-                let got = sh.cone_irradiance(axis, c).as_dvec3();
+                let got = sh.integrate(&ShLobe::cone(axis, c, 1.0)).as_dvec3();
                 assert!(
                     (got - exact).abs().max_element() < 2e-3 * exact.abs().max_element(),
                     "axis {axis} c {c}: {got} vs {exact}"
                 );
             }
-            assert_eq!(sh.cone_irradiance(axis, 0.0), sh.irradiance(axis));
+            assert_eq!(
+                sh.integrate(&ShLobe::cone(axis, 0.0, 1.0)),
+                sh.irradiance(axis)
+            );
             assert_eq!(cone_weights(0.0), [SH_A0, SH_A1, SH_A2]);
-            assert_eq!(sh.cone_irradiance(axis, 1.0), Vec3::ZERO);
+            assert_eq!(sh.integrate(&ShLobe::cone(axis, 1.0, 1.0)), Vec3::ZERO);
         }
     }
 
@@ -242,8 +281,10 @@ mod tests {
             (Vec3::new(0.0, -0.5, 0.866).normalize(), 0.9),
         ] {
             let exact = PI * (1.0 - c * c);
-            let raw = sh.cone_irradiance(axis, c).x;
-            let scaled = raw * hemisphere_cone_scale(c, axis.z);
+            let raw = sh.integrate(&ShLobe::cone(axis, c, 1.0)).x;
+            let scaled = sh
+                .integrate(&ShLobe::cone(axis, c, hemisphere_cone_scale(c, axis.z)))
+                .x;
             assert!(
                 (scaled - exact).abs() < 2e-3 * exact,
                 "{axis} {c}: {scaled} vs {exact}"

@@ -19,9 +19,7 @@ use gi_shared::primary_surface::primary_surface;
 use gi_shared::screen_probes::interpolate::{
     InterpolationProbes, SKY_IRRADIANCE, accepts_jitter, interpolate_pixel, jitter_candidate,
 };
-use gi_shared::screen_probes::{
-    FLAG_EMITTER_SAMPLING, FLAG_HISTORY, GiFrameParams, ProbeRecord, RELAXED_COUNT,
-};
+use gi_shared::screen_probes::{GiFrameParams, ProbeRecord, RELAXED_COUNT};
 use gi_shared::screen_space_gi::{AlbedoSource, DepthSource, NormalSource, horizon_occlusion};
 use spirv_std::glam::{UVec2, UVec3, Vec3, Vec4};
 use spirv_std::spirv;
@@ -114,12 +112,7 @@ pub fn interpolate_screen_probes(
             &ImageNormals(geometric_normal),
             &ImageAlbedo(albedo),
         ),
-        &PreviousLight {
-            lighting,
-            irradiance: previous,
-            known: frame.has(FLAG_HISTORY),
-            emission: !frame.has(FLAG_EMITTER_SAMPLING),
-        },
+        &PreviousLight::for_frame(frame, lighting, previous),
     );
     let probes = InterpolationProbes { records, mask, sh };
     let r = interpolate_pixel(frame, &surface, d, &occlusion, lookup, probes);

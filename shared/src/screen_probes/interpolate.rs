@@ -40,7 +40,7 @@ use crate::packing::unpack_seed;
 use crate::primary_surface::{PrimarySurface, primary_surface};
 use crate::random::pixel_sample;
 use crate::screen_space_gi::{NoNearField, Occlusion, RowMajor, horizon_occlusion};
-use crate::sh::{SH_COEFFICIENT_COUNT, ShL2Rgb};
+use crate::sh::{SH_COEFFICIENT_COUNT, ShL2Rgb, ShLobe};
 
 /// Largest jitter radius of the lookup pixel along each axis, in pixels (four probe tiles):
 /// [`GiFrameParams::interpolation_jitter`] is clamped to it.
@@ -233,10 +233,10 @@ pub fn probe_weight(
     if w.is_finite() { w } else { 0.0 }
 }
 
-/// Irradiance of the SH of probe tile `tile` (9 entries `[r, g, b, 0]` per tile) at
-/// `occlusion`'s bent normal, through its cone where it is occluded; black outside the buffer.
+/// Irradiance of the SH of probe tile `tile` (9 entries `[r, g, b, 0]` per tile) through `lobe`
+/// (the pixel's [`Occlusion::lobe`]); black outside the buffer.
 #[inline]
-pub fn probe_irradiance(sh: &[[f32; 4]], tile: u32, occlusion: &Occlusion) -> Vec3 {
+pub fn probe_irradiance(sh: &[[f32; 4]], tile: u32, lobe: &ShLobe) -> Vec3 {
     let base = tile as usize * SH_COEFFICIENT_COUNT;
     if base + SH_COEFFICIENT_COUNT > sh.len() {
         return Vec3::ZERO;
@@ -248,11 +248,7 @@ pub fn probe_irradiance(sh: &[[f32; 4]], tile: u32, occlusion: &Occlusion) -> Ve
         probe.coefficients[i] = Vec3::new(c[0], c[1], c[2]);
         i += 1;
     }
-    if occlusion.occluded() {
-        probe.cone_irradiance(occlusion.bent_normal, occlusion.cone_cos()) * occlusion.cone_scale
-    } else {
-        probe.irradiance(occlusion.bent_normal)
-    }
+    probe.integrate(lobe)
 }
 
 /// Each component clamped to `[0, ∞)`, non-finite components zero.
@@ -314,6 +310,7 @@ pub fn interpolate_pixel(
         };
     }
     let set = gather_probes(frame, mask, lookup);
+    let lobe = occlusion.lobe();
     let mut weighted = Vec3::ZERO;
     let mut weight_sum = 0.0;
     let mut equal = Vec3::ZERO;
@@ -325,7 +322,7 @@ pub fn interpolate_pixel(
         if (tile as usize) < records.len() && tile < frame.probe_count {
             let record = records[tile as usize];
             if record.is_valid() {
-                let e = probe_irradiance(sh, tile, occlusion);
+                let e = probe_irradiance(sh, tile, &lobe);
                 let w = probe_weight(
                     frame,
                     surface.position,
