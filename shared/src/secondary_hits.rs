@@ -148,7 +148,7 @@ pub fn surface_query(
     }
     let distance = hit.t * Vec3::from_array(ray.direction).length();
     let query = CacheQuery {
-        hit_position: offset_ray_origin(surface.position, ng, surface.size).to_array(),
+        hit_position: keyed_hit_point(direction, surface).to_array(),
         ray_index,
         direction: pack_octahedral16(direction),
         hit_distance: distance,
@@ -164,6 +164,18 @@ pub fn surface_query(
     } else {
         None
     }
+}
+
+/// The point a hit on `surface` along unit `direction` is keyed and lit at: the hit offset off
+/// the surface toward the ray's origin ([`offset_ray_origin`]). A query and a bounce ray that
+/// reads the cache at the same hit both key this point: the hit itself rounds to either side of
+/// a surface that lies on a cell's border (a floor at `y = 0`), and a bounce keyed there read an
+/// empty cell beneath the floor, every frame, while the query filled the one above.
+#[inline]
+pub fn keyed_hit_point(direction: Vec3, surface: &Surface) -> Vec3 {
+    let ng = surface.geometric_normal;
+    let facing = if ng.dot(direction) > 0.0 { -ng } else { ng };
+    offset_ray_origin(surface.position, facing, surface.size)
 }
 
 /// The path tracer's parameters that its light sampling and MIS read, from the view's: the

@@ -104,6 +104,10 @@ pub const QUERY_CARRIED: u32 = 4;
 /// ([`admit_query`] clears it).
 pub const QUERY_REFUSED: u32 = 8;
 
+/// [`CacheQuery::flags`]: the lowest bit of the query's sample weight
+/// ([`CacheQuery::sample_weight`]); the bits below are flags.
+pub const QUERY_WEIGHT_SHIFT: u32 = 16;
+
 /// Set in a carried query's `ray_index` (its parent's, so that its random streams stay keyed by
 /// a ray, not by a list slot): no ray record is that large.
 pub const CARRIED_QUERY_BIT: u32 = 1 << 31;
@@ -363,7 +367,8 @@ pub struct CacheQuery {
     pub tile: u32,
     /// The mip-0 cell inside the tile, `x + 8 · y`.
     pub cell: u32,
-    /// [`QUERY_FED_BACK`], [`QUERY_BYPASS`].
+    /// [`QUERY_FED_BACK`], [`QUERY_BYPASS`], [`QUERY_CARRIED`], [`QUERY_REFUSED`], and from
+    /// [`QUERY_WEIGHT_SHIFT`] up the sample's weight ([`Self::sample_weight`]).
     pub flags: u32,
 }
 
@@ -372,6 +377,27 @@ impl crate::layout::FloatLayout for CacheQuery {
 }
 
 impl CacheQuery {
+    /// The weight its sample takes in its cell, in
+    /// [`SAMPLE_WEIGHT_ONE`](crate::hash_cells::layout::SAMPLE_WEIGHT_ONE)ths: one sample
+    /// unless [`Self::with_density`] set another.
+    #[inline]
+    pub fn sample_weight(&self) -> u32 {
+        match self.flags >> QUERY_WEIGHT_SHIFT {
+            0 => crate::hash_cells::layout::SAMPLE_WEIGHT_ONE,
+            w => w,
+        }
+    }
+
+    /// The query of a ray drawn `density` times as often as uniform sampling would draw it (a
+    /// guided probe ray: 64 × its cell's probability): its sample weighs the inverse
+    /// ([`crate::hash_cells::accumulate::sample_weight`]).
+    #[inline]
+    pub fn with_density(mut self, density: f32) -> Self {
+        let w = crate::hash_cells::accumulate::sample_weight(density);
+        self.flags = (self.flags & ((1 << QUERY_WEIGHT_SHIFT) - 1)) | (w << QUERY_WEIGHT_SHIFT);
+        self
+    }
+
     /// Hit position.
     #[inline]
     pub fn position(&self) -> Vec3 {
@@ -651,7 +677,13 @@ pub fn accumulate_into_cell<A: AtomicWords + ?Sized>(
     if query.tile == NO_TILE {
         return true;
     }
-    accumulate_cell_sample(accumulators, query.tile, query.cell_xy(), radiance)
+    accumulate_cell_sample(
+        accumulators,
+        query.tile,
+        query.cell_xy(),
+        radiance,
+        query.sample_weight(),
+    )
 }
 
 /// The cache's filtered radiance for a query that [`needs_cache_radiance`] (adaptive mip read);
@@ -728,6 +760,24 @@ pub(crate) mod tests {
     type Words<'a> = &'a mut [u32];
     use crate::packing::pack_snorm10x3;
     use core::mem::{offset_of, size_of};
+
+    /// A query's sample weight rides above its flags: setting it keeps the flags, and a query
+    /// without one weighs one sample.
+    #[test]
+    fn a_query_carries_its_sample_weight_above_its_flags() {
+        use crate::hash_cells::layout::{MAX_SAMPLE_WEIGHT, SAMPLE_WEIGHT_ONE};
+        let q = CacheQuery {
+            flags: QUERY_BYPASS | QUERY_CARRIED,
+            ..CacheQuery::default()
+        };
+        assert_eq!(q.sample_weight(), SAMPLE_WEIGHT_ONE);
+        let w = q.with_density(0.5);
+        assert_eq!(w.sample_weight(), 2 * SAMPLE_WEIGHT_ONE);
+        assert!(w.has(QUERY_BYPASS) && w.has(QUERY_CARRIED) && !w.has(QUERY_FED_BACK));
+        assert_eq!(w.with_density(1e-9).sample_weight(), MAX_SAMPLE_WEIGHT);
+        assert_eq!(w.with_density(f32::NAN).sample_weight(), SAMPLE_WEIGHT_ONE);
+        assert!(MAX_SAMPLE_WEIGHT < 1 << (32 - QUERY_WEIGHT_SHIFT));
+    }
 
     #[test]
     fn layouts() {

@@ -168,8 +168,10 @@ fn gi_converges_to_the_path_tracer() {
 
 /// Emitter sampling (`GiSettings::emitter_sampling`, on in every preset): the Cornell box's small
 /// ceiling light, sampled at the primary hit instead of through the probes' cells, gives a frame
-/// with a quarter of the error or less, its mean within 3 points of the probes'. Measured after
-/// 24 frames, off → on: relMSE 0.0668 → 0.0096, FLIP 0.265 → 0.148, mean −0.9 → −2.9 % (round
+/// with under 0.3 of the error, its mean within 3 points of the probes'. Measured after 24
+/// frames, off → on: relMSE 0.0366 → 0.0095, FLIP 0.239 → 0.152, mean −4.6 → −4.0 % (round 28,
+/// whose weighted cache samples took the probes' path from 0.0668 to 0.0366 and left the sampled
+/// one as it was; before it 0.0668 → 0.0096, FLIP 0.265 → 0.148, mean −0.9 → −2.9 %; round
 /// 16: the estimate denoised, a one-tile jitter; before it, added undenoised with the jitter of
 /// 2 tiles, 0.0563 → 0.0218, 0.254 → 0.167, −4.2 → −5.5 %; converged at 128 × 72, README
 /// "Emitters sampled at the primary hit": relMSE 0.022 → 0.004, mean −4.0 → −3.8 %).
@@ -200,7 +202,7 @@ fn emitter_sampling_lowers_the_error_of_a_small_emitters_light() {
         on.1,
         on.2 * 100.0
     );
-    assert!(on.0 < 0.25 * off.0, "relMSE on {}, off {}", on.0, off.0);
+    assert!(on.0 < 0.3 * off.0, "relMSE on {}, off {}", on.0, off.0);
     assert!(on.1 < off.1, "FLIP on {}, off {}", on.1, off.1);
     assert!(
         (on.2 - off.2).abs() < 0.03,

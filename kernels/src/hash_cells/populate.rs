@@ -21,14 +21,14 @@ use gi_shared::hash_cells::lists::{DROPPED_SAMPLES, count};
 use gi_shared::math::min_u32;
 use gi_shared::multi_bounce::{bounce_radiance, bounce_ray, carried_query};
 use gi_shared::scene_data::hit_surface;
-use gi_shared::secondary_hits::{secondary_hit_footprint, shadow_ray_radiance};
+use gi_shared::secondary_hits::{keyed_hit_point, secondary_hit_footprint, shadow_ray_radiance};
 use gi_shared::world_cache::{
     BOUNCE_MISSES, CARRIED_NEXT, CachePassParams, CacheQuery, FLAG_MULTI_BOUNCE, PASS_BOUNCE,
     QUERY_CARRIED, RayRecord, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay, accumulate_into_cell,
     pass_random,
 };
 use gi_shared::world_restir::PackedReservoir;
-use spirv_std::glam::{UVec3, Vec3};
+use spirv_std::glam::{UVec3, Vec2, Vec3};
 use spirv_std::spirv;
 
 traced_kernel! {
@@ -76,6 +76,14 @@ traced_kernel! {
             let mut rng = pass_random(view.seed, query.ray_index, PASS_BOUNCE, view.frame_index);
             let ray = bounce_ray(&query, rng.next_vec2());
             let hit = scene.closest_hit(&ray, texture_images);
+            let point = if hit.is_hit() {
+                let surface = scene.surfaces.surface(
+                    hit.instance, hit.primitive, Vec2::from_array(hit.barycentrics),
+                );
+                keyed_hit_point(Vec3::from_array(ray.direction).normalize_or_zero(), &surface)
+            } else {
+                Vec3::ZERO
+            };
             // Inserts and touches finished in an earlier dispatch: plain loads see them.
             let cells = HashCellsRead { keys, last_touch, values };
             let bounce = bounce_radiance(
@@ -86,6 +94,7 @@ traced_kernel! {
                 &query,
                 &ray,
                 &hit,
+                point,
             );
             radiance += bounce.radiance;
             if bounce.missed_cell {

@@ -90,7 +90,10 @@ traced_kernel! {
                 report_hit_bounds(&mut crate::atomics::DeviceWords(bounds), 0, shaded.query.position());
                 let capacity = queries.len() as u32;
                 if let Some(slot) = append(&mut crate::atomics::DeviceWords(counters), QUERY_COUNT, capacity) {
-                    queries[slot as usize] = shaded.query;
+                    // A guided ray's sample weighs as if the ray had been drawn uniformly.
+                    queries[slot as usize] = shaded
+                        .query
+                        .with_density(PROBE_CELLS as f32 * record.cell_probability);
                 }
             }
         }

@@ -129,14 +129,13 @@ pub struct PooledChange {
 pub fn frame_change(
     pooled: PooledChange,
     new_mean: Vec3,
-    k: u32,
+    k: f32,
     history_mean: Vec3,
     history_count: f32,
 ) -> PooledChange {
-    if k == 0 || history_count.is_nan() || history_count <= 0.0 {
+    if !(k > 0.0) || history_count.is_nan() || history_count <= 0.0 {
         return pooled;
     }
-    let k = k as f32;
     let (a, m) = (
         max(luminance(new_mean), 0.0),
         max(luminance(history_mean), 0.0),
@@ -167,7 +166,7 @@ pub fn blend_cap(cap: f32, trend: TileTrend, pooled_samples: f32) -> f32 {
 mod tests {
     use super::*;
 
-    fn pooled(cells: &[(f32, f32)], k: u32) -> PooledChange {
+    fn pooled(cells: &[(f32, f32)], k: f32) -> PooledChange {
         cells.iter().fold(PooledChange::default(), |p, &(a, m)| {
             frame_change(p, Vec3::splat(a), k, Vec3::splat(m), 16.0)
         })
@@ -176,7 +175,7 @@ mod tests {
     #[test]
     fn a_tile_that_darkens_frame_after_frame_drops_its_history() {
         // Without noise the change is coherent from its first frame.
-        let t = TileTrend::default().update(pooled(&[(0.5, 1.0); 16], 2));
+        let t = TileTrend::default().update(pooled(&[(0.5, 1.0); 16], 2.0));
         assert_eq!(blend_cap(16.0, t, 32.0), 1.0, "{t:?}");
         // After noise (cells ±40 %, signs balanced), a light off (every cell at half its history)
         // takes a few frames to stand out of it.
@@ -186,11 +185,11 @@ mod tests {
             let cells: Vec<(f32, f32)> = (0..16)
                 .map(|i| (1.0 + if i % 2 == 0 { s } else { -s }, 1.0))
                 .collect();
-            t = t.update(pooled(&cells, 2));
+            t = t.update(pooled(&cells, 2.0));
         }
         let mut caps = vec![];
         for _ in 0..6 {
-            t = t.update(pooled(&[(0.5, 1.0); 16], 2));
+            t = t.update(pooled(&[(0.5, 1.0); 16], 2.0));
             caps.push(blend_cap(16.0, t, 32.0));
         }
         assert_eq!(caps[0], 16.0, "{caps:?}");
@@ -208,7 +207,7 @@ mod tests {
             let cells: Vec<(f32, f32)> = (0..16)
                 .map(|i| (1.0 + s * if i % 2 == 0 { 0.4 } else { -0.4 }, 1.0))
                 .collect();
-            t = t.update(pooled(&cells, 2));
+            t = t.update(pooled(&cells, 2.0));
             assert_eq!(blend_cap(16.0, t, 32.0), 16.0, "{t:?}");
         }
         assert!(t.spread > 0.15 && t.coherence() < 1e-3, "{t:?}");
@@ -241,23 +240,23 @@ mod tests {
         };
         assert_eq!(t.update(PooledChange::default()), TileTrend::default());
         // Cells without history or without samples pool nothing.
-        let p = frame_change(PooledChange::default(), Vec3::ONE, 3, Vec3::ONE, 0.0);
-        let p = frame_change(p, Vec3::ONE, 0, Vec3::ONE, 5.0);
+        let p = frame_change(PooledChange::default(), Vec3::ONE, 3.0, Vec3::ONE, 0.0);
+        let p = frame_change(p, Vec3::ONE, 0.0, Vec3::ONE, 5.0);
         assert_eq!(p, PooledChange::default());
         // Extremes: a huge or infinite luminance pools to a non-finite sum and resets.
         let p = frame_change(
             PooledChange::default(),
             Vec3::splat(f32::MAX),
-            4,
+            4.0,
             Vec3::ONE,
             1.0,
         );
         assert_eq!(t.update(p), TileTrend::default());
         // Black history and black samples: no luminance, no trend.
-        let p = frame_change(PooledChange::default(), Vec3::ZERO, 4, Vec3::ZERO, 1.0);
+        let p = frame_change(PooledChange::default(), Vec3::ZERO, 4.0, Vec3::ZERO, 1.0);
         assert_eq!(t.update(p), TileTrend::default());
         // A light switched on in a black tile: the largest change, +1.
-        let p = frame_change(PooledChange::default(), Vec3::ONE, 4, Vec3::ZERO, 1.0);
+        let p = frame_change(PooledChange::default(), Vec3::ONE, 4.0, Vec3::ZERO, 1.0);
         assert_eq!(TileTrend::default().update(p).trend, TREND_RATE);
         // Packing round-trips within half precision; NaN and ∞ halves read as 0.
         let word = t.pack();
@@ -267,7 +266,7 @@ mod tests {
         assert_eq!(TileTrend::unpack(0x7c00_fc00), TileTrend::default());
         assert_eq!(TileTrend::unpack(0), TileTrend::default());
         // NaN colours pool as black (luminance clamped at 0 drops NaN).
-        let p = frame_change(PooledChange::default(), Vec3::NAN, 1, Vec3::ONE, 1.0);
+        let p = frame_change(PooledChange::default(), Vec3::NAN, 1.0, Vec3::ONE, 1.0);
         assert!(t.update(p).trend.is_finite());
     }
 }

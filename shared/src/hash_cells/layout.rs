@@ -93,6 +93,14 @@ impl HashCellValue {
     }
 }
 
+/// The weight of one sample drawn as often as uniform sampling would draw it, in the count word's
+/// units: weights are counted in sixteenths.
+pub const SAMPLE_WEIGHT_ONE: u32 = 16;
+
+/// Largest weight of one sample, in [`SAMPLE_WEIGHT_ONE`]ths: 8 samples' worth (guiding's uniform
+/// share bounds a guided ray's weight to 5).
+pub const MAX_SAMPLE_WEIGHT: u32 = 8 * SAMPLE_WEIGHT_ONE;
+
 /// One mip-0 cell's per-frame accumulator, as [`ACCUMULATOR_WORDS`] consecutive words of the flat
 /// `u32` accumulator buffer (the GPU adds into the words with atomics; this is the loaded copy).
 #[repr(C)]
@@ -104,7 +112,8 @@ pub struct HashCellAccumulator {
     pub g: [u32; 2],
     /// Fixed-point blue sum `[lo, hi]`.
     pub b: [u32; 2],
-    /// Number of samples added.
+    /// The added samples' weight, in
+    /// [`SAMPLE_WEIGHT_ONE`]ths ([`Self::samples`]).
     pub count: u32,
 }
 
@@ -122,13 +131,19 @@ impl HashCellAccumulator {
         )
     }
 
-    /// Mean radiance of the accumulated samples, zero when there are none.
+    /// The samples' weight, in samples.
+    #[inline]
+    pub fn samples(&self) -> f32 {
+        self.count as f32 * (1.0 / SAMPLE_WEIGHT_ONE as f32)
+    }
+
+    /// Weighted mean radiance of the accumulated samples, zero when there are none.
     #[inline]
     pub fn mean(&self) -> Vec3 {
         if self.count == 0 {
             return Vec3::ZERO;
         }
-        self.radiance_sum() / self.count as f32
+        self.radiance_sum() / self.samples()
     }
 }
 
@@ -399,13 +414,13 @@ mod tests {
             r: fixed_point::encode(3.0),
             g: fixed_point::encode(1.5),
             b: [0, 0],
-            count: 2,
+            count: 2 * SAMPLE_WEIGHT_ONE,
         };
         assert_eq!(a.mean(), Vec3::new(1.5, 0.75, 0.0));
         assert_eq!(HashCellAccumulator::default().mean(), Vec3::ZERO);
         // The loaded copy is the cell's seven words, in order.
         let words: [u32; ACCUMULATOR_WORDS] = bytemuck::cast(a);
-        assert_eq!(words[HashCellAccumulator::COUNT_WORD], 2);
+        assert_eq!(words[HashCellAccumulator::COUNT_WORD], a.count);
         assert_eq!([words[0], words[1]], a.r);
     }
 }

@@ -14,6 +14,7 @@
 //! `accumulators` (7 words per mip-0 cell), `lists` ([`super::lists`]).
 
 use super::accumulate::accumulate_sample;
+use super::layout::SAMPLE_WEIGHT_ONE;
 use super::layout::{HashCellValue, HashGridParams, HashGridQuery};
 use super::lists::{
     DROPPED_SAMPLES, EVICTED_TILES, FAILED_INSERTS, UPDATE_TILES, count, list_tile, live_list,
@@ -102,7 +103,13 @@ pub fn query_pass<K, T, A, L>(
     if touch_tile(last_touch, tile, params.frame_index) {
         push_tile(lists, UPDATE_TILES, tile_count, tile);
     }
-    if !accumulate_sample(accumulators, tile, desc.cell, query.radiance()) {
+    if !accumulate_sample(
+        accumulators,
+        tile,
+        desc.cell,
+        query.radiance(),
+        SAMPLE_WEIGHT_ONE,
+    ) {
         count(lists, DROPPED_SAMPLES);
     }
 }

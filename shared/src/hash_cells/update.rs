@@ -58,8 +58,8 @@ pub fn blend_cell(old: Vec4, acc: HashCellAccumulator, cap: u32, blend_cap: f32)
     }
     let cap_count = max_u32(cap, 1);
     let cap = cap_count as f32;
-    let k = acc.count as f32;
-    let k_kept = min_u32(acc.count, cap_count) as f32;
+    let k = acc.samples();
+    let k_kept = min(k, cap);
     // Mip-0 counts lie in 0..=cap; the clamp also turns a NaN count into 0.
     let c0 = clamp(old.w, 0.0, cap);
     let c = min(c0 + k_kept, cap);
@@ -193,7 +193,7 @@ pub fn tile_blend_cap<W: AtomicWords + ?Sized>(
         if accumulator_count(accumulators, base) != 0 {
             let acc = load_accumulator(accumulators, base);
             let old = values[cell_index(tile, 0, xy[0], xy[1]) as usize];
-            pooled = frame_change(pooled, acc.mean(), acc.count, old.mean(), old.count());
+            pooled = frame_change(pooled, acc.mean(), acc.samples(), old.mean(), old.count());
         }
         cell += 1;
     }
@@ -292,6 +292,7 @@ mod tests {
     use crate::hash_cells::CELLS_PER_TILE;
     use crate::hash_cells::MAX_SAMPLE_COUNT;
     use crate::hash_cells::accumulate::accumulate_sample;
+    use crate::hash_cells::layout::SAMPLE_WEIGHT_ONE as ONE;
     use crate::hash_cells::layout::TILE_ACCUMULATOR_WORDS;
     use glam::Vec3;
 
@@ -300,7 +301,7 @@ mod tests {
             r: fixed_point::encode(sum.x),
             g: fixed_point::encode(sum.y),
             b: fixed_point::encode(sum.z),
-            count,
+            count: count * ONE,
         }
     }
 
@@ -453,7 +454,7 @@ mod tests {
     ) -> f32 {
         for cell in 0..64 {
             let xy = [cell % 8, cell / 8];
-            accumulate_sample(accs, 0, xy, Vec3::splat(radiance(frame, cell)));
+            accumulate_sample(accs, 0, xy, Vec3::splat(radiance(frame, cell)), ONE);
         }
         update_tile(values, accs, 0, MAX_SAMPLE_COUNT, adaptive, 0);
         (0..64)
@@ -472,9 +473,9 @@ mod tests {
             values[0] = HashCellValue::new(Vec3::splat(16.0), 16.0);
             for frame in 0..33 {
                 if frame % 8 == 0 {
-                    accumulate_sample(&mut accs[..], 0, [0, 0], Vec3::splat(3.0));
+                    accumulate_sample(&mut accs[..], 0, [0, 0], Vec3::splat(3.0), ONE);
                 }
-                accumulate_sample(&mut accs[..], 0, [1, 0], Vec3::ONE);
+                accumulate_sample(&mut accs[..], 0, [1, 0], Vec3::ONE, ONE);
                 update_tile(
                     &mut values,
                     &mut accs[..],
@@ -547,7 +548,7 @@ mod tests {
         for y in 0..8 {
             for x in 0..8 {
                 for _ in 0..=x {
-                    accumulate_sample(&mut accs[..], 1, [x, y], Vec3::splat((y + 1) as f32));
+                    accumulate_sample(&mut accs[..], 1, [x, y], Vec3::splat((y + 1) as f32), ONE);
                 }
             }
         }
@@ -593,7 +594,7 @@ mod tests {
         for y in 0..8 {
             for x in 0..8 {
                 for _ in 0..=x {
-                    accumulate_sample(&mut accs[..], 1, [x, y], Vec3::splat((y + 1) as f32));
+                    accumulate_sample(&mut accs[..], 1, [x, y], Vec3::splat((y + 1) as f32), ONE);
                 }
             }
         }
@@ -652,7 +653,7 @@ mod tests {
                      accs: &mut [u32],
                      light: f32| {
             for cell in 0..64 {
-                accumulate_sample(accs, 0, [cell % 8, cell / 8], Vec3::splat(light));
+                accumulate_sample(accs, 0, [cell % 8, cell / 8], Vec3::splat(light), ONE);
             }
             update_both(values, bounce, accs, 12);
         };
@@ -695,7 +696,7 @@ mod tests {
         let mut accs = vec![0u32; TILE_ACCUMULATOR_WORDS];
         // The slot's copy still holds an evicted tile's light; the new tile's cells are cleared.
         let mut bounce = vec![HashCellValue::new(Vec3::splat(90.0), 3.0); cells];
-        accumulate_sample(&mut accs[..], 0, [2, 5], Vec3::splat(0.5));
+        accumulate_sample(&mut accs[..], 0, [2, 5], Vec3::splat(0.5), ONE);
         update_both(&mut values, &mut bounce, &mut accs, 12);
         // The sampled cell's copy is its sample; the others hold nothing; the mips sum them.
         let sampled = cell_index(0, 0, 2, 5) as usize;
@@ -712,7 +713,7 @@ mod tests {
             1,
             0,
         );
-        accumulate_sample(&mut accs[..], 0, [2, 5], Vec3::splat(0.5));
+        accumulate_sample(&mut accs[..], 0, [2, 5], Vec3::splat(0.5), ONE);
         let mut short = [HashCellValue::new(Vec3::ONE, 1.0)];
         let mut params = crate::hash_cells::layout::HashGridParams::new(Vec3::ZERO, 0.01, 1);
         params.num_buckets_log2 = 0;
