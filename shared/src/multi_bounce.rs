@@ -343,17 +343,20 @@ mod tests {
         let mut values = vec![HashCellValue::ZERO; tiles * CELLS_PER_TILE as usize];
         // Every tile last touched this frame (frame 4).
         let mut touch = vec![4u32; tiles];
+        let read = |keys: &[u32], touch: &[u32], values: &[HashCellValue], q: &CacheQuery| {
+            bounce_radiance(
+                cells(keys, touch, values),
+                &[],
+                &p,
+                &[],
+                q,
+                &ray,
+                &hit,
+                HIT_POINT,
+            )
+        };
         // No tile: a cell miss that adds nothing and is carried over.
-        let b = bounce_radiance(
-            cells(&keys, &touch, &values),
-            &[],
-            &p,
-            &[],
-            &q,
-            &ray,
-            &hit,
-            HIT_POINT,
-        );
+        let b = read(&keys, &touch, &values, &q);
         assert_eq!(b.radiance, Vec3::ZERO);
         assert!(b.missed_cell && b.carry);
         // The tile exists but its cell holds no sample: still a miss.
@@ -367,33 +370,12 @@ mod tests {
         let TileInsert::Inserted(tile) = insert_tile(&mut keys[..], &desc, &p.grid) else {
             panic!("insert failed");
         };
-        assert!(
-            bounce_radiance(
-                cells(&keys, &touch, &values),
-                &[],
-                &p,
-                &[],
-                &q,
-                &ray,
-                &hit,
-                HIT_POINT
-            )
-            .missed_cell
-        );
+        assert!(read(&keys, &touch, &values, &q).missed_cell);
         // Sixteen samples of 3: the cell answers 3, times the albedo clamped to 0.95.
         let c = cell_index(tile, 0, desc.cell[0], desc.cell[1]) as usize;
         assert!(desc.cell[0] < TILE_CELL_RATIO);
         values[c] = HashCellValue::new(Vec3::splat(48.0), 16.0);
-        let b = bounce_radiance(
-            cells(&keys, &touch, &values),
-            &[],
-            &p,
-            &[],
-            &q,
-            &ray,
-            &hit,
-            HIT_POINT,
-        );
+        let b = read(&keys, &touch, &values, &q);
         assert!(!b.missed_cell && !b.carry);
         // (Albedo 0.5 travels as gamma-2 10 bits: within 0.1 %.)
         let expected = Vec3::new(1.5, 3.0 * MAX_BOUNCE_ALBEDO, 3.0 * MAX_BOUNCE_ALBEDO);
@@ -405,44 +387,14 @@ mod tests {
         // Touched 3 frames ago it is still fresh; 4 frames ago it is carried to be refreshed,
         // its value still read.
         touch[tile as usize] = 1;
-        assert!(
-            !bounce_radiance(
-                cells(&keys, &touch, &values),
-                &[],
-                &p,
-                &[],
-                &q,
-                &ray,
-                &hit,
-                HIT_POINT
-            )
-            .carry
-        );
+        assert!(!read(&keys, &touch, &values, &q).carry);
         touch[tile as usize] = 0;
-        let b = bounce_radiance(
-            cells(&keys, &touch, &values),
-            &[],
-            &p,
-            &[],
-            &q,
-            &ray,
-            &hit,
-            HIT_POINT,
-        );
+        let b = read(&keys, &touch, &values, &q);
         assert!(b.carry && !b.missed_cell && b.radiance.x == 3.0 * q.albedo().x);
         touch[tile as usize] = 4;
         // A cell cannot hold a non-finite value: +∞ saturates.
         values[c] = HashCellValue::new(Vec3::splat(f32::INFINITY), 16.0);
-        let b = bounce_radiance(
-            cells(&keys, &touch, &values),
-            &[],
-            &p,
-            &[],
-            &q,
-            &ray,
-            &hit,
-            HIT_POINT,
-        );
+        let b = read(&keys, &touch, &values, &q);
         assert!(
             b.radiance.is_finite() && b.radiance.x > 1e18,
             "{}",
@@ -451,16 +403,7 @@ mod tests {
         // A NaN albedo adds nothing either.
         values[c] = HashCellValue::new(Vec3::splat(48.0), 16.0);
         let bad = query(Vec3::new(f32::NAN, 0.5, 0.5));
-        let b = bounce_radiance(
-            cells(&keys, &touch, &values),
-            &[],
-            &p,
-            &[],
-            &bad,
-            &ray,
-            &hit,
-            HIT_POINT,
-        );
+        let b = read(&keys, &touch, &values, &bad);
         assert!(b.radiance.is_finite());
     }
 
