@@ -457,49 +457,30 @@ mod tests {
         let ray = bounce_ray(&q, Vec2::splat(0.5));
         let keys = vec![0u32; 256];
         let touch = vec![0u32; 256];
-        let b = bounce_radiance(
-            cells(&keys, &touch, &[]),
-            &[],
-            &p,
-            &[],
-            &q,
-            &ray,
-            &MISS,
-            Vec3::ZERO,
-        );
+        let miss = |p: &CachePassParams, ray: &Ray| {
+            bounce_radiance(
+                cells(&keys, &touch, &[]),
+                &[],
+                p,
+                &[],
+                &q,
+                ray,
+                &MISS,
+                Vec3::ZERO,
+            )
+        };
+        let b = miss(&p, &ray);
         assert_eq!(b.radiance, Vec3::new(0.5, 0.25, 1.0) * q.albedo());
         assert!((q.albedo() - Vec3::splat(0.5)).abs().max_element() < 1e-3);
         assert!(!b.missed_cell && !b.carry);
         p.view.flags |= FLAG_ENVIRONMENT_LIGHT;
-        let b = bounce_radiance(
-            cells(&keys, &touch, &[]),
-            &[],
-            &p,
-            &[],
-            &q,
-            &ray,
-            &MISS,
-            Vec3::ZERO,
-        );
+        let b = miss(&p, &ray);
         assert_eq!(b.radiance, Vec3::ZERO);
         // An untraceable ray brings nothing.
         let mut dead = ray;
         dead.t_max = -1.0;
         p.view.flags = 0;
-        assert_eq!(
-            bounce_radiance(
-                cells(&keys, &touch, &[]),
-                &[],
-                &p,
-                &[],
-                &q,
-                &dead,
-                &MISS,
-                Vec3::ZERO
-            )
-            .radiance,
-            Vec3::ZERO
-        );
+        assert_eq!(miss(&p, &dead).radiance, Vec3::ZERO);
     }
 
     #[test]

@@ -545,6 +545,27 @@ where
         hit.primitive,
         Vec2::from_array(hit.barycentrics),
     );
+    let material = surface_material(surfaces, images, ray, footprint, hit, &surface);
+    (surface, material)
+}
+
+/// The material of `surface`, which `hit` (of `ray`) landed on ([`SceneSurfaces::surface`]), its
+/// textures filtered over the ray's `footprint` there: [`hit_surface`] for a pass that has
+/// fetched the surface already.
+#[inline]
+pub fn surface_material<V, T, I>(
+    surfaces: SceneSurfaces<'_, V, T>,
+    images: &I,
+    ray: &Ray,
+    footprint: RayFootprint,
+    hit: &HitRecord,
+    surface: &Surface,
+) -> MaterialSample
+where
+    V: Elements<Item = GpuVertex>,
+    T: Elements<Item = GpuTriangle>,
+    I: TextureImages + ?Sized,
+{
     let uv_footprint = footprint.on_surface(
         Vec3::from_array(ray.direction),
         hit.t,
@@ -553,8 +574,7 @@ where
         surface.uv_area,
         surface.uv_gradients,
     );
-    let material = surfaces.material(images, surface.material, surface.uv, uv_footprint);
-    (surface, material)
+    surfaces.material(images, surface.material, surface.uv, uv_footprint)
 }
 
 /// Material `material` at texture coordinate `uv`, its textures filtered over `footprint`

@@ -20,7 +20,7 @@ use gi_shared::hash_cells::layout::{HashCellValue, HashCellsRead};
 use gi_shared::hash_cells::lists::{DROPPED_SAMPLES, count};
 use gi_shared::math::min_u32;
 use gi_shared::multi_bounce::{bounce_radiance, bounce_ray, carried_query};
-use gi_shared::scene_data::hit_surface;
+use gi_shared::scene_data::{Surface, surface_material};
 use gi_shared::secondary_hits::{keyed_hit_point, secondary_hit_footprint, shadow_ray_radiance};
 use gi_shared::world_cache::{
     BOUNCE_MISSES, CARRIED_NEXT, CachePassParams, CacheQuery, FLAG_MULTI_BOUNCE, PASS_BOUNCE,
@@ -76,14 +76,13 @@ traced_kernel! {
             let mut rng = pass_random(view.seed, query.ray_index, PASS_BOUNCE, view.frame_index);
             let ray = bounce_ray(&query, rng.next_vec2());
             let hit = scene.closest_hit(&ray, texture_images);
-            let point = if hit.is_hit() {
-                let surface = scene.surfaces.surface(
-                    hit.instance, hit.primitive, Vec2::from_array(hit.barycentrics),
-                );
-                keyed_hit_point(Vec3::from_array(ray.direction).normalize_or_zero(), &surface)
+            // Fetched once: the bounce keys its point, a carried query shades it.
+            let surface = if hit.is_hit() {
+                scene.surfaces.surface(hit.instance, hit.primitive, Vec2::from_array(hit.barycentrics))
             } else {
-                Vec3::ZERO
+                Surface::default()
             };
+            let point = keyed_hit_point(Vec3::from_array(ray.direction).normalize_or_zero(), &surface);
             // Inserts and touches finished in an earlier dispatch: plain loads see them.
             let cells = HashCellsRead { keys, last_touch, values };
             let bounce = bounce_radiance(
@@ -103,9 +102,9 @@ traced_kernel! {
             // Carried queries carry none of their own: at most one per ray, so the list never
             // overflows and no frame depends on which appends came first.
             if bounce.carry && hit.is_hit() && query.flags & QUERY_CARRIED == 0 {
-                let (surface, material) = hit_surface(
+                let material = surface_material(
                     scene.surfaces, &Bindless(texture_images), &ray,
-                    secondary_hit_footprint(), &hit,
+                    secondary_hit_footprint(), &hit, &surface,
                 );
                 if let Some(next) = carried_query(&query, &ray, &hit, &surface, &material)
                     && let Some(slot) = append(&mut counters, CARRIED_NEXT, carried.len() as u32)
