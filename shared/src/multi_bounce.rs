@@ -81,7 +81,7 @@ use crate::lights::sky_radiance;
 use crate::path_tracer::sample_folded_cosine;
 use crate::ray::{HitRecord, Ray};
 use crate::scene_data::{MaterialSample, Surface};
-use crate::secondary_hits::surface_query;
+use crate::secondary_hits::{keyed_hit_point, surface_query};
 use crate::world_cache::{
     CARRIED_QUERY_BIT, CachePassParams, CacheQuery, FLAG_ENVIRONMENT_LIGHT, NO_TILE, QUERY_CARRIED,
     finite_sample, hit_descriptor, is_bypass,
@@ -136,9 +136,33 @@ pub struct Bounce {
     pub carry: bool,
 }
 
-/// The bounce of `query` along `ray` (from [`bounce_ray`]) with closest hit `hit`, keyed at
-/// `point` (the hit's [`keyed_hit_point`](crate::secondary_hits::keyed_hit_point), as its query
-/// would be; unused on a miss): the previous frame's filtered radiance of the hit's cell (keyed as
+/// A bounce ray's closest hit, as the cache reads it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BounceHit {
+    /// Its distance along the ray, in world units.
+    pub distance: f32,
+    /// Where it is keyed: its [`keyed_hit_point`], as its
+    /// query would be.
+    pub point: Vec3,
+}
+
+impl BounceHit {
+    /// The closest hit `hit` of `ray` on `surface`, `None` on a miss.
+    #[inline]
+    pub fn of(ray: &Ray, hit: &HitRecord, surface: &Surface) -> Option<Self> {
+        if !hit.is_hit() {
+            return None;
+        }
+        let direction = Vec3::from_array(ray.direction);
+        Some(Self {
+            distance: hit.t * direction.length(),
+            point: keyed_hit_point(direction.normalize_or_zero(), surface),
+        })
+    }
+}
+
+/// The bounce of `query` along `ray` (from [`bounce_ray`]) with closest hit `hit` (`None` on a
+/// miss): the previous frame's filtered radiance of the hit's cell (keyed as
 /// InsertRadianceCache keys a query: the frame's eye, the ray's direction and, with the
 /// short-ray flag, its length), or on a miss the
 /// sky where the light sample does not sample it. `keys`, `last_touch` and `values` are the hash
@@ -153,8 +177,7 @@ pub fn bounce_radiance<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
     environment: &[[f32; 4]],
     query: &CacheQuery,
     ray: &Ray,
-    hit: &HitRecord,
-    point: Vec3,
+    hit: Option<BounceHit>,
 ) -> Bounce {
     let HashCellsRead {
         keys,
@@ -175,14 +198,7 @@ pub fn bounce_radiance<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
         .clamp(Vec3::ZERO, Vec3::splat(MAX_BOUNCE_ALBEDO));
     let view = &params.view;
     let grid = &params.grid;
-    let light = if !hit.is_hit() {
-        if view.has(FLAG_ENVIRONMENT_LIGHT) {
-            Vec3::ZERO
-        } else {
-            sky_radiance(view.environment_size, view.sky, environment, direction)
-        }
-    } else {
-        let distance = hit.t * direction.length();
+    let light = if let Some(BounceHit { distance, point }) = hit {
         let desc = hit_descriptor(params, point, direction.normalize_or_zero(), distance);
         // Light-leak fix 2 for bounce rays: a hit closer than its cell reads no cell there
         // (cells straddle thin walls), but the query's own cell, on the query's side, as the
@@ -218,6 +234,10 @@ pub fn bounce_radiance<K: AtomicWords + ?Sized, T: AtomicWords + ?Sized>(
                 Vec3::ZERO
             }
         }
+    } else if view.has(FLAG_ENVIRONMENT_LIGHT) {
+        Vec3::ZERO
+    } else {
+        sky_radiance(view.environment_size, view.sky, environment, direction)
     };
     out.radiance = finite_sample(albedo * finite_sample(light));
     out
@@ -337,7 +357,6 @@ mod tests {
             direction: [0.0, 1.0, 0.0],
             t_max: f32::INFINITY,
         };
-        let hit = hit_at(2.0);
         let tiles = 1usize << (p.grid.num_buckets_log2 + p.grid.tiles_per_bucket_log2);
         let mut keys = vec![0u32; tiles];
         let mut values = vec![HashCellValue::ZERO; tiles * CELLS_PER_TILE as usize];
@@ -351,8 +370,10 @@ mod tests {
                 &[],
                 q,
                 &ray,
-                &hit,
-                HIT_POINT,
+                Some(BounceHit {
+                    distance: 2.0,
+                    point: HIT_POINT,
+                }),
             )
         };
         // No tile: a cell miss that adds nothing and is carried over.
@@ -413,7 +434,6 @@ mod tests {
     /// floor's bounces read an empty cell beneath it every frame).
     #[test]
     fn a_bounce_keys_the_cell_its_query_fills_on_a_cell_border() {
-        use crate::secondary_hits::{keyed_hit_point, surface_query};
         let grey = || MaterialSample {
             base_color: Vec4::splat(0.5),
             emissive: Vec3::ZERO,
@@ -435,8 +455,10 @@ mod tests {
                 direction: down.to_array(),
                 t_max: f32::INFINITY,
             };
-            let point = keyed_hit_point(down, &surface);
+            let BounceHit { distance, point } =
+                BounceHit::of(&ray, &hit_at(t), &surface).expect("a hit");
             assert!(point.y > 0.0, "{point}");
+            assert_eq!(distance, t);
             let query = surface_query(&ray, &hit_at(t), &surface, &grey(), 0).expect("a query");
             assert_eq!(query.position(), point);
             let keyed = hit_descriptor(&p, point, down, t);
@@ -465,8 +487,7 @@ mod tests {
                 &[],
                 &q,
                 ray,
-                &MISS,
-                Vec3::ZERO,
+                BounceHit::of(ray, &MISS, &Surface::default()),
             )
         };
         let b = miss(&p, &ray);

@@ -107,6 +107,8 @@ pub const QUERY_REFUSED: u32 = 8;
 /// [`CacheQuery::flags`]: the lowest bit of the query's sample weight
 /// ([`CacheQuery::sample_weight`]); the bits below are flags.
 pub const QUERY_WEIGHT_SHIFT: u32 = 16;
+const _: () =
+    assert!(crate::hash_cells::layout::MAX_SAMPLE_WEIGHT < 1 << (32 - QUERY_WEIGHT_SHIFT));
 
 /// Set in a carried query's `ray_index` (its parent's, so that its random streams stay keyed by
 /// a ray, not by a list slot): no ray record is that large.
@@ -776,7 +778,6 @@ pub(crate) mod tests {
         assert!(w.has(QUERY_BYPASS) && w.has(QUERY_CARRIED) && !w.has(QUERY_FED_BACK));
         assert_eq!(w.with_density(1e-9).sample_weight(), MAX_SAMPLE_WEIGHT);
         assert_eq!(w.with_density(f32::NAN).sample_weight(), SAMPLE_WEIGHT_ONE);
-        assert!(MAX_SAMPLE_WEIGHT < 1 << (32 - QUERY_WEIGHT_SHIFT));
     }
 
     #[test]

@@ -19,9 +19,9 @@ use gi_shared::atomics::AtomicWords;
 use gi_shared::hash_cells::layout::{HashCellValue, HashCellsRead};
 use gi_shared::hash_cells::lists::{DROPPED_SAMPLES, count};
 use gi_shared::math::min_u32;
-use gi_shared::multi_bounce::{bounce_radiance, bounce_ray, carried_query};
+use gi_shared::multi_bounce::{BounceHit, bounce_radiance, bounce_ray, carried_query};
 use gi_shared::scene_data::{Surface, surface_material};
-use gi_shared::secondary_hits::{keyed_hit_point, secondary_hit_footprint, shadow_ray_radiance};
+use gi_shared::secondary_hits::{secondary_hit_footprint, shadow_ray_radiance};
 use gi_shared::world_cache::{
     BOUNCE_MISSES, CARRIED_NEXT, CachePassParams, CacheQuery, FLAG_MULTI_BOUNCE, PASS_BOUNCE,
     QUERY_CARRIED, RayRecord, SHADOW_BYPASS, SHADOW_RAY_COUNT, ShadowRay, accumulate_into_cell,
@@ -82,7 +82,6 @@ traced_kernel! {
             } else {
                 Surface::default()
             };
-            let point = keyed_hit_point(Vec3::from_array(ray.direction).normalize_or_zero(), &surface);
             // Inserts and touches finished in an earlier dispatch: plain loads see them.
             let cells = HashCellsRead { keys, last_touch, values };
             let bounce = bounce_radiance(
@@ -92,8 +91,7 @@ traced_kernel! {
                 environment,
                 &query,
                 &ray,
-                &hit,
-                point,
+                BounceHit::of(&ray, &hit, &surface),
             );
             radiance += bounce.radiance;
             if bounce.missed_cell {

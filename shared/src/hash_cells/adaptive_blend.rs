@@ -133,7 +133,7 @@ pub fn frame_change(
     history_mean: Vec3,
     history_count: f32,
 ) -> PooledChange {
-    if !(k > 0.0) || history_count.is_nan() || history_count <= 0.0 {
+    if k.is_nan() || k <= 0.0 || history_count.is_nan() || history_count <= 0.0 {
         return pooled;
     }
     let (a, m) = (
